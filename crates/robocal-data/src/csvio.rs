@@ -1,0 +1,407 @@
+//! Reading and writing the measurement CSV of interface.md section 2.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+
+use crate::atomic::write_atomically;
+use crate::error::{DataError, Result};
+
+/// One configuration under one load: what the controller reports, without a measured position.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sample {
+    /// Configuration id (`pose` column, or `id` for targets).
+    pub pose: String,
+    /// Joint readings from the controller, degrees, one per joint.
+    pub joints: Vec<f64>,
+    /// Payload mass at the end effector, kg (≥ 0).
+    pub load: f64,
+    /// 1-based line of the row in its file (0 when made in memory).
+    pub line: u64,
+}
+
+impl Sample {
+    /// Joint readings in radians, for the kinematics.
+    pub fn joints_rad(&self) -> Vec<f64> {
+        self.joints.iter().map(|d| d.to_radians()).collect()
+    }
+}
+
+/// A measured row: a [`Sample`] and the tracker's reading of the target point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurement {
+    /// Configuration, load and provenance.
+    pub sample: Sample,
+    /// Measured target position, mm, world (tracker) frame.
+    pub position: Vector3<f64>,
+}
+
+/// A validated measurement file: rows in file order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasurementSet {
+    /// Where the rows came from (for messages and reports).
+    pub source: PathBuf,
+    /// Number of joints of every row.
+    pub joint_count: usize,
+    /// Rows in file order.
+    pub rows: Vec<Measurement>,
+}
+
+/// A validated file of samples without (or ignoring) positions: input of `predict`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleSet {
+    /// Where the rows came from.
+    pub source: PathBuf,
+    /// Number of joints of every row.
+    pub joint_count: usize,
+    /// Rows in file order.
+    pub rows: Vec<Sample>,
+}
+
+/// A compensation target: a seed command and the world position the target point must reach.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    /// Target id, seed joints (deg) and load.
+    pub sample: Sample,
+    /// Required target position, mm, world frame.
+    pub position: Vector3<f64>,
+}
+
+/// Which columns a reader needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Layout {
+    /// `pose`, q, `load`, `x`, `y`, `z`.
+    Measurements,
+    /// `pose`, q, `load`; positions ignored.
+    Samples,
+    /// `id`, q, `load`, `x`, `y`, `z`; ids unique.
+    Targets,
+}
+
+struct Columns {
+    id: usize,
+    joints: Vec<usize>,
+    load: usize,
+    xyz: Option<[usize; 3]>,
+    names: Vec<String>,
+}
+
+fn find_columns(path: &Path, header: &csv::StringRecord, n: usize, layout: Layout) -> Result<Columns> {
+    let names: Vec<String> = header.iter().map(|h| h.trim().to_string()).collect();
+    let mut index: HashMap<&str, usize> = HashMap::new();
+    for (i, name) in names.iter().enumerate() {
+        if index.insert(name.as_str(), i).is_some() {
+            return Err(DataError::DuplicateColumn {
+                path: path.to_path_buf(),
+                column: name.clone(),
+                index: i + 1,
+            });
+        }
+    }
+    let missing = |column: &str| DataError::MissingColumn {
+        path: path.to_path_buf(),
+        column: column.to_string(),
+    };
+    let id_name = if layout == Layout::Targets { "id" } else { "pose" };
+    let id = *index.get(id_name).ok_or_else(|| missing(id_name))?;
+    let load = *index.get("load").ok_or_else(|| missing("load"))?;
+    let joint_numbers: Vec<usize> = names
+        .iter()
+        .filter_map(|name| name.strip_prefix('q')?.parse::<usize>().ok())
+        .filter(|&k| k >= 1)
+        .collect();
+    let highest = joint_numbers.iter().copied().max().unwrap_or(0);
+    let contiguous = joint_numbers.len() == highest;
+    if contiguous && highest != n {
+        return Err(DataError::JointCountMismatch {
+            path: path.to_path_buf(),
+            expected: n,
+            found: highest,
+        });
+    }
+    let mut joints = Vec::with_capacity(n);
+    for k in 1..=n {
+        let name = format!("q{k}");
+        joints.push(*index.get(name.as_str()).ok_or_else(|| missing(&name))?);
+    }
+    if !contiguous {
+        // q1..qn are present but a higher-numbered joint column is too.
+        return Err(DataError::JointCountMismatch {
+            path: path.to_path_buf(),
+            expected: n,
+            found: highest,
+        });
+    }
+    let xyz = match layout {
+        Layout::Samples => None,
+        Layout::Measurements | Layout::Targets => Some([
+            *index.get("x").ok_or_else(|| missing("x"))?,
+            *index.get("y").ok_or_else(|| missing("y"))?,
+            *index.get("z").ok_or_else(|| missing("z"))?,
+        ]),
+    };
+    Ok(Columns {
+        id,
+        joints,
+        load,
+        xyz,
+        names,
+    })
+}
+
+struct Parsed {
+    sample: Sample,
+    position: Option<Vector3<f64>>,
+}
+
+fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
+    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(DataError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    let malformed = |e: csv::Error| DataError::Malformed {
+        path: path.to_path_buf(),
+        line: e.position().map_or(1, csv::Position::line),
+        message: match e.kind() {
+            csv::ErrorKind::UnequalLengths {
+                expected_len, len, ..
+            } => format!("{len} fields where the header has {expected_len}"),
+            csv::ErrorKind::Utf8 { .. } => "not valid UTF-8 text".to_string(),
+            _ => e.to_string(),
+        },
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(bytes.as_slice());
+    let header = reader.headers().map_err(malformed)?.clone();
+    let cols = find_columns(path, &header, n, layout)?;
+    let mut rows = Vec::new();
+    let mut first_seen: HashMap<String, (u64, Vec<f64>)> = HashMap::new();
+    for record in reader.records() {
+        let record = record.map_err(malformed)?;
+        let line = record.position().map_or(0, csv::Position::line);
+        let field = |i: usize| record.get(i).unwrap_or("");
+        let number = |i: usize| -> Result<f64> {
+            let column = cols.names[i].clone();
+            let text = field(i);
+            if text.is_empty() {
+                return Err(DataError::EmptyValue {
+                    path: path.to_path_buf(),
+                    line,
+                    column,
+                });
+            }
+            let value: f64 = text.parse().map_err(|_| DataError::NotANumber {
+                path: path.to_path_buf(),
+                line,
+                column: column.clone(),
+                value: text.to_string(),
+            })?;
+            if value.is_finite() {
+                Ok(value)
+            } else {
+                Err(DataError::NonFinite {
+                    path: path.to_path_buf(),
+                    line,
+                    column,
+                    value: text.to_string(),
+                })
+            }
+        };
+        let pose = field(cols.id).to_string();
+        if pose.is_empty() {
+            return Err(DataError::EmptyValue {
+                path: path.to_path_buf(),
+                line,
+                column: cols.names[cols.id].clone(),
+            });
+        }
+        let joints = cols.joints.iter().map(|&i| number(i)).collect::<Result<Vec<_>>>()?;
+        let load = number(cols.load)?;
+        if load < 0.0 {
+            return Err(DataError::NegativeLoad {
+                path: path.to_path_buf(),
+                line,
+                value: load,
+            });
+        }
+        let position = match cols.xyz {
+            Some([x, y, z]) => Some(Vector3::new(number(x)?, number(y)?, number(z)?)),
+            None => None,
+        };
+        match first_seen.get(&pose) {
+            Some((first_line, _)) if layout == Layout::Targets => {
+                return Err(DataError::DuplicateId {
+                    path: path.to_path_buf(),
+                    line,
+                    id: pose,
+                    first_line: *first_line,
+                });
+            }
+            Some((first_line, first_joints)) if *first_joints != joints => {
+                return Err(DataError::InconsistentPose {
+                    path: path.to_path_buf(),
+                    line,
+                    pose,
+                    first_line: *first_line,
+                });
+            }
+            Some(_) => {}
+            None => {
+                first_seen.insert(pose.clone(), (line, joints.clone()));
+            }
+        }
+        rows.push(Parsed {
+            sample: Sample {
+                pose,
+                joints,
+                load,
+                line,
+            },
+            position,
+        });
+    }
+    if rows.is_empty() {
+        return Err(DataError::NoRows {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(rows)
+}
+
+impl MeasurementSet {
+    /// Reads and validates a measurement file for a robot with `joint_count` joints.
+    pub fn read(path: impl AsRef<Path>, joint_count: usize) -> Result<Self> {
+        let path = path.as_ref();
+        let rows = read_rows(path, joint_count, Layout::Measurements)?
+            .into_iter()
+            .filter_map(|p| {
+                Some(Measurement {
+                    position: p.position?,
+                    sample: p.sample,
+                })
+            })
+            .collect();
+        Ok(Self {
+            source: path.to_path_buf(),
+            joint_count,
+            rows,
+        })
+    }
+
+    /// Writes the set as CSV (`pose,q1..qN,load,x,y,z`), atomically, numbers in their shortest
+    /// exact form so that reading the file back gives the same values.
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
+        write_atomically(path.as_ref(), |w| {
+            write!(w, "pose")?;
+            for k in 1..=self.joint_count {
+                write!(w, ",q{k}")?;
+            }
+            writeln!(w, ",load,x,y,z")?;
+            for row in &self.rows {
+                write!(w, "{}", csv_text(&row.sample.pose))?;
+                for q in &row.sample.joints {
+                    write!(w, ",{q}")?;
+                }
+                let p = row.position;
+                writeln!(w, ",{},{},{},{}", row.sample.load, p.x, p.y, p.z)?;
+            }
+            Ok(())
+        })
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Whether there are no rows (never true for a set read from a file).
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    /// The distinct loads in the set, ascending, kg.
+    pub fn loads(&self) -> Vec<f64> {
+        let mut loads: Vec<f64> = self.rows.iter().map(|r| r.sample.load).collect();
+        loads.sort_by(f64::total_cmp);
+        loads.dedup();
+        loads
+    }
+}
+
+impl SampleSet {
+    /// Reads and validates a file of samples; `x, y, z` columns are not needed and are ignored.
+    pub fn read(path: impl AsRef<Path>, joint_count: usize) -> Result<Self> {
+        let path = path.as_ref();
+        let rows = read_rows(path, joint_count, Layout::Samples)?
+            .into_iter()
+            .map(|p| p.sample)
+            .collect();
+        Ok(Self {
+            source: path.to_path_buf(),
+            joint_count,
+            rows,
+        })
+    }
+}
+
+/// Reads and validates a targets file (`id, q1..qN, load, x, y, z`; ids unique).
+pub fn read_targets(path: impl AsRef<Path>, joint_count: usize) -> Result<Vec<Target>> {
+    let rows = read_rows(path.as_ref(), joint_count, Layout::Targets)?;
+    Ok(rows
+        .into_iter()
+        .filter_map(|p| {
+            Some(Target {
+                position: p.position?,
+                sample: p.sample,
+            })
+        })
+        .collect())
+}
+
+/// Quotes a text field when CSV needs it.
+pub fn csv_text(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) || text.trim() != text {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// A predicted point for one input row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prediction {
+    /// Pose id of the input row.
+    pub pose: String,
+    /// Load of the input row, kg.
+    pub load: f64,
+    /// Predicted target position, mm, world frame.
+    pub position: Vector3<f64>,
+}
+
+/// Writes `pose,load,x,y,z` with 6 decimals on x, y, z, atomically.
+pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<()> {
+    write_atomically(path.as_ref(), |w| {
+        writeln!(w, "pose,load,x,y,z")?;
+        for r in rows {
+            let p = r.position;
+            writeln!(
+                w,
+                "{},{},{:.6},{:.6},{:.6}",
+                csv_text(&r.pose),
+                r.load,
+                p.x,
+                p.y,
+                p.z
+            )?;
+        }
+        Ok(())
+    })
+}

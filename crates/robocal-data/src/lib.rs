@@ -1,0 +1,25 @@
+//! Laser-tracker measurement sets for robocal: the CSV of interface.md section 2, validated at
+//! load with errors that name the file, line and column; atomic writing of output files.
+//!
+//! ```
+//! # let dir = tempfile::tempdir()?;
+//! # let path = dir.path().join("m.csv");
+//! std::fs::write(&path, "pose,q1,q2,load,x,y,z\np1,10,20,0,1,2,3\np1,10,20,5,1,2,2.5\n")?;
+//! let set = robocal_data::MeasurementSet::read(&path, 2)?;
+//! assert_eq!(set.len(), 2);
+//! assert_eq!(set.loads(), vec![0.0, 5.0]);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod atomic;
+pub mod csvio;
+pub mod error;
+pub mod stats;
+
+pub use atomic::write_atomically;
+pub use csvio::{
+    Measurement, MeasurementSet, Prediction, Sample, SampleSet, Target, csv_text, read_targets,
+    write_predictions,
+};
+pub use error::{DataError, Result};
+pub use stats::ErrorStats;

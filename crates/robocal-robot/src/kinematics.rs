@@ -1,0 +1,219 @@
+//! Forward kinematics and analytic Jacobians (world frame, mm, rad).
+//!
+//! The Jacobians use the screw form: a rotation `s` about a unit axis `w` through `o` moves the
+//! point `p` by `w × (p − o) ds`; a translation along `w` moves it by `w ds`. One forward pass
+//! gives the point, a second pass writes every column, so nothing is allocated per entry.
+
+use nalgebra::{DMatrix, IsometryMatrix3, Matrix3, Matrix3xX, Rotation3, Translation3, Vector3};
+
+use crate::table::{Joint, Robot};
+
+/// Rotation about x by an angle with cosine `c` and sine `s`.
+#[inline]
+fn rot_x(c: f64, s: f64) -> Matrix3<f64> {
+    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+}
+
+#[inline]
+fn rot_y(c: f64, s: f64) -> Matrix3<f64> {
+    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+}
+
+#[inline]
+fn rot_z(c: f64, s: f64) -> Matrix3<f64> {
+    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
+/// `R = RotZ(yaw) * RotY(pitch) * RotX(roll)` from `rpy = [roll, pitch, yaw]`, rad.
+pub fn rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
+    let (sr, cr) = rpy.x.sin_cos();
+    let (sp, cp) = rpy.y.sin_cos();
+    let (sy, cy) = rpy.z.sin_cos();
+    rot_z(cy, sy) * rot_y(cp, sp) * rot_x(cr, sr)
+}
+
+/// Roll, pitch, yaw (rad) of a rotation matrix, inverse of [`rpy_to_matrix`]
+/// (pitch in [−π/2, π/2]).
+pub fn matrix_to_rpy(r: &Matrix3<f64>) -> Vector3<f64> {
+    let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(*r).euler_angles();
+    Vector3::new(roll, pitch, yaw)
+}
+
+/// Frames met while walking through one joint's elementary transforms.
+struct JointStep {
+    /// Rotation of frame {i-1} (axis of α and direction of a: its x column).
+    r0: Matrix3<f64>,
+    /// Origin of frame {i-1}.
+    o0: Vector3<f64>,
+    /// Rotation after RotX(α) (axis of β: its y column).
+    r1: Matrix3<f64>,
+    /// Origin after TransX(a), on the joint axis.
+    o2: Vector3<f64>,
+    /// Rotation after RotY(β) (joint axis and direction of d: its z column).
+    r3: Matrix3<f64>,
+    /// Rotation of frame {i}.
+    r: Matrix3<f64>,
+    /// Origin of frame {i}.
+    o: Vector3<f64>,
+}
+
+#[inline]
+fn step(r0: Matrix3<f64>, o0: Vector3<f64>, joint: &Joint, q: f64) -> JointStep {
+    let (sa, ca) = joint.alpha.sin_cos();
+    let r1 = r0 * rot_x(ca, sa);
+    let o2 = o0 + r0.column(0) * joint.a;
+    let r3 = match joint.beta {
+        Some(beta) => {
+            let (sb, cb) = beta.sin_cos();
+            r1 * rot_y(cb, sb)
+        }
+        None => r1,
+    };
+    let (st, ct) = (joint.theta + q).sin_cos();
+    let r = r3 * rot_z(ct, st);
+    let o = o2 + r3.column(2) * joint.d;
+    JointStep {
+        r0,
+        o0,
+        r1,
+        o2,
+        r3,
+        r,
+        o,
+    }
+}
+
+impl Robot {
+    /// Rotation of the base frame in the world frame.
+    pub fn base_rotation(&self) -> Matrix3<f64> {
+        rpy_to_matrix(&self.base.rpy)
+    }
+
+    /// Flange frame {n} in the world frame as (rotation, origin mm); `q` in rad, one per joint.
+    #[inline]
+    pub fn flange_frame(&self, q: &[f64]) -> (Matrix3<f64>, Vector3<f64>) {
+        debug_assert_eq!(q.len(), self.dof(), "one joint value per joint");
+        let mut r = self.base_rotation();
+        let mut o = self.base.xyz;
+        for (joint, &qi) in self.joints.iter().zip(q) {
+            let s = step(r, o, joint, qi);
+            r = s.r;
+            o = s.o;
+        }
+        (r, o)
+    }
+
+    /// Flange pose in the world frame (translation in mm); `q` in rad.
+    pub fn flange_pose(&self, q: &[f64]) -> IsometryMatrix3<f64> {
+        let (r, o) = self.flange_frame(q);
+        IsometryMatrix3::from_parts(Translation3::from(o), Rotation3::from_matrix_unchecked(r))
+    }
+
+    /// Measured target point (tool point) in the world frame, mm; `q` in rad.
+    #[inline]
+    pub fn point(&self, q: &[f64]) -> Vector3<f64> {
+        let (r, o) = self.flange_frame(q);
+        o + r * self.tool
+    }
+
+    /// Writes the 3 × P Jacobian of the world target point with respect to every parameter
+    /// ([`Robot::param_ids`] order, internal units: mm/mm and mm/rad) into rows `row..row+3` of
+    /// `out`, and returns the point (world, mm). `out` must have `param_count()` columns.
+    pub fn write_param_jacobian(&self, q: &[f64], out: &mut DMatrix<f64>, row: usize) -> Vector3<f64> {
+        debug_assert_eq!(out.ncols(), self.param_count());
+        debug_assert!(row + 3 <= out.nrows());
+        let p = self.point(q);
+        let mut put = |col: usize, v: Vector3<f64>| {
+            out[(row, col)] = v.x;
+            out[(row + 1, col)] = v.y;
+            out[(row + 2, col)] = v.z;
+        };
+        let rb = self.base_rotation();
+        let mut r = rb;
+        let mut o = self.base.xyz;
+        let mut col = 0;
+        for (joint, &qi) in self.joints.iter().zip(q) {
+            let s = step(r, o, joint, qi);
+            let wx = s.r0.column(0).into_owned();
+            put(col, wx); // a
+            put(col + 1, wx.cross(&(p - s.o0))); // alpha
+            col += 2;
+            if joint.beta.is_some() {
+                let wy = s.r1.column(1).into_owned();
+                put(col, wy.cross(&(p - s.o2)));
+                col += 1;
+            }
+            let wz = s.r3.column(2).into_owned();
+            put(col, wz); // d
+            put(col + 1, wz.cross(&(p - s.o2))); // theta
+            col += 2;
+            r = s.r;
+            o = s.o;
+        }
+        let rel = p - self.base.xyz;
+        for axis in 0..3 {
+            put(col + axis, Vector3::ith(axis, 1.0));
+        }
+        let (sy, cy) = self.base.rpy.z.sin_cos();
+        put(col + 3, rb.column(0).cross(&rel)); // roll about R x̂
+        put(col + 4, Vector3::new(-sy, cy, 0.0).cross(&rel)); // pitch about Rz(yaw) ŷ
+        put(col + 5, Vector3::z().cross(&rel)); // yaw about world ẑ
+        col += 6;
+        for axis in 0..3 {
+            put(col + axis, r.column(axis).into_owned());
+        }
+        p
+    }
+
+    /// Target point and its 3 × P parameter Jacobian for one configuration (allocates the result).
+    pub fn param_jacobian(&self, q: &[f64]) -> (Vector3<f64>, Matrix3xX<f64>) {
+        let mut out = DMatrix::zeros(3, self.param_count());
+        let p = self.write_param_jacobian(q, &mut out, 0);
+        (p, Matrix3xX::from_column_slice(out.as_slice()))
+    }
+
+    /// Points and the stacked (3 m) × P parameter Jacobian of `m` configurations given row-major
+    /// in `qs` (`m × dof` values, rad). Rows `3k..3k+3` belong to configuration `k`.
+    pub fn param_jacobian_batch(&self, qs: &[f64]) -> (Vec<Vector3<f64>>, DMatrix<f64>) {
+        let n = self.dof();
+        let m = qs.len() / n;
+        let mut out = DMatrix::zeros(3 * m, self.param_count());
+        let points = qs
+            .chunks_exact(n)
+            .enumerate()
+            .map(|(k, q)| self.write_param_jacobian(q, &mut out, 3 * k))
+            .collect();
+        (points, out)
+    }
+
+    /// 3 × n Jacobian of the world target point with respect to the joint readings (mm/rad).
+    pub fn joint_jacobian(&self, q: &[f64]) -> Matrix3xX<f64> {
+        let p = self.point(q);
+        let mut jac = Matrix3xX::zeros(self.dof());
+        let mut r = self.base_rotation();
+        let mut o = self.base.xyz;
+        for (i, (joint, &qi)) in self.joints.iter().zip(q).enumerate() {
+            let s = step(r, o, joint, qi);
+            let wz = s.r3.column(2).into_owned();
+            jac.set_column(i, &wz.cross(&(p - s.o2)));
+            r = s.r;
+            o = s.o;
+        }
+        jac
+    }
+
+    /// Joint axes (world unit vectors) and a point on each, for configuration `q`;
+    /// with the target point, the ingredients of the 6 × n geometric Jacobian.
+    pub fn joint_axes(&self, q: &[f64]) -> (Vec<(Vector3<f64>, Vector3<f64>)>, Matrix3<f64>, Vector3<f64>) {
+        let mut axes = Vec::with_capacity(self.dof());
+        let mut r = self.base_rotation();
+        let mut o = self.base.xyz;
+        for (joint, &qi) in self.joints.iter().zip(q) {
+            let s = step(r, o, joint, qi);
+            axes.push((s.r3.column(2).into_owned(), s.o2));
+            r = s.r;
+            o = s.o;
+        }
+        (axes, r, o + r * self.tool)
+    }
+}

@@ -1,0 +1,252 @@
+//! The robot table (modified DH with optional Hayati β), its TOML form and validation.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, RobotError};
+
+/// One revolute joint of a modified-DH table.
+///
+/// The transform from link frame {i-1} to {i} is
+/// `RotX(alpha) * TransX(a) * RotY(beta) * RotZ(theta + q) * TransZ(d)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    /// a_{i-1}, mm.
+    pub a: f64,
+    /// alpha_{i-1}, rad.
+    pub alpha: f64,
+    /// beta_{i-1} (Hayati), rad; `None` means the joint has no β parameter (fixed at 0).
+    pub beta: Option<f64>,
+    /// d_i, mm.
+    pub d: f64,
+    /// theta_i offset added to the joint reading, rad.
+    pub theta: f64,
+    /// Joint limits `(lower, upper)` on the joint reading, rad.
+    pub limits: Option<(f64, f64)>,
+}
+
+/// Measurement (world / tracker) frame to robot base frame {0}.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Base {
+    /// Position of the base origin in the world frame, mm.
+    pub xyz: Vector3<f64>,
+    /// Fixed-axis roll, pitch, yaw, rad: `R = RotZ(yaw) * RotY(pitch) * RotX(roll)`.
+    pub rpy: Vector3<f64>,
+}
+
+/// A robot: a kinematic table, its base in the world frame and the measured point on the flange.
+///
+/// A `Robot` is a plain value; kinematics are pure functions of `(robot, joints)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot {
+    /// Free-form name.
+    pub name: String,
+    /// Joints, base to tip (at least one).
+    pub joints: Vec<Joint>,
+    /// World frame to base frame.
+    pub base: Base,
+    /// Measured target point in the flange frame {n}, mm.
+    pub tool: Vector3<f64>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRobot {
+    name: String,
+    #[serde(default)]
+    joint: Vec<RawJoint>,
+    base: RawBase,
+    tool: RawTool,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawJoint {
+    a: f64,
+    alpha: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    beta: Option<f64>,
+    d: f64,
+    theta: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    limits: Option<[f64; 2]>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBase {
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTool {
+    xyz: [f64; 3],
+}
+
+/// Converts a byte offset in `text` to a 1-based (line, column).
+pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rfind('\n').map_or(offset, |nl| offset - nl - 1) + 1;
+    (line, column)
+}
+
+/// Turns a `toml` deserialisation error into a [`RobotError::Toml`] naming the file, line and column.
+pub fn toml_error(path: &Path, text: &str, err: &toml::de::Error) -> RobotError {
+    let (line, column) = err
+        .span()
+        .map_or((1, 1), |span| line_column(text, span.start));
+    RobotError::Toml {
+        path: path.to_path_buf(),
+        line,
+        column,
+        message: err.message().trim().replace('\n', " "),
+    }
+}
+
+fn check_finite(path: &Path, key: String, values: &[f64]) -> Result<()> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(RobotError::InvalidValue {
+            path: path.to_path_buf(),
+            key,
+            message: "must be a finite number (nan and inf are not accepted)".into(),
+        })
+    }
+}
+
+impl Robot {
+    /// Reads and validates a robot file (interface.md section 1).
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates a robot table; `path` is only used to name the source in errors.
+    pub fn from_toml_str(text: &str, path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let raw: RawRobot = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        Self::from_raw(raw, path)
+    }
+
+    fn from_raw(raw: RawRobot, path: &Path) -> Result<Self> {
+        if raw.joint.is_empty() {
+            return Err(RobotError::NoJoints {
+                path: path.to_path_buf(),
+            });
+        }
+        let mut joints = Vec::with_capacity(raw.joint.len());
+        for (i, j) in raw.joint.iter().enumerate() {
+            let key = |field: &str| format!("joint[{}].{field}", i + 1);
+            check_finite(path, key("a"), &[j.a])?;
+            check_finite(path, key("alpha"), &[j.alpha])?;
+            check_finite(path, key("d"), &[j.d])?;
+            check_finite(path, key("theta"), &[j.theta])?;
+            if let Some(b) = j.beta {
+                check_finite(path, key("beta"), &[b])?;
+            }
+            let limits = match j.limits {
+                Some([lo, hi]) => {
+                    check_finite(path, key("limits"), &[lo, hi])?;
+                    if lo >= hi {
+                        return Err(RobotError::InvalidValue {
+                            path: path.to_path_buf(),
+                            key: key("limits"),
+                            message: format!("lower limit {lo} must be below upper limit {hi}"),
+                        });
+                    }
+                    Some((lo.to_radians(), hi.to_radians()))
+                }
+                None => None,
+            };
+            joints.push(Joint {
+                a: j.a,
+                alpha: j.alpha.to_radians(),
+                beta: j.beta.map(f64::to_radians),
+                d: j.d,
+                theta: j.theta.to_radians(),
+                limits,
+            });
+        }
+        check_finite(path, "base.xyz".into(), &raw.base.xyz)?;
+        check_finite(path, "base.rpy".into(), &raw.base.rpy)?;
+        check_finite(path, "tool.xyz".into(), &raw.tool.xyz)?;
+        Ok(Self {
+            name: raw.name,
+            joints,
+            base: Base {
+                xyz: Vector3::from(raw.base.xyz),
+                rpy: Vector3::from(raw.base.rpy).map(f64::to_radians),
+            },
+            tool: Vector3::from(raw.tool.xyz),
+        })
+    }
+
+    /// The table in the TOML schema of interface.md section 1 (mm, degrees).
+    pub fn to_toml_string(&self) -> String {
+        let raw = RawRobot {
+            name: self.name.clone(),
+            joint: self
+                .joints
+                .iter()
+                .map(|j| RawJoint {
+                    a: j.a,
+                    alpha: j.alpha.to_degrees(),
+                    beta: j.beta.map(f64::to_degrees),
+                    d: j.d,
+                    theta: j.theta.to_degrees(),
+                    limits: j.limits.map(|(lo, hi)| [lo.to_degrees(), hi.to_degrees()]),
+                })
+                .collect(),
+            base: RawBase {
+                xyz: self.base.xyz.into(),
+                rpy: self.base.rpy.map(f64::to_degrees).into(),
+            },
+            tool: RawTool {
+                xyz: self.tool.into(),
+            },
+        };
+        // Serialising plain numbers, strings and arrays cannot fail.
+        toml::to_string(&raw).unwrap_or_default()
+    }
+
+    /// Number of joints.
+    pub fn dof(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Checks that `q` has one value per joint.
+    pub fn check_joints(&self, q: &[f64]) -> Result<()> {
+        if q.len() == self.dof() {
+            Ok(())
+        } else {
+            Err(RobotError::JointCountMismatch {
+                expected: self.dof(),
+                found: q.len(),
+            })
+        }
+    }
+
+    /// Whether `q` (rad) lies within every joint's limits (joints without limits always do).
+    pub fn within_limits(&self, q: &[f64]) -> bool {
+        self.joints.iter().zip(q).all(|(j, &v)| match j.limits {
+            Some((lo, hi)) => v >= lo && v <= hi,
+            None => true,
+        })
+    }
+}
+
+/// Label used for a table read from memory rather than a file.
+pub fn memory_path() -> PathBuf {
+    PathBuf::from("<memory>")
+}

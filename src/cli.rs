@@ -1,0 +1,55 @@
+//! Command-line arguments (interface.md section 3).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+/// Calibrate industrial robots from laser-tracker measurements (lengths mm, angles deg, mass kg).
+#[derive(Debug, Parser)]
+#[command(name = "robocal", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The model a command predicts with: a calibrated model directory or a plain robot table.
+#[derive(Debug, Args)]
+#[group(required = true, multiple = false)]
+pub struct ModelSource {
+    /// Calibrated model directory written by `robocal calibrate`.
+    #[arg(long, value_name = "MODEL_DIR")]
+    pub model: Option<PathBuf>,
+    /// Robot table (robot.toml); the nominal table alone is used.
+    #[arg(long, value_name = "ROBOT_TOML")]
+    pub robot: Option<PathBuf>,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Predict the target point (world frame) for every row of a CSV.
+    Predict {
+        /// Which model to use.
+        #[command(flatten)]
+        source: ModelSource,
+        /// Input CSV: pose, q1..qN, load (x, y, z not needed).
+        #[arg(long, value_name = "CSV")]
+        data: PathBuf,
+        /// Output CSV: pose, load, x, y, z.
+        #[arg(long, value_name = "CSV")]
+        out: PathBuf,
+    },
+    /// Compare predictions with measured x, y, z: count, mean, std, RMS, max of the error (mm).
+    Evaluate {
+        /// Which model to use.
+        #[command(flatten)]
+        source: ModelSource,
+        /// Measurement CSV: pose, q1..qN, load, x, y, z.
+        #[arg(long, value_name = "CSV")]
+        data: PathBuf,
+        /// Print one JSON object with keys count, mean, std, rms, max.
+        #[arg(long)]
+        json: bool,
+    },
+}

@@ -1,0 +1,17 @@
+//! The subcommands, each turning validated settings into library calls.
+
+mod evaluate;
+mod model;
+mod predict;
+
+use anyhow::Result;
+
+use crate::cli::{Cli, Command};
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Predict { source, data, out } => predict::run(&source, &data, &out),
+        Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
+    }
+}
