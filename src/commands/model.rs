@@ -33,7 +33,8 @@ impl Model {
             bail!("{}: model directory not found", dir.display());
         }
         let kin = dir.join("kinematics.toml");
-        let robot = Robot::load(&kin).with_context(|| format!("{}: cannot load the model", dir.display()))?;
+        let robot = Robot::load(&kin)
+            .with_context(|| format!("{}: cannot load the model", dir.display()))?;
         Ok(Self { robot })
     }
 

@@ -8,7 +8,10 @@ use crate::error::{DataError, Result};
 
 /// Writes a file through `fill` into a temporary file in the destination's folder and renames it
 /// into place only when everything succeeded.
-pub fn write_atomically(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
+pub fn write_atomically(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
     let err = |source| DataError::Write {
         path: path.to_path_buf(),
         source,

@@ -87,7 +87,12 @@ struct Columns {
     names: Vec<String>,
 }
 
-fn find_columns(path: &Path, header: &csv::StringRecord, n: usize, layout: Layout) -> Result<Columns> {
+fn find_columns(
+    path: &Path,
+    header: &csv::StringRecord,
+    n: usize,
+    layout: Layout,
+) -> Result<Columns> {
     let names: Vec<String> = header.iter().map(|h| h.trim().to_string()).collect();
     let mut index: HashMap<&str, usize> = HashMap::new();
     for (i, name) in names.iter().enumerate() {
@@ -103,7 +108,11 @@ fn find_columns(path: &Path, header: &csv::StringRecord, n: usize, layout: Layou
         path: path.to_path_buf(),
         column: column.to_string(),
     };
-    let id_name = if layout == Layout::Targets { "id" } else { "pose" };
+    let id_name = if layout == Layout::Targets {
+        "id"
+    } else {
+        "pose"
+    };
     let id = *index.get(id_name).ok_or_else(|| missing(id_name))?;
     let load = *index.get("load").ok_or_else(|| missing("load"))?;
     let joint_numbers: Vec<usize> = names
@@ -223,7 +232,11 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
                 column: cols.names[cols.id].clone(),
             });
         }
-        let joints = cols.joints.iter().map(|&i| number(i)).collect::<Result<Vec<_>>>()?;
+        let joints = cols
+            .joints
+            .iter()
+            .map(|&i| number(i))
+            .collect::<Result<Vec<_>>>()?;
         let load = number(cols.load)?;
         if load < 0.0 {
             return Err(DataError::NegativeLoad {

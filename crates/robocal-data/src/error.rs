@@ -53,7 +53,9 @@ pub enum DataError {
         index: usize,
     },
     /// The header's joint columns do not match the robot.
-    #[error("{path}: line 1: the file has joint columns q1..q{found}, the robot has {expected} joints")]
+    #[error(
+        "{path}: line 1: the file has joint columns q1..q{found}, the robot has {expected} joints"
+    )]
     JointCountMismatch {
         /// File at fault.
         path: PathBuf,

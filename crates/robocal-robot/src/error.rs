@@ -42,7 +42,9 @@ pub enum RobotError {
         path: PathBuf,
     },
     /// A parameter name that does not exist in this table.
-    #[error("unknown parameter `{name}` (parameters are named like j2.d, j3.beta, base.rz, tool.x)")]
+    #[error(
+        "unknown parameter `{name}` (parameters are named like j2.d, j3.beta, base.rz, tool.x)"
+    )]
     UnknownParameter {
         /// The name that was asked for.
         name: String,

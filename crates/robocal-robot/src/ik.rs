@@ -52,6 +52,29 @@ struct Residual {
     orientation: f64,
 }
 
+/// Rotation vector (axis × angle, rad) of a rotation matrix, accurate near the identity, where
+/// an angle taken from `acos` of the trace resolves only about 1e-8 rad.
+pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
+    let s = 0.5
+        * Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        );
+    let c = 0.5 * (r.trace() - 1.0);
+    let sin = s.norm();
+    if c > 0.0 {
+        // |angle| < 90°: atan2 is exact at small angles, and s → angle · axis there.
+        if sin < 1e-300 {
+            s
+        } else {
+            s * (sin.atan2(c) / sin)
+        }
+    } else {
+        Rotation3::from_matrix_unchecked(*r).scaled_axis()
+    }
+}
+
 impl Robot {
     fn clamp_to_limits(&self, q: &mut [f64]) {
         for (v, j) in q.iter_mut().zip(&self.joints) {
@@ -75,7 +98,7 @@ impl Robot {
             }
             IkTarget::Pose { point, rotation } => {
                 let dp = point - p;
-                let dr = Rotation3::from_matrix_unchecked(rotation * r.transpose()).scaled_axis();
+                let dr = rotation_vector(&(rotation * r.transpose()));
                 let mut e = DVector::zeros(6);
                 e.fixed_rows_mut::<3>(0).copy_from(&dp);
                 e.fixed_rows_mut::<3>(3).copy_from(&(dr * scale));
@@ -96,7 +119,8 @@ impl Robot {
         };
         let mut jac = DMatrix::zeros(rows, self.dof());
         for (i, (w, o)) in axes.iter().enumerate() {
-            jac.fixed_view_mut::<3, 1>(0, i).copy_from(&w.cross(&(p - o)));
+            jac.fixed_view_mut::<3, 1>(0, i)
+                .copy_from(&w.cross(&(p - o)));
             if rows == 6 {
                 jac.fixed_view_mut::<3, 1>(3, i).copy_from(&(w * scale));
             }
@@ -108,7 +132,12 @@ impl Robot {
     /// orientation) at `target`, found by damped least squares from `seed` and kept within the
     /// joint limits. Among equivalent readings (±2π on a joint) the one nearest the seed is
     /// returned. Fails with [`RobotError::IkNotConverged`] rather than return a wrong answer.
-    pub fn inverse_kinematics(&self, target: &IkTarget, seed: &[f64], options: &IkOptions) -> Result<Vec<f64>> {
+    pub fn inverse_kinematics(
+        &self,
+        target: &IkTarget,
+        seed: &[f64],
+        options: &IkOptions,
+    ) -> Result<Vec<f64>> {
         self.check_joints(seed)?;
         let scale = options.orientation_scale;
         let mut q = seed.to_vec();
@@ -116,7 +145,8 @@ impl Robot {
         let mut res = self.ik_residual(target, &q, scale);
         let mut lambda: Option<f64> = None;
         let converged = |r: &Residual| {
-            r.position <= options.position_tolerance && r.orientation <= options.orientation_tolerance
+            r.position <= options.position_tolerance
+                && r.orientation <= options.orientation_tolerance
         };
         let n = self.dof();
         let mut iterations = 0;

@@ -119,7 +119,12 @@ impl Robot {
     /// Writes the 3 × P Jacobian of the world target point with respect to every parameter
     /// ([`Robot::param_ids`] order, internal units: mm/mm and mm/rad) into rows `row..row+3` of
     /// `out`, and returns the point (world, mm). `out` must have `param_count()` columns.
-    pub fn write_param_jacobian(&self, q: &[f64], out: &mut DMatrix<f64>, row: usize) -> Vector3<f64> {
+    pub fn write_param_jacobian(
+        &self,
+        q: &[f64],
+        out: &mut DMatrix<f64>,
+        row: usize,
+    ) -> Vector3<f64> {
         debug_assert_eq!(out.ncols(), self.param_count());
         debug_assert!(row + 3 <= out.nrows());
         let p = self.point(q);
@@ -204,7 +209,14 @@ impl Robot {
 
     /// Joint axes (world unit vectors) and a point on each, for configuration `q`;
     /// with the target point, the ingredients of the 6 × n geometric Jacobian.
-    pub fn joint_axes(&self, q: &[f64]) -> (Vec<(Vector3<f64>, Vector3<f64>)>, Matrix3<f64>, Vector3<f64>) {
+    pub fn joint_axes(
+        &self,
+        q: &[f64],
+    ) -> (
+        Vec<(Vector3<f64>, Vector3<f64>)>,
+        Matrix3<f64>,
+        Vector3<f64>,
+    ) {
         let mut axes = Vec::with_capacity(self.dof());
         let mut r = self.base_rotation();
         let mut o = self.base.xyz;

@@ -221,13 +221,15 @@ impl Robot {
     /// Value of one parameter, internal units (mm, rad). Parameters not in the table read as 0.
     pub fn param(&self, id: ParamId) -> f64 {
         match id {
-            ParamId::Joint { index, field } => self.joints.get(index).map_or(0.0, |j| match field {
-                JointField::A => j.a,
-                JointField::Alpha => j.alpha,
-                JointField::Beta => j.beta.unwrap_or(0.0),
-                JointField::D => j.d,
-                JointField::Theta => j.theta,
-            }),
+            ParamId::Joint { index, field } => {
+                self.joints.get(index).map_or(0.0, |j| match field {
+                    JointField::A => j.a,
+                    JointField::Alpha => j.alpha,
+                    JointField::Beta => j.beta.unwrap_or(0.0),
+                    JointField::D => j.d,
+                    JointField::Theta => j.theta,
+                })
+            }
             ParamId::Base(axis) if axis < 3 => self.base.xyz[axis],
             ParamId::Base(axis) => self.base.rpy.get(axis - 3).copied().unwrap_or(0.0),
             ParamId::Tool(axis) => self.tool.get(axis).copied().unwrap_or(0.0),
@@ -261,7 +263,10 @@ impl Robot {
 
     /// All parameters as one flat vector in [`Robot::param_ids`] order, internal units.
     pub fn params(&self) -> Vec<f64> {
-        self.param_ids().into_iter().map(|id| self.param(id)).collect()
+        self.param_ids()
+            .into_iter()
+            .map(|id| self.param(id))
+            .collect()
     }
 
     /// A copy of this robot with every parameter replaced by `values` ([`Robot::param_ids`] order).

@@ -1,0 +1,371 @@
+//! Kinematics checked against independent computations: hand-worked chains, a plain 4×4
+//! homogeneous-matrix product, central differences, and IK round trips.
+
+use std::f64::consts::FRAC_PI_2;
+
+use nalgebra::{Matrix4, Vector3, Vector4};
+use proptest::prelude::*;
+use robocal_robot::{Base, IkOptions, IkTarget, Joint, ParamId, Robot, RobotError};
+
+const PMC6: &str = include_str!("../../../configs/robots/pmc6va030.toml");
+
+fn pmc6() -> Robot {
+    Robot::from_toml_str(PMC6, "pmc6va030.toml").expect("the bundled robot parses")
+}
+
+// ---- an independent implementation: 4x4 homogeneous matrices, one elementary factor at a time
+
+fn h_rot_x(t: f64) -> Matrix4<f64> {
+    let (s, c) = t.sin_cos();
+    Matrix4::new(1., 0., 0., 0., 0., c, -s, 0., 0., s, c, 0., 0., 0., 0., 1.)
+}
+fn h_rot_y(t: f64) -> Matrix4<f64> {
+    let (s, c) = t.sin_cos();
+    Matrix4::new(c, 0., s, 0., 0., 1., 0., 0., -s, 0., c, 0., 0., 0., 0., 1.)
+}
+fn h_rot_z(t: f64) -> Matrix4<f64> {
+    let (s, c) = t.sin_cos();
+    Matrix4::new(c, -s, 0., 0., s, c, 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.)
+}
+fn h_trans(x: f64, y: f64, z: f64) -> Matrix4<f64> {
+    Matrix4::new(1., 0., 0., x, 0., 1., 0., y, 0., 0., 1., z, 0., 0., 0., 1.)
+}
+
+fn reference_point(robot: &Robot, q: &[f64]) -> Vector3<f64> {
+    let b = &robot.base;
+    let mut t =
+        h_trans(b.xyz.x, b.xyz.y, b.xyz.z) * h_rot_z(b.rpy.z) * h_rot_y(b.rpy.y) * h_rot_x(b.rpy.x);
+    for (j, &qi) in robot.joints.iter().zip(q) {
+        t = t
+            * h_rot_x(j.alpha)
+            * h_trans(j.a, 0., 0.)
+            * h_rot_y(j.beta.unwrap_or(0.0))
+            * h_rot_z(j.theta + qi)
+            * h_trans(0., 0., j.d);
+    }
+    let p = t * Vector4::new(robot.tool.x, robot.tool.y, robot.tool.z, 1.0);
+    Vector3::new(p.x, p.y, p.z)
+}
+
+// ---- random robots
+
+fn joint_strategy() -> impl Strategy<Value = Joint> {
+    (
+        -600.0..600.0f64,
+        -3.2..3.2f64,
+        prop::option::weighted(0.3, -0.2..0.2f64),
+        -600.0..600.0f64,
+        -3.2..3.2f64,
+    )
+        .prop_map(|(a, alpha, beta, d, theta)| Joint {
+            a,
+            alpha,
+            beta,
+            d,
+            theta,
+            limits: None,
+        })
+}
+
+fn robot_strategy() -> impl Strategy<Value = (Robot, Vec<f64>)> {
+    (
+        prop::collection::vec(joint_strategy(), 1..=7),
+        prop::array::uniform3(-3000.0..3000.0f64),
+        (-3.1..3.1f64, -1.5..1.5f64, -3.1..3.1f64),
+        prop::array::uniform3(-200.0..200.0f64),
+    )
+        .prop_flat_map(|(joints, xyz, (r, p, y), tool)| {
+            let n = joints.len();
+            let robot = Robot {
+                name: "random".into(),
+                joints,
+                base: Base {
+                    xyz: Vector3::from(xyz),
+                    rpy: Vector3::new(r, p, y),
+                },
+                tool: Vector3::from(tool),
+            };
+            (Just(robot), prop::collection::vec(-3.2..3.2f64, n))
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn fk_matches_plain_matrix_product((robot, q) in robot_strategy()) {
+        let p = robot.point(&q);
+        let r = reference_point(&robot, &q);
+        prop_assert!((p - r).norm() < 1e-9, "{p} vs {r}");
+    }
+
+    #[test]
+    fn parameter_jacobian_matches_central_differences((robot, q) in robot_strategy()) {
+        let (p, jac) = robot.param_jacobian(&q);
+        prop_assert!((p - robot.point(&q)).norm() < 1e-12);
+        let x = robot.params();
+        let h = 1e-5;
+        for (k, id) in robot.param_ids().iter().enumerate() {
+            let mut plus = x.clone();
+            plus[k] += h;
+            let mut minus = x.clone();
+            minus[k] -= h;
+            let fd = (robot.with_params(&plus).unwrap().point(&q)
+                - robot.with_params(&minus).unwrap().point(&q)) / (2.0 * h);
+            let an = jac.column(k);
+            prop_assert!((fd - an).norm() < 1e-5 * (1.0 + fd.norm()), "{id}: analytic {an} vs fd {fd}");
+        }
+    }
+
+    #[test]
+    fn joint_jacobian_matches_central_differences((robot, q) in robot_strategy()) {
+        let jac = robot.joint_jacobian(&q);
+        let h = 1e-6;
+        for i in 0..q.len() {
+            let mut plus = q.clone();
+            plus[i] += h;
+            let mut minus = q.clone();
+            minus[i] -= h;
+            let fd = (robot.point(&plus) - robot.point(&minus)) / (2.0 * h);
+            prop_assert!((fd - jac.column(i)).norm() < 1e-5 * (1.0 + fd.norm()), "q{}", i + 1);
+        }
+    }
+
+    #[test]
+    fn batch_jacobian_stacks_single_ones((robot, q) in robot_strategy()) {
+        let mut qs = q.clone();
+        qs.extend(q.iter().map(|v| v * 0.5));
+        let (points, jac) = robot.param_jacobian_batch(&qs);
+        prop_assert_eq!(points.len(), 2);
+        let half: Vec<f64> = q.iter().map(|v| v * 0.5).collect();
+        let (p1, j1) = robot.param_jacobian(&half);
+        prop_assert_eq!(points[1], p1);
+        prop_assert_eq!(jac.rows(3, 3).into_owned(), nalgebra::DMatrix::from_column_slice(3, j1.ncols(), j1.as_slice()));
+    }
+
+    #[test]
+    fn params_round_trip((robot, _q) in robot_strategy()) {
+        let x = robot.params();
+        prop_assert_eq!(x.len(), robot.param_count());
+        prop_assert_eq!(&robot.with_params(&x).unwrap(), &robot);
+        for id in robot.param_ids() {
+            prop_assert_eq!(robot.param_by_name(&id.to_string()).unwrap(), id);
+        }
+    }
+
+    #[test]
+    fn toml_round_trip((robot, q) in robot_strategy()) {
+        let text = robot.to_toml_string();
+        let back = Robot::from_toml_str(&text, "round-trip.toml").unwrap();
+        prop_assert_eq!(back.param_ids(), robot.param_ids());
+        prop_assert!((back.point(&q) - robot.point(&q)).norm() < 1e-9);
+    }
+}
+
+// ---- hand-worked chains
+
+fn one_joint(a: f64, alpha_deg: f64, beta_deg: Option<f64>, d: f64, tool: [f64; 3]) -> Robot {
+    Robot {
+        name: "one".into(),
+        joints: vec![Joint {
+            a,
+            alpha: alpha_deg.to_radians(),
+            beta: beta_deg.map(f64::to_radians),
+            d,
+            theta: 0.0,
+            limits: None,
+        }],
+        base: Base {
+            xyz: Vector3::zeros(),
+            rpy: Vector3::zeros(),
+        },
+        tool: Vector3::from(tool),
+    }
+}
+
+#[test]
+fn planar_two_link_arm() {
+    let mut robot = one_joint(0.0, 0.0, None, 0.0, [300.0, 0.0, 0.0]);
+    robot.joints.push(Joint {
+        a: 500.0,
+        alpha: 0.0,
+        beta: None,
+        d: 0.0,
+        theta: 0.0,
+        limits: None,
+    });
+    for (q1, q2) in [(0.3, -1.1), (2.0, 0.4), (-0.7, 2.9)] {
+        let p = robot.point(&[q1, q2]);
+        let x = 500.0 * f64::cos(q1) + 300.0 * f64::cos(q1 + q2);
+        let y = 500.0 * f64::sin(q1) + 300.0 * f64::sin(q1 + q2);
+        assert!((p - Vector3::new(x, y, 0.0)).norm() < 1e-10, "{p}");
+    }
+}
+
+#[test]
+fn twist_offset_and_beta_by_hand() {
+    // RotX(90°) turns z into -y: d = 100 along the new z lands at (0, -100, 0).
+    let p = one_joint(0.0, 90.0, None, 100.0, [0.0; 3]).point(&[0.0]);
+    assert!((p - Vector3::new(0.0, -100.0, 0.0)).norm() < 1e-12);
+    // RotY(90°) turns z into x: d = 50 lands at (50, 0, 0) after a = 20 along x.
+    let p = one_joint(20.0, 0.0, Some(90.0), 50.0, [0.0; 3]).point(&[0.0]);
+    assert!((p - Vector3::new(70.0, 0.0, 0.0)).norm() < 1e-12);
+    // Base: yaw 90° and an offset.
+    let mut robot = one_joint(0.0, 0.0, None, 0.0, [100.0, 0.0, 0.0]);
+    robot.base.xyz = Vector3::new(1000.0, 0.0, 0.0);
+    robot.base.rpy = Vector3::new(0.0, 0.0, FRAC_PI_2);
+    assert!((robot.point(&[0.0]) - Vector3::new(1000.0, 100.0, 0.0)).norm() < 1e-12);
+}
+
+#[test]
+fn pmc6_at_zero_by_hand() {
+    // Worked through Table 1 frame by frame: shoulder at z = 601, upper arm 270 + 800 + 140
+    // along x, forearm 737.5 down, flange 227.3 further down with z6 pointing down, reflector
+    // 100 mm along z6.
+    let robot = pmc6();
+    let flange = robot.flange_pose(&[0.0; 6]);
+    let o = flange.translation.vector;
+    assert!(
+        (o - Vector3::new(1210.0, 0.0, 601.0 - 737.5 - 227.3)).norm() < 1e-9,
+        "{o}"
+    );
+    assert!((flange.rotation * Vector3::z() - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
+    assert!((robot.point(&[0.0; 6]) - Vector3::new(1210.0, 0.0, -463.8)).norm() < 1e-9);
+}
+
+#[test]
+fn pmc6_has_34_parameters_with_stable_names() {
+    let robot = pmc6();
+    assert_eq!(robot.param_count(), 34);
+    let names: Vec<String> = robot.param_ids().iter().map(ToString::to_string).collect();
+    assert_eq!(
+        &names[..6],
+        ["j1.a", "j1.alpha", "j1.d", "j1.theta", "j2.a", "j2.alpha"]
+    );
+    assert_eq!(names[6], "j2.beta");
+    assert_eq!(
+        &names[25..],
+        [
+            "base.x", "base.y", "base.z", "base.rx", "base.ry", "base.rz", "tool.x", "tool.y",
+            "tool.z"
+        ]
+    );
+    assert!(matches!(
+        robot.param_by_name("j3.beta"),
+        Err(RobotError::UnknownParameter { .. })
+    ));
+    assert!(matches!(
+        robot.param_by_name("j7.a"),
+        Err(RobotError::UnknownParameter { .. })
+    ));
+    assert!(matches!(
+        robot.param_by_name("base.q"),
+        Err(RobotError::UnknownParameter { .. })
+    ));
+    let id = robot.param_by_name("j2.beta").unwrap();
+    assert!((id.to_file_units(id.from_file_units(0.25)) - 0.25).abs() < 1e-15);
+    assert_eq!(ParamId::Tool(2).file_unit_name(), "mm");
+}
+
+// ---- inverse kinematics
+
+struct Lcg(u64);
+impl Lcg {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+    }
+}
+
+#[test]
+fn ik_round_trip_on_random_reachable_poses() {
+    let robot = pmc6();
+    let mut rng = Lcg(7);
+    let options = IkOptions::default();
+    let (mut solved, mut tried) = (0, 0);
+    for _ in 0..200 {
+        let q: Vec<f64> = robot
+            .joints
+            .iter()
+            .map(|j| {
+                let (lo, hi) = j.limits.unwrap();
+                rng.uniform(lo.max(-2.5), hi.min(2.5))
+            })
+            .collect();
+        let seed: Vec<f64> = q.iter().map(|v| v + rng.uniform(-0.25, 0.25)).collect();
+        let (rotation, origin) = robot.flange_frame(&q);
+        let point = origin + rotation * robot.tool;
+        let target = IkTarget::Pose { point, rotation };
+        tried += 1;
+        if let Ok(sol) = robot.inverse_kinematics(&target, &seed, &options) {
+            solved += 1;
+            let (r, o) = robot.flange_frame(&sol);
+            assert!((o + r * robot.tool - point).norm() < 1e-6);
+            assert!(
+                (r - rotation).norm() < 1e-8,
+                "{} {:?} {:?}",
+                (r - rotation).norm(),
+                q,
+                sol
+            );
+            assert!(robot.within_limits(&sol));
+        }
+        // Position only: the 6-axis arm is redundant for a point, the answer stays near the seed.
+        let sol = robot
+            .inverse_kinematics(&IkTarget::Point(point), &seed, &options)
+            .expect("a point target near the seed converges");
+        assert!((robot.point(&sol) - point).norm() < 1e-6);
+    }
+    assert!(
+        solved * 100 >= tried * 95,
+        "pose IK solved {solved} of {tried}"
+    );
+}
+
+#[test]
+fn ik_reports_unreachable_targets() {
+    let robot = pmc6();
+    let err = robot
+        .inverse_kinematics(
+            &IkTarget::Point(Vector3::new(5000.0, 0.0, 0.0)),
+            &[0.0; 6],
+            &IkOptions::default(),
+        )
+        .unwrap_err();
+    match err {
+        RobotError::IkNotConverged { position_error, .. } => assert!(position_error > 1000.0),
+        other => panic!("unexpected {other}"),
+    }
+    assert!(matches!(
+        robot.inverse_kinematics(
+            &IkTarget::Point(Vector3::zeros()),
+            &[0.0; 5],
+            &IkOptions::default()
+        ),
+        Err(RobotError::JointCountMismatch {
+            expected: 6,
+            found: 5
+        })
+    ));
+}
+
+#[test]
+fn ik_respects_joint_limits() {
+    // A single joint limited to ±30° cannot reach a point at 90°.
+    let mut robot = one_joint(0.0, 0.0, None, 0.0, [100.0, 0.0, 0.0]);
+    robot.joints[0].limits = Some((-30f64.to_radians(), 30f64.to_radians()));
+    let target = IkTarget::Point(Vector3::new(0.0, 100.0, 0.0));
+    assert!(
+        robot
+            .inverse_kinematics(&target, &[0.0], &IkOptions::default())
+            .is_err()
+    );
+    let inside = IkTarget::Point(robot.point(&[20f64.to_radians()]));
+    let q = robot
+        .inverse_kinematics(&inside, &[0.0], &IkOptions::default())
+        .unwrap();
+    assert!((q[0] - 20f64.to_radians()).abs() < 1e-9);
+}
