@@ -1,0 +1,254 @@
+//! Measurement CSV: round trips and one test per kind of bad input, each checking the error kind
+//! and that it names the line and column.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use proptest::prelude::*;
+use robocal_data::{DataError, Measurement, MeasurementSet, Sample, SampleSet, read_targets};
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn read_err(text: &str, joints: usize) -> DataError {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "m.csv", text);
+    let err = MeasurementSet::read(&path, joints).unwrap_err();
+    assert!(
+        err.to_string().contains("m.csv"),
+        "the error names the file: {err}"
+    );
+    err
+}
+
+const HEADER: &str = "pose,q1,q2,q3,load,x,y,z\n";
+
+#[test]
+fn column_order_is_free_and_extra_columns_are_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "m.csv",
+        "z,note,load,q3,q1,pose,q2,y,x\n3.5, hi ,2,30,10,p1,20,2.5,1.5\n",
+    );
+    let set = MeasurementSet::read(&path, 3).unwrap();
+    let row = &set.rows[0];
+    assert_eq!(row.sample.pose, "p1");
+    assert_eq!(row.sample.joints, vec![10.0, 20.0, 30.0]);
+    assert_eq!(row.sample.load, 2.0);
+    assert_eq!(row.sample.line, 2);
+    assert_eq!(row.position, Vector3::new(1.5, 2.5, 3.5));
+}
+
+#[test]
+fn samples_do_not_need_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "in.csv", "pose,q1,load\na,1,0\nb,2,0.5\n");
+    let set = SampleSet::read(&path, 1).unwrap();
+    assert_eq!(set.rows.len(), 2);
+    assert!(matches!(
+        MeasurementSet::read(&path, 1),
+        Err(DataError::MissingColumn { column, .. }) if column == "x"
+    ));
+}
+
+#[test]
+fn missing_column() {
+    let err = read_err("pose,q1,q2,q3,x,y,z\np,1,2,3,4,5,6\n", 3);
+    assert!(
+        matches!(&err, DataError::MissingColumn { column, .. } if column == "load"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("line 1"));
+    let err = read_err("pose,q1,q3,load,x,y,z\np,1,2,3,4,5,6\n", 3);
+    assert!(
+        matches!(&err, DataError::MissingColumn { column, .. } if column == "q2"),
+        "{err}"
+    );
+}
+
+#[test]
+fn duplicate_column() {
+    let err = read_err("pose,q1,q2,q3,load,x,y,x,z\np,1,2,3,0,4,5,6,7\n", 3);
+    assert!(
+        matches!(&err, DataError::DuplicateColumn { column, index: 8, .. } if column == "x"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("line 1, column 8"));
+}
+
+#[test]
+fn non_numeric_value() {
+    let err = read_err(&format!("{HEADER}p,1,2,3,0,4,5,6\np,1,2,3,5,4,abc,6\n"), 3);
+    assert!(
+        matches!(&err, DataError::NotANumber { line: 3, column, value, .. } if column == "y" && value == "abc"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("line 3, column `y`"));
+}
+
+#[test]
+fn nan_inf_and_overflow() {
+    for bad in ["NaN", "inf", "-inf", "1e400"] {
+        let err = read_err(&format!("{HEADER}p,1,{bad},3,0,4,5,6\n"), 3);
+        assert!(
+            matches!(&err, DataError::NonFinite { line: 2, column, .. } if column == "q2"),
+            "{bad}: {err}"
+        );
+    }
+}
+
+#[test]
+fn empty_value() {
+    let err = read_err(&format!("{HEADER}p,1,,3,0,4,5,6\n"), 3);
+    assert!(
+        matches!(&err, DataError::EmptyValue { line: 2, column, .. } if column == "q2"),
+        "{err}"
+    );
+    let err = read_err(&format!("{HEADER},1,2,3,0,4,5,6\n"), 3);
+    assert!(
+        matches!(&err, DataError::EmptyValue { line: 2, column, .. } if column == "pose"),
+        "{err}"
+    );
+}
+
+#[test]
+fn wrong_joint_count() {
+    let err = read_err(&format!("{HEADER}p,1,2,3,0,4,5,6\n"), 6);
+    assert!(matches!(
+        err,
+        DataError::JointCountMismatch {
+            expected: 6,
+            found: 3,
+            ..
+        }
+    ));
+    let err = read_err("pose,q1,q2,q3,q4,load,x,y,z\np,1,2,3,4,0,4,5,6\n", 3);
+    assert!(matches!(
+        err,
+        DataError::JointCountMismatch {
+            expected: 3,
+            found: 4,
+            ..
+        }
+    ));
+}
+
+#[test]
+fn negative_load() {
+    let err = read_err(&format!("{HEADER}p,1,2,3,-0.5,4,5,6\n"), 3);
+    assert!(matches!(err, DataError::NegativeLoad { line: 2, value, .. } if value == -0.5));
+}
+
+#[test]
+fn empty_file_and_header_only() {
+    assert!(matches!(read_err("", 3), DataError::Empty { .. }));
+    assert!(matches!(read_err("\n  \n", 3), DataError::Empty { .. }));
+    assert!(matches!(read_err(HEADER, 3), DataError::NoRows { .. }));
+}
+
+#[test]
+fn ragged_row() {
+    let err = read_err(&format!("{HEADER}p,1,2,3,0,4,5\n"), 3);
+    assert!(matches!(err, DataError::Malformed { line: 2, .. }), "{err}");
+}
+
+#[test]
+fn same_pose_with_different_joints() {
+    let err = read_err(
+        &format!("{HEADER}p,1,2,3,0,4,5,6\nq,1,2,3,0,4,5,6\np,1,2,3.5,5,4,5,6\n"),
+        3,
+    );
+    assert!(
+        matches!(
+            err,
+            DataError::InconsistentPose {
+                line: 4,
+                first_line: 2,
+                ..
+            }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_file() {
+    let err = MeasurementSet::read("/nonexistent/m.csv", 3).unwrap_err();
+    assert!(matches!(err, DataError::Io { .. }));
+}
+
+#[test]
+fn targets_need_unique_ids() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "t.csv",
+        "id,q1,load,x,y,z\nt1,0,0,1,2,3\nt2,5,1,1,2,3\n",
+    );
+    assert_eq!(read_targets(&path, 1).unwrap().len(), 2);
+    let path = write(
+        dir.path(),
+        "t.csv",
+        "id,q1,load,x,y,z\nt1,0,0,1,2,3\nt1,0,0,1,2,3\n",
+    );
+    assert!(matches!(
+        read_targets(&path, 1),
+        Err(DataError::DuplicateId {
+            line: 3,
+            first_line: 2,
+            ..
+        })
+    ));
+}
+
+#[test]
+fn failed_write_leaves_existing_file_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "keep.csv", "old contents\n");
+    let result = robocal_data::write_atomically(&path, |w| {
+        w.write_all(b"partial")?;
+        Err(std::io::Error::other("disk full"))
+    });
+    assert!(matches!(result, Err(DataError::Write { .. })));
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "old contents\n");
+    let leftovers = std::fs::read_dir(dir.path()).unwrap().count();
+    assert_eq!(leftovers, 1, "no temporary file is left behind");
+}
+
+fn finite() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        -1e6..1e6f64,
+        any::<f64>().prop_filter("finite", |v| v.is_finite())
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn write_then_read_gives_the_same_set(
+        rows in prop::collection::vec(
+            ("[a-z0-9 ,\"_-]{1,8}", prop::collection::vec(finite(), 4), 0.0..30.0f64, prop::array::uniform3(finite())),
+            1..20,
+        )
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("round.csv");
+        // Give every row its own pose id so the one-reading-per-pose rule holds.
+        let rows: Vec<Measurement> = rows
+            .into_iter()
+            .enumerate()
+            .map(|(i, (pose, joints, load, p))| Measurement {
+                sample: Sample { pose: format!("{}{i}", pose.trim()), joints, load, line: i as u64 + 2 },
+                position: Vector3::from(p),
+            })
+            .collect();
+        let set = MeasurementSet { source: path.clone(), joint_count: 4, rows };
+        set.write(&path).unwrap();
+        let back = MeasurementSet::read(&path, 4).unwrap();
+        prop_assert_eq!(back, set);
+    }
+}
