@@ -6,6 +6,7 @@ use std::f64::consts::{PI, TAU};
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 use crate::error::{Result, RobotError};
+use crate::kinematics::JointAxes;
 use crate::table::Robot;
 
 /// What the inverse kinematics must reach, world frame.
@@ -112,7 +113,7 @@ impl Robot {
     }
 
     fn ik_jacobian(&self, target: &IkTarget, q: &[f64], scale: f64) -> DMatrix<f64> {
-        let (axes, _, p) = self.joint_axes(q);
+        let JointAxes { axes, point: p, .. } = self.joint_axes(q);
         let rows = match target {
             IkTarget::Point(_) => 3,
             IkTarget::Pose { .. } => 6,

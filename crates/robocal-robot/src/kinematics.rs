@@ -83,6 +83,17 @@ fn step(r0: Matrix3<f64>, o0: Vector3<f64>, joint: &Joint, q: f64) -> JointStep 
     }
 }
 
+/// Joint axes of one configuration, world frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointAxes {
+    /// Per joint: unit axis and a point on it (mm).
+    pub axes: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// Rotation of the flange frame.
+    pub flange_rotation: Matrix3<f64>,
+    /// Target point, mm.
+    pub point: Vector3<f64>,
+}
+
 impl Robot {
     /// Rotation of the base frame in the world frame.
     pub fn base_rotation(&self) -> Matrix3<f64> {
@@ -207,16 +218,8 @@ impl Robot {
         jac
     }
 
-    /// Joint axes (world unit vectors) and a point on each, for configuration `q`;
-    /// with the target point, the ingredients of the 6 × n geometric Jacobian.
-    pub fn joint_axes(
-        &self,
-        q: &[f64],
-    ) -> (
-        Vec<(Vector3<f64>, Vector3<f64>)>,
-        Matrix3<f64>,
-        Vector3<f64>,
-    ) {
+    /// Joint axes for configuration `q`: the ingredients of the 6 × n geometric Jacobian.
+    pub fn joint_axes(&self, q: &[f64]) -> JointAxes {
         let mut axes = Vec::with_capacity(self.dof());
         let mut r = self.base_rotation();
         let mut o = self.base.xyz;
@@ -226,6 +229,10 @@ impl Robot {
             r = s.r;
             o = s.o;
         }
-        (axes, r, o + r * self.tool)
+        JointAxes {
+            axes,
+            flange_rotation: r,
+            point: o + r * self.tool,
+        }
     }
 }
