@@ -52,4 +52,13 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Generate a digital twin's measurement files (every configuration at every load).
+    Simulate {
+        /// Twin description (TOML).
+        #[arg(long, value_name = "TWIN_TOML")]
+        twin: PathBuf,
+        /// Output directory (replaced atomically).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+    },
 }

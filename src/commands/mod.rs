@@ -3,6 +3,7 @@
 mod evaluate;
 mod model;
 mod predict;
+mod simulate;
 
 use anyhow::Result;
 
@@ -13,5 +14,6 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Predict { source, data, out } => predict::run(&source, &data, &out),
         Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
+        Command::Simulate { twin, out } => simulate::run(&twin, &out),
     }
 }

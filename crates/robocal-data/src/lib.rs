@@ -16,7 +16,7 @@ pub mod csvio;
 pub mod error;
 pub mod stats;
 
-pub use atomic::write_atomically;
+pub use atomic::{write_atomically, write_dir_atomically};
 pub use csvio::{
     Measurement, MeasurementSet, Prediction, Sample, SampleSet, Target, csv_text, read_targets,
     write_predictions,

@@ -218,6 +218,20 @@ impl Robot {
         jac
     }
 
+    /// Every link frame {1}..{n} in the world frame as (rotation, origin mm); `q` in rad.
+    pub fn link_frames(&self, q: &[f64]) -> Vec<(Matrix3<f64>, Vector3<f64>)> {
+        let mut frames = Vec::with_capacity(self.dof());
+        let mut r = self.base_rotation();
+        let mut o = self.base.xyz;
+        for (joint, &qi) in self.joints.iter().zip(q) {
+            let s = step(r, o, joint, qi);
+            r = s.r;
+            o = s.o;
+            frames.push((r, o));
+        }
+        frames
+    }
+
     /// Joint axes for configuration `q`: the ingredients of the 6 × n geometric Jacobian.
     pub fn joint_axes(&self, q: &[f64]) -> JointAxes {
         let mut axes = Vec::with_capacity(self.dof());

@@ -34,6 +34,7 @@ pub mod table;
 
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
+pub use kinematics::JointAxes;
 pub use kinematics::{matrix_to_rpy, rpy_to_matrix};
 pub use params::{JointField, ParamId, Unit};
-pub use table::{Base, Joint, Robot};
+pub use table::{Base, Joint, RawBase, RawJoint, RawTool, Robot, RobotTable, toml_error};

@@ -51,40 +51,58 @@ pub struct Robot {
     pub tool: Vector3<f64>,
 }
 
-#[derive(Debug, Serialize, Deserialize)]
+/// The robot file as written (mm, degrees), before validation. Other configuration files embed
+/// it (e.g. a twin's true robot) and validate it with [`RobotTable::validate`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawRobot {
-    name: String,
+pub struct RobotTable {
+    /// Free-form name.
+    pub name: String,
+    /// Joints, base to tip.
     #[serde(default)]
-    joint: Vec<RawJoint>,
-    base: RawBase,
-    tool: RawTool,
+    pub joint: Vec<RawJoint>,
+    /// `[base]`.
+    pub base: RawBase,
+    /// `[tool]`.
+    pub tool: RawTool,
 }
 
-#[derive(Debug, Serialize, Deserialize)]
+/// One `[[joint]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawJoint {
-    a: f64,
-    alpha: f64,
+pub struct RawJoint {
+    /// a_{i-1}, mm.
+    pub a: f64,
+    /// alpha_{i-1}, deg.
+    pub alpha: f64,
+    /// Optional Hayati beta_{i-1}, deg.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    beta: Option<f64>,
-    d: f64,
-    theta: f64,
+    pub beta: Option<f64>,
+    /// d_i, mm.
+    pub d: f64,
+    /// theta_i offset, deg.
+    pub theta: f64,
+    /// Optional limits, deg.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    limits: Option<[f64; 2]>,
+    pub limits: Option<[f64; 2]>,
 }
 
-#[derive(Debug, Serialize, Deserialize)]
+/// `[base]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawBase {
-    xyz: [f64; 3],
-    rpy: [f64; 3],
+pub struct RawBase {
+    /// mm.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw, deg.
+    pub rpy: [f64; 3],
 }
 
-#[derive(Debug, Serialize, Deserialize)]
+/// `[tool]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawTool {
-    xyz: [f64; 3],
+pub struct RawTool {
+    /// mm, flange frame.
+    pub xyz: [f64; 3],
 }
 
 /// Converts a byte offset in `text` to a 1-based (line, column).
@@ -135,11 +153,16 @@ impl Robot {
     /// Parses and validates a robot table; `path` is only used to name the source in errors.
     pub fn from_toml_str(text: &str, path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let raw: RawRobot = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-        Self::from_raw(raw, path)
+        let raw: RobotTable = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        raw.validate(path, "")
     }
+}
 
-    fn from_raw(raw: RawRobot, path: &Path) -> Result<Self> {
+impl RobotTable {
+    /// Validates the table into a [`Robot`]; `prefix` is put before key names in errors (e.g.
+    /// `truth.` when the table is embedded under `[truth]`).
+    pub fn validate(self, path: &Path, prefix: &str) -> Result<Robot> {
+        let raw = self;
         if raw.joint.is_empty() {
             return Err(RobotError::NoJoints {
                 path: path.to_path_buf(),
@@ -147,7 +170,7 @@ impl Robot {
         }
         let mut joints = Vec::with_capacity(raw.joint.len());
         for (i, j) in raw.joint.iter().enumerate() {
-            let key = |field: &str| format!("joint[{}].{field}", i + 1);
+            let key = |field: &str| format!("{prefix}joint[{}].{field}", i + 1);
             check_finite(path, key("a"), &[j.a])?;
             check_finite(path, key("alpha"), &[j.alpha])?;
             check_finite(path, key("d"), &[j.d])?;
@@ -178,10 +201,10 @@ impl Robot {
                 limits,
             });
         }
-        check_finite(path, "base.xyz".into(), &raw.base.xyz)?;
-        check_finite(path, "base.rpy".into(), &raw.base.rpy)?;
-        check_finite(path, "tool.xyz".into(), &raw.tool.xyz)?;
-        Ok(Self {
+        check_finite(path, format!("{prefix}base.xyz"), &raw.base.xyz)?;
+        check_finite(path, format!("{prefix}base.rpy"), &raw.base.rpy)?;
+        check_finite(path, format!("{prefix}tool.xyz"), &raw.tool.xyz)?;
+        Ok(Robot {
             name: raw.name,
             joints,
             base: Base {
@@ -191,10 +214,12 @@ impl Robot {
             tool: Vector3::from(raw.tool.xyz),
         })
     }
+}
 
+impl Robot {
     /// The table in the TOML schema of interface.md section 1 (mm, degrees).
     pub fn to_toml_string(&self) -> String {
-        let raw = RawRobot {
+        let raw = RobotTable {
             name: self.name.clone(),
             joint: self
                 .joints
