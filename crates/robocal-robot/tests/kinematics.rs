@@ -242,7 +242,7 @@ fn pmc6_has_34_parameters_with_stable_names() {
         &names[..6],
         ["j1.a", "j1.alpha", "j1.d", "j1.theta", "j2.a", "j2.alpha"]
     );
-    assert_eq!(names[6], "j2.beta");
+    assert_eq!(names[10], "j3.beta");
     assert_eq!(
         &names[25..],
         [
@@ -262,7 +262,7 @@ fn pmc6_has_34_parameters_with_stable_names() {
         robot.param_by_name("base.q"),
         Err(RobotError::UnknownParameter { .. })
     ));
-    let id = robot.param_by_name("j2.beta").unwrap();
+    let id = robot.param_by_name("j3.beta").unwrap();
     assert!((id.to_file_units(id.from_file_units(0.25)) - 0.25).abs() < 1e-15);
     assert_eq!(ParamId::Tool(2).file_unit_name(), "mm");
 }

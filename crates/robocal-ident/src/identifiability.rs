@@ -1,0 +1,121 @@
+//! Identifiability of a parameter selection with a pose set: which parameters the measurements
+//! cannot separate (redundant with others, or without effect), the condition number and an
+//! observability index of the scaled Jacobian, and parameter standard deviations.
+
+use faer::Mat;
+use faer::linalg::solvers::Solve;
+use robocal_robot::{JointField, ParamId};
+
+/// Result of [`analyse`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Identifiability {
+    /// Positions (in the analysed selection) of the parameters that can be identified.
+    pub identifiable: Vec<usize>,
+    /// Positions of the parameters that cannot, each with the fraction of its column left after
+    /// projecting out the identifiable ones (0 = exactly redundant).
+    pub unidentifiable: Vec<(usize, f64)>,
+    /// Largest over smallest singular value of the scaled Jacobian of the identifiable set.
+    pub condition_number: f64,
+    /// Borm & Menq's O1: geometric mean of the singular values over √(measured points).
+    pub observability_index: f64,
+}
+
+/// Which parameters of a redundant group to keep: the base and tool frames first (they are
+/// what the tracker set-up changes), then joint parameters from the base outwards.
+fn priority(id: ParamId) -> (usize, usize, usize) {
+    match id {
+        ParamId::Base(a) => (0, 0, a),
+        ParamId::Tool(a) => (1, 0, a),
+        ParamId::Joint { index, field } => {
+            let f = match field {
+                JointField::Theta => 0,
+                JointField::A => 1,
+                JointField::Alpha => 2,
+                JointField::D => 3,
+                JointField::Beta => 4,
+            };
+            (2, index, f)
+        }
+    }
+}
+
+/// Analyses the scaled Jacobian `jac` (3m × k) of the parameters `ids`.
+///
+/// Columns are taken in priority order (base, tool, then joints from the base) and
+/// orthogonalised against those already accepted (modified Gram–Schmidt, twice); a column whose
+/// remaining norm is below `tolerance` times its own is redundant. This is a QR factorisation with
+/// the pivot order set by the physics rather than by column norms, so that of a redundant pair
+/// (e.g. `j1.d` and `base.z`) the joint parameter is the one named.
+pub fn analyse(jac: &Mat<f64>, ids: &[ParamId], tolerance: f64) -> Identifiability {
+    let (rows, k) = (jac.nrows(), jac.ncols());
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by_key(|&j| priority(ids[j]));
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    let mut identifiable = Vec::new();
+    let mut unidentifiable = Vec::new();
+    for &j in &order {
+        let mut v: Vec<f64> = (0..rows).map(|i| jac[(i, j)]).collect();
+        let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        for _ in 0..2 {
+            for b in &basis {
+                let dot: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
+                v.iter_mut().zip(b).for_each(|(x, y)| *x -= dot * y);
+            }
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let fraction = if norm0 > 0.0 { norm / norm0 } else { 0.0 };
+        if norm0 > 0.0 && fraction > tolerance {
+            v.iter_mut().for_each(|x| *x /= norm);
+            basis.push(v);
+            identifiable.push(j);
+        } else {
+            unidentifiable.push((j, fraction));
+        }
+    }
+    identifiable.sort_unstable();
+    unidentifiable.sort_by_key(|(j, _)| *j);
+    let sub = Mat::from_fn(rows, identifiable.len(), |i, c| jac[(i, identifiable[c])]);
+    let sv = if identifiable.is_empty() {
+        Vec::new()
+    } else {
+        sub.singular_values().unwrap_or_default()
+    };
+    let (max, min) = sv.iter().fold((0.0f64, f64::INFINITY), |(mx, mn), &s| {
+        (mx.max(s), mn.min(s))
+    });
+    let condition_number = if min > 0.0 && min.is_finite() {
+        max / min
+    } else {
+        f64::INFINITY
+    };
+    let points = (rows / 3).max(1) as f64;
+    let observability_index = if sv.is_empty() {
+        0.0
+    } else {
+        (sv.iter().map(|s| s.max(1e-300).ln()).sum::<f64>() / sv.len() as f64).exp() / points.sqrt()
+    };
+    Identifiability {
+        identifiable,
+        unidentifiable,
+        condition_number,
+        observability_index,
+    }
+}
+
+/// Standard deviations of the parameters (in `u` units) from the covariance `σ² (JᵀJ)⁻¹`, with
+/// `σ² = Σr² / (3m − k)`. `None` when there are no degrees of freedom left or JᵀJ is singular.
+pub fn standard_deviations(jac: &Mat<f64>, residuals: &[f64]) -> Option<Vec<f64>> {
+    let (rows, k) = (jac.nrows(), jac.ncols());
+    if rows <= k || k == 0 {
+        return None;
+    }
+    let ssr: f64 = residuals.iter().map(|r| r * r).sum();
+    let sigma2 = ssr / (rows - k) as f64;
+    let a: Mat<f64> = jac.transpose() * jac;
+    let llt = a.llt(faer::Side::Lower).ok()?;
+    let inv = llt.solve(Mat::<f64>::identity(k, k));
+    let std: Vec<f64> = (0..k)
+        .map(|i| (sigma2 * inv[(i, i)]).max(0.0).sqrt())
+        .collect();
+    std.iter().all(|s| s.is_finite()).then_some(std)
+}

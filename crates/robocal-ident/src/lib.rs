@@ -1,0 +1,31 @@
+//! Kinematic identification for robocal: closed-form registration of the tracker frame,
+//! best-fit alignment, identifiability analysis, Levenberg–Marquardt (an argmin `Solver` on faer)
+//! and the paper's BFGS on the mean distance (argmin, More–Thuente line search).
+//!
+//! ```no_run
+//! use robocal_ident::{KinematicSettings, Observations, calibrate_kinematics};
+//! let robot = robocal_robot::Robot::load("configs/robots/pmc6va030.toml")?;
+//! let data = robocal_data::MeasurementSet::read("datasets/pmc6va030/measurements.csv", 6)?;
+//! let obs = Observations::from_rows(6, data.rows.iter().filter(|r| r.sample.load == 0.0));
+//! let cal = calibrate_kinematics(&robot, &obs, &KinematicSettings::default())?;
+//! println!("{:.3} mm → {:.3} mm", cal.report.before.mean, cal.report.after.mean);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod bfgs;
+pub mod calibrate;
+pub mod error;
+pub mod identifiability;
+pub mod lm;
+pub mod problem;
+pub mod registration;
+
+pub use calibrate::{
+    FixedParameter, KinematicCalibration, KinematicReport, KinematicSettings, ParameterReport,
+    SolverKind, align, calibrate_kinematics,
+};
+pub use error::{IdentError, Result};
+pub use identifiability::{Identifiability, analyse, standard_deviations};
+pub use lm::{LevenbergMarquardt, run_lm};
+pub use problem::{CalibrationProblem, LeastSquares, MeanDistance, Observations, select};
+pub use registration::{kabsch, register_base};

@@ -1,0 +1,171 @@
+//! Levenberg–Marquardt as an argmin [`Solver`]: damped Gauss–Newton steps on the normal
+//! equations `(JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr`, solved by Cholesky (faer).
+
+use argmin::core::{
+    Error, IterState, Jacobian, KV, Operator, Problem, Solver, State, TerminationReason,
+    TerminationStatus,
+};
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+
+/// Settings and running state of the solver.
+#[derive(Debug, Clone)]
+pub struct LevenbergMarquardt {
+    /// Current damping.
+    lambda: f64,
+    /// Stop when a step lowers the cost by less than this fraction.
+    cost_tolerance: f64,
+    /// Stop when the step is shorter than this (scaled units).
+    step_tolerance: f64,
+    /// Stop when the largest gradient entry is below this.
+    gradient_tolerance: f64,
+    /// Damping increases tried within one iteration before giving up.
+    max_rejections: usize,
+    converged: Option<&'static str>,
+}
+
+impl Default for LevenbergMarquardt {
+    fn default() -> Self {
+        Self {
+            lambda: 1e-3,
+            cost_tolerance: 1e-12,
+            step_tolerance: 1e-12,
+            gradient_tolerance: 1e-14,
+            max_rejections: 30,
+            converged: None,
+        }
+    }
+}
+
+impl LevenbergMarquardt {
+    /// Relative cost decrease below which the solver stops (must be ≥ 0).
+    pub fn with_cost_tolerance(mut self, tol: f64) -> Self {
+        self.cost_tolerance = tol.max(0.0);
+        self
+    }
+
+    /// Why the solver stopped, when it converged.
+    pub fn converged(&self) -> Option<&'static str> {
+        self.converged
+    }
+}
+
+type LmState = IterState<Vec<f64>, (), Mat<f64>, (), Vec<f64>, f64>;
+
+fn half_squared(r: &[f64]) -> f64 {
+    0.5 * r.iter().map(|v| v * v).sum::<f64>()
+}
+
+impl<O> Solver<O, LmState> for LevenbergMarquardt
+where
+    O: Operator<Param = Vec<f64>, Output = Vec<f64>>
+        + Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>,
+{
+    fn name(&self) -> &str {
+        "Levenberg-Marquardt"
+    }
+
+    fn init(
+        &mut self,
+        problem: &mut Problem<O>,
+        mut state: LmState,
+    ) -> Result<(LmState, Option<KV>), Error> {
+        let u = state
+            .take_param()
+            .ok_or_else(|| argmin::core::ArgminError::NotInitialized {
+                text: "Levenberg-Marquardt needs a starting point".into(),
+            })?;
+        let r = problem.apply(&u)?;
+        let cost = half_squared(&r);
+        Ok((state.param(u).residuals(r).cost(cost), None))
+    }
+
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<O>,
+        mut state: LmState,
+    ) -> Result<(LmState, Option<KV>), Error> {
+        let u = state.take_param().unwrap_or_default();
+        let r = match state.take_residuals() {
+            Some(r) => r,
+            None => problem.apply(&u)?,
+        };
+        let cost = half_squared(&r);
+        let jac = problem.jacobian(&u)?;
+        let k = u.len();
+        let jt = jac.transpose();
+        let a: Mat<f64> = jt * &jac;
+        let rv = Mat::from_fn(r.len(), 1, |i, _| r[i]);
+        let g: Mat<f64> = jt * &rv;
+        let gmax = (0..k).map(|i| g[(i, 0)].abs()).fold(0.0, f64::max);
+        if gmax <= self.gradient_tolerance {
+            self.converged = Some("gradient below tolerance");
+            return Ok((state.param(u).residuals(r).cost(cost), None));
+        }
+        for _ in 0..self.max_rejections {
+            let mut damped = a.clone();
+            for i in 0..k {
+                damped[(i, i)] += self.lambda * a[(i, i)].max(1e-12);
+            }
+            let Ok(llt) = damped.llt(Side::Lower) else {
+                self.lambda *= 10.0;
+                continue;
+            };
+            let delta = llt.solve(&g);
+            let trial: Vec<f64> = (0..k).map(|i| u[i] - delta[(i, 0)]).collect();
+            let r_trial = problem.apply(&trial)?;
+            let c_trial = half_squared(&r_trial);
+            if c_trial.is_finite() && c_trial < cost {
+                let step = (0..k).map(|i| delta[(i, 0)].powi(2)).sum::<f64>().sqrt();
+                let unorm = trial.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if (cost - c_trial) <= self.cost_tolerance * cost {
+                    self.converged = Some("relative cost decrease below tolerance");
+                } else if step <= self.step_tolerance * (1.0 + unorm) {
+                    self.converged = Some("step below tolerance");
+                }
+                self.lambda = (self.lambda / 3.0).max(1e-15);
+                let kv = argmin::kv!("lambda" => self.lambda; "step" => step;);
+                return Ok((
+                    state.param(trial).residuals(r_trial).cost(c_trial),
+                    Some(kv),
+                ));
+            }
+            self.lambda *= 4.0;
+        }
+        self.converged = Some("no further decrease possible");
+        Ok((state.param(u).residuals(r).cost(cost), None))
+    }
+
+    fn terminate(&mut self, _state: &LmState) -> TerminationStatus {
+        match self.converged {
+            Some(_) => TerminationStatus::Terminated(TerminationReason::SolverConverged),
+            None => TerminationStatus::NotTerminated,
+        }
+    }
+}
+
+/// Runs LM from `u0` and returns (solution, iterations, termination text).
+pub fn run_lm<O>(op: O, u0: Vec<f64>, max_iters: u64) -> crate::Result<(Vec<f64>, u64, String)>
+where
+    O: Operator<Param = Vec<f64>, Output = Vec<f64>>
+        + Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>,
+{
+    let solver = LevenbergMarquardt::default();
+    let result = argmin::core::Executor::new(op, solver)
+        .configure(|s| s.param(u0).max_iters(max_iters))
+        .run()
+        .map_err(|e| crate::IdentError::Solver {
+            solver: "lm",
+            message: e.to_string(),
+        })?;
+    let reason = match result.solver.converged() {
+        Some(why) => format!("converged: {why}"),
+        None => result
+            .state
+            .get_termination_reason()
+            .map_or("stopped".to_string(), |r| r.text().to_string()),
+    };
+    let iters = result.state.get_iter();
+    let u = result.state.get_best_param().cloned().unwrap_or_default();
+    Ok((u, iters, reason))
+}
