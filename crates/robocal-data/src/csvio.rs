@@ -388,6 +388,15 @@ pub fn csv_text(text: &str) -> String {
     }
 }
 
+/// `v` with 6 decimals, without the sign of a value that rounds to zero.
+pub fn fixed6(v: f64) -> String {
+    let text = format!("{v:.6}");
+    match text.strip_prefix('-') {
+        Some(rest) if rest.bytes().all(|b| b == b'0' || b == b'.') => rest.to_string(),
+        _ => text,
+    }
+}
+
 /// A predicted point for one input row.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Prediction {
@@ -407,12 +416,12 @@ pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<
             let p = r.position;
             writeln!(
                 w,
-                "{},{},{:.6},{:.6},{:.6}",
+                "{},{},{},{},{}",
                 csv_text(&r.pose),
                 r.load,
-                p.x,
-                p.y,
-                p.z
+                fixed6(p.x),
+                fixed6(p.y),
+                fixed6(p.z)
             )?;
         }
         Ok(())

@@ -18,8 +18,8 @@ pub mod stats;
 
 pub use atomic::{write_atomically, write_dir_atomically};
 pub use csvio::{
-    Measurement, MeasurementSet, Prediction, Sample, SampleSet, Target, csv_text, read_targets,
-    write_predictions,
+    Measurement, MeasurementSet, Prediction, Sample, SampleSet, Target, csv_text, fixed6,
+    read_targets, write_predictions,
 };
 pub use error::{DataError, Result};
 pub use stats::ErrorStats;
