@@ -151,7 +151,8 @@ impl Robot {
         };
         let n = self.dof();
         let mut iterations = 0;
-        while iterations < options.max_iterations && !converged(&res) {
+        let mut stalled = 0;
+        while iterations < options.max_iterations && !converged(&res) && stalled < 8 {
             let jac = self.ik_jacobian(target, &q, scale);
             let jtj = jac.transpose() * &jac;
             let jte = jac.transpose() * &res.e;
@@ -173,6 +174,10 @@ impl Robot {
                 self.clamp_to_limits(&mut trial);
                 let trial_res = self.ik_residual(target, &trial, scale);
                 if trial_res.e.norm_squared() < res.e.norm_squared() {
+                    // A minimum that is not a solution (an unreachable target) shows as steps
+                    // that barely lower the error: give up after a few of them.
+                    let gain = 1.0 - trial_res.e.norm_squared() / res.e.norm_squared();
+                    stalled = if gain < 1e-6 { stalled + 1 } else { 0 };
                     q = trial;
                     res = trial_res;
                     lambda = Some((mu / 10.0).max(1e-15));

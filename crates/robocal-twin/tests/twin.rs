@@ -1,0 +1,263 @@
+//! The twin's physics, one effect at a time, its determinism, and bad twin files.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use robocal_twin::{TwinConfig, TwinError};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn twin() -> TwinConfig {
+    TwinConfig::load(root().join("configs/twin/pmc6va030.toml")).expect("the bundled twin loads")
+}
+
+fn deg(q: [f64; 6]) -> Vec<f64> {
+    q.iter().map(|d| d.to_radians()).collect()
+}
+
+const Q: [f64; 6] = [12.0, -55.0, -15.0, 20.0, 50.0, -30.0];
+
+#[test]
+fn geometry_only_twin_is_forward_kinematics_of_the_truth() {
+    let t = twin().geometry_only();
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    for q in [Q, [0.0; 6], [-40.0, -70.0, 10.0, -90.0, 30.0, 120.0]] {
+        let q = deg(q);
+        assert_eq!(t.true_point(&q, 17.0), t.truth.point(&q));
+        assert_eq!(t.measure(&q, 5.0, &mut rng), t.truth.point(&q));
+    }
+}
+
+#[test]
+fn compliance_droops_with_gravity_linearly_in_payload() {
+    let base = twin();
+    let t = TwinConfig {
+        gear: None,
+        backlash: None,
+        noise: None,
+        ..base
+    };
+    let q = deg(Q);
+    let p0 = t.true_point(&q, 0.0);
+    let d10 = t.true_point(&q, 10.0) - p0;
+    let d20 = t.true_point(&q, 20.0) - p0;
+    let g = t.gravity_world().normalize();
+    assert!(
+        d20.dot(&g) > 0.0,
+        "the payload pulls the point along gravity"
+    );
+    assert!(
+        d20.norm() > 0.2 && d20.norm() < 3.0,
+        "sized to tenths of a mm: {}",
+        d20.norm()
+    );
+    assert!(
+        (d20.norm() / d10.norm() - 2.0).abs() < 1e-3,
+        "linear in payload"
+    );
+    // Joint deflection per kg of payload equals g × (moment arm) / stiffness on joint 2, whose axis
+    // is (nearly) horizontal: the arm is the distance from the axis across gravity, w × ĝ.
+    let c = t.compliance.clone().unwrap();
+    let axes = t.truth.joint_axes(&q);
+    let (w, a) = axes.axes[1];
+    let across = w.cross(&g);
+    let arm_m = (axes.point - a).dot(&across).abs() / 1000.0;
+    let per_kg = t.compliance_deflection(&q, 1.0)[1] - t.compliance_deflection(&q, 0.0)[1];
+    assert!((per_kg.abs() - 9.80665 * arm_m / c.stiffness[1]).abs() < 1e-12);
+    // Longer arm, bigger deflection: stretch the arm out.
+    let q_far = deg([12.0, -20.0, -60.0, 20.0, 50.0, -30.0]);
+    let axes_far = t.truth.joint_axes(&q_far);
+    let arm_far = (axes_far.point - axes_far.axes[1].1).dot(&across).abs() / 1000.0;
+    let per_kg_far =
+        t.compliance_deflection(&q_far, 1.0)[1] - t.compliance_deflection(&q_far, 0.0)[1];
+    assert!((per_kg_far / per_kg - arm_far / arm_m).abs() < 1e-9);
+}
+
+#[test]
+fn gear_error_is_periodic_in_each_joint() {
+    let t = TwinConfig {
+        compliance: None,
+        backlash: None,
+        noise: None,
+        ..twin()
+    };
+    let g = t.gear.clone().unwrap();
+    let q = deg(Q);
+    let e = t.gear_error(&q);
+    for i in 0..6 {
+        let mut turned = q.clone();
+        turned[i] += std::f64::consts::TAU;
+        assert!((t.gear_error(&turned)[i] - e[i]).abs() < 1e-15);
+        assert!(e[i].abs() <= g.amplitude_1[i] + g.amplitude_2[i]);
+        // Zero mean over a turn of the joint.
+        let mean: f64 = (0..360)
+            .map(|k| {
+                let mut r = q.clone();
+                r[i] = (k as f64).to_radians();
+                t.gear_error(&r)[i]
+            })
+            .sum::<f64>()
+            / 360.0;
+        assert!(mean.abs() < 1e-12);
+        assert!(g.amplitude_1[i].to_degrees() >= 0.001 && g.amplitude_1[i].to_degrees() <= 0.05);
+    }
+    let moved = t.true_point(&q, 0.0) - t.truth.point(&q);
+    assert!(
+        moved.norm() > 0.01 && moved.norm() < 2.0,
+        "{}",
+        moved.norm()
+    );
+}
+
+#[test]
+fn backlash_flips_with_the_side_of_approach() {
+    let t = TwinConfig {
+        compliance: None,
+        gear: None,
+        noise: None,
+        ..twin()
+    };
+    let b = t.backlash.unwrap();
+    let mut plus = deg(Q);
+    plus[b.joint] = b.home + 1e-12;
+    let mut minus = plus.clone();
+    minus[b.joint] = b.home - 1e-12;
+    assert_eq!(t.backlash_offset(&plus)[b.joint], b.width / 2.0);
+    assert_eq!(t.backlash_offset(&minus)[b.joint], -b.width / 2.0);
+    // The point jumps tangentially by about width × (distance from the joint-1 axis).
+    let jump = t.true_point(&plus, 0.0) - t.true_point(&minus, 0.0);
+    let axes = t.truth.joint_axes(&plus);
+    let (w, a) = axes.axes[0];
+    let radius = (axes.point - a - w * w.dot(&(axes.point - a))).norm();
+    assert!((jump.norm() - b.width * radius).abs() < 0.01 * jump.norm());
+    assert!(
+        jump.dot(&w).abs() < 1e-3 * jump.norm(),
+        "tangential, not along the axis"
+    );
+}
+
+#[test]
+fn noise_has_the_stated_standard_deviation() {
+    let t = TwinConfig {
+        compliance: None,
+        gear: None,
+        backlash: None,
+        ..twin()
+    };
+    let noise = t.noise.unwrap();
+    let q = deg(Q);
+    let p = t.true_point(&q, 0.0);
+    let expected = noise.sigma(p.norm());
+    let tracker = 0.016 + 0.0008 * p.norm() / 1000.0;
+    assert!((expected - (tracker.powi(2) + (0.05f64 / 3.6).powi(2)).sqrt()).abs() < 1e-15);
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let n = 20_000;
+    let mut sum = Vector3::zeros();
+    let mut sq = 0.0;
+    for _ in 0..n {
+        let d = t.measure(&q, 0.0, &mut rng) - p;
+        sum += d;
+        sq += d.norm_squared();
+    }
+    let sigma = (sq / (3 * n) as f64).sqrt();
+    assert!(
+        (sigma / expected - 1.0).abs() < 0.02,
+        "{sigma} vs {expected}"
+    );
+    assert!((sum / n as f64).norm() < 4.0 * expected / (n as f64).sqrt() * 3f64.sqrt());
+}
+
+#[test]
+fn bundled_dataset_regenerates_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pmc6va030");
+    // The README quotes the twin path as given on the command line, from the repository root.
+    std::env::set_current_dir(root()).unwrap();
+    let data = TwinConfig::load("configs/twin/pmc6va030.toml")
+        .unwrap()
+        .write_dataset(&out)
+        .unwrap();
+    assert_eq!(data.measurements.len(), 168 * 21);
+    for file in ["measurements.csv", "truth.csv", "grid.csv", "README.md"] {
+        let committed = std::fs::read(root().join("datasets/pmc6va030").join(file)).unwrap();
+        let fresh = std::fs::read(out.join(file)).unwrap();
+        assert!(
+            committed == fresh,
+            "{file} differs from a fresh `robocal simulate`"
+        );
+    }
+}
+
+fn bad(edit: impl Fn(String) -> String) -> TwinError {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("configs/twin/pmc6va030.toml")).unwrap();
+    let text = edit(text).replace(
+        "../robots/pmc6va030.toml",
+        &root()
+            .join("configs/robots/pmc6va030.toml")
+            .display()
+            .to_string(),
+    );
+    let path = dir.path().join("twin.toml");
+    std::fs::write(&path, text).unwrap();
+    let err = TwinConfig::load(&path).unwrap_err();
+    assert!(
+        err.to_string().contains("twin.toml"),
+        "names the file: {err}"
+    );
+    err
+}
+
+#[test]
+fn bad_twin_files_are_rejected_with_the_key() {
+    let err = bad(|t| t.replace("seed = 20201217", "seed = 20201217\ncolour = \"red\""));
+    assert!(
+        err.to_string().contains("colour") && err.to_string().contains("line"),
+        "{err}"
+    );
+    let err = bad(|t| t.replace("stiffness = [4.0e6", "stiffness = [-4.0e6"));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "compliance.stiffness"),
+        "{err}"
+    );
+    let err = bad(|t| {
+        t.replace(
+            "trained = [0.0, 1.0, 3.0, 4.0, 6.0, 7.0, 9.0, 10.0, 12.0, 13.0, 15.0, 16.0, 18.0, 19.0, 20.0]",
+            "trained = []",
+        )
+    });
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "loads.trained"),
+        "{err}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("configs/twin/pmc6va030.toml"))
+        .unwrap()
+        .replace("x = [800.0, 1600.0]", "x = [8000.0, 9000.0]")
+        .replace("step = 200.0", "step = 400.0")
+        .replace(
+            "../robots/pmc6va030.toml",
+            &root()
+                .join("configs/robots/pmc6va030.toml")
+                .display()
+                .to_string(),
+        );
+    let path = dir.path().join("far.toml");
+    std::fs::write(&path, text).unwrap();
+    let far = TwinConfig::load(&path).unwrap();
+    assert!(matches!(
+        far.generate(),
+        Err(TwinError::NoReachablePose { .. })
+    ));
+    let err = bad(|t| t.replace("joint = 1\n", "joint = 9\n"));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "backlash.joint"),
+        "{err}"
+    );
+    let err = bad(|t| t.replace("a = 800.882", "a = nan"));
+    assert!(err.to_string().contains("truth.joint[3].a"), "{err}");
+}
