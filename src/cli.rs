@@ -28,6 +28,24 @@ pub struct ModelSource {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Identify a calibrated model from measurements and write MODEL_DIR.
+    Calibrate {
+        /// Nominal robot table (robot.toml).
+        #[arg(long, value_name = "ROBOT_TOML")]
+        robot: PathBuf,
+        /// Training measurements (CSV).
+        #[arg(long, value_name = "CSV")]
+        data: PathBuf,
+        /// Held-out measurements to report the error on (CSV).
+        #[arg(long, value_name = "CSV")]
+        validate: Option<PathBuf>,
+        /// Model directory to write (replaced atomically).
+        #[arg(long, value_name = "MODEL_DIR")]
+        out: PathBuf,
+        /// Stage config (TOML), e.g. configs/stages/kinematic-bfgs.toml.
+        #[arg(long, value_name = "STAGE_TOML")]
+        config: Option<PathBuf>,
+    },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {
         /// Which model to use.

@@ -1,5 +1,6 @@
 //! The subcommands, each turning validated settings into library calls.
 
+mod calibrate;
 mod evaluate;
 mod model;
 mod predict;
@@ -12,6 +13,13 @@ use crate::cli::{Cli, Command};
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Calibrate {
+            robot,
+            data,
+            validate,
+            out,
+            config,
+        } => calibrate::run(&robot, &data, validate.as_deref(), &out, config.as_deref()),
         Command::Predict { source, data, out } => predict::run(&source, &data, &out),
         Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
         Command::Simulate { twin, out } => simulate::run(&twin, &out),

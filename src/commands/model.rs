@@ -1,4 +1,4 @@
-//! Loading the model a command predicts with.
+//! The model directory (interface.md section 4) and loading the model a command predicts with.
 
 use std::path::Path;
 
@@ -6,8 +6,12 @@ use anyhow::{Context, Result, bail};
 use nalgebra::Vector3;
 use robocal_data::Sample;
 use robocal_robot::Robot;
+use serde::Deserialize;
 
 use crate::cli::ModelSource;
+
+/// Version of the model-directory layout this build writes and reads.
+pub const MODEL_FORMAT: u32 = 1;
 
 /// A model that predicts the world position of the target point for a sample.
 #[derive(Debug, Clone)]
@@ -16,8 +20,14 @@ pub struct Model {
     pub robot: Robot,
 }
 
+#[derive(Deserialize)]
+struct Manifest {
+    model_format: Option<u32>,
+    robocal_version: Option<String>,
+}
+
 impl Model {
-    /// Loads `--robot FILE` or `--model DIR` (its `kinematics.toml`).
+    /// Loads `--robot FILE` or `--model DIR`.
     pub fn load(source: &ModelSource) -> Result<Self> {
         match (&source.robot, &source.model) {
             (Some(robot), _) => Ok(Self {
@@ -28,13 +38,30 @@ impl Model {
         }
     }
 
-    fn load_dir(dir: &Path) -> Result<Self> {
+    /// Loads a model directory written by `calibrate`, checking its format version.
+    pub fn load_dir(dir: &Path) -> Result<Self> {
         if !dir.is_dir() {
             bail!("{}: model directory not found", dir.display());
         }
-        let kin = dir.join("kinematics.toml");
-        let robot = Robot::load(&kin)
-            .with_context(|| format!("{}: cannot load the model", dir.display()))?;
+        let report = dir.join("report.json");
+        let text = std::fs::read_to_string(&report).with_context(|| {
+            format!(
+                "{}: not a model directory written by `robocal calibrate`",
+                report.display()
+            )
+        })?;
+        let manifest: Manifest = serde_json::from_str(&text)
+            .with_context(|| format!("{}: invalid JSON", report.display()))?;
+        match manifest.model_format {
+            Some(MODEL_FORMAT) => {}
+            Some(other) => bail!(
+                "{}: key `model_format`: model format {other} (written by robocal {}), this robocal reads format {MODEL_FORMAT}",
+                report.display(),
+                manifest.robocal_version.as_deref().unwrap_or("unknown")
+            ),
+            None => bail!("{}: key `model_format` missing", report.display()),
+        }
+        let robot = Robot::load(dir.join("kinematics.toml"))?;
         Ok(Self { robot })
     }
 

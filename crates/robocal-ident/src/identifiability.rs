@@ -50,6 +50,8 @@ pub fn analyse(jac: &Mat<f64>, ids: &[ParamId], tolerance: f64) -> Identifiabili
     let (rows, k) = (jac.nrows(), jac.ncols());
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_by_key(|&j| priority(ids[j]));
+    let column_norm = |j: usize| (0..rows).map(|i| jac[(i, j)].powi(2)).sum::<f64>().sqrt();
+    let largest = (0..k).map(column_norm).fold(0.0, f64::max);
     let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut identifiable = Vec::new();
     let mut unidentifiable = Vec::new();
@@ -63,8 +65,10 @@ pub fn analyse(jac: &Mat<f64>, ids: &[ParamId], tolerance: f64) -> Identifiabili
             }
         }
         let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let fraction = if norm0 > 0.0 { norm / norm0 } else { 0.0 };
-        if norm0 > 0.0 && fraction > tolerance {
+        // A column that is round-off next to the others has no effect, whatever its direction.
+        let effective = norm0 > tolerance * largest;
+        let fraction = if effective { norm / norm0 } else { 0.0 };
+        if effective && fraction > tolerance {
             v.iter_mut().for_each(|x| *x /= norm);
             basis.push(v);
             identifiable.push(j);

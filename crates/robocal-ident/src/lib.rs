@@ -19,6 +19,7 @@ pub mod identifiability;
 pub mod lm;
 pub mod problem;
 pub mod registration;
+pub mod stage;
 
 pub use calibrate::{
     FixedParameter, KinematicCalibration, KinematicReport, KinematicSettings, ParameterReport,
@@ -29,3 +30,4 @@ pub use identifiability::{Identifiability, analyse, standard_deviations};
 pub use lm::{LevenbergMarquardt, run_lm};
 pub use problem::{CalibrationProblem, LeastSquares, MeanDistance, Observations, select};
 pub use registration::{kabsch, register_base};
+pub use stage::RawKinematicStage;

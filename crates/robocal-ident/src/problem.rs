@@ -82,11 +82,21 @@ impl<'a> CalibrationProblem<'a> {
         let x0 = robot.params();
         let (_, full) = robot.param_jacobian_batch(&obs.q);
         let m = obs.len().max(1) as f64;
-        let scale = selected
+        let norms: Vec<f64> = selected
             .iter()
-            .map(|&j| {
-                let norm = full.column(j).norm() / m.sqrt();
-                if norm > 1e-12 { 1.0 / norm } else { 1.0 }
+            .map(|&j| full.column(j).norm() / m.sqrt())
+            .collect();
+        let largest = norms.iter().copied().fold(0.0, f64::max);
+        // Columns that are round-off next to the largest keep their size, so that the
+        // identifiability analysis sees them as having no effect.
+        let scale = norms
+            .iter()
+            .map(|&norm| {
+                if norm > 1e-9 * largest {
+                    1.0 / norm
+                } else {
+                    1.0
+                }
             })
             .collect();
         Self {

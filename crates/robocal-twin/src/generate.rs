@@ -28,7 +28,7 @@ fn round6(v: f64) -> f64 {
 }
 
 /// Stream offset that keeps the noise draws independent of the pose-design draws.
-const NOISE_STREAM: u64 = 0x6e6f_6973_65;
+const NOISE_STREAM: u64 = 0x006e_6f69_7365;
 
 impl TwinConfig {
     /// Generates every kept configuration at every load. Byte-for-byte deterministic for a given

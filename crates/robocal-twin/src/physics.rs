@@ -27,20 +27,23 @@ impl TwinConfig {
         let g = self.gravity_world();
         let frames = self.truth.link_frames(q);
         let axes = self.truth.joint_axes(q);
-        // Mass-weighted points of every body distal to each joint, accumulated from the tip.
-        let n = q.len();
-        let mut torques = vec![0.0; n];
-        for i in 0..n {
-            let (w, a) = axes.axes[i];
-            let mut moment = (axes.point - a).cross(&(g * load));
-            for j in i..n {
-                let (r, o) = frames[j];
-                let com = o + r * c.link_com[j];
-                moment += (com - a).cross(&(g * c.link_mass[j]));
-            }
-            torques[i] = w.dot(&moment) * 1e-3; // mm·N → N·m
-        }
-        torques
+        let coms: Vec<Vector3<f64>> = frames
+            .iter()
+            .zip(&c.link_com)
+            .map(|((r, o), com)| o + r * com)
+            .collect();
+        axes.axes
+            .iter()
+            .enumerate()
+            .map(|(i, (w, a))| {
+                // The payload and every link from joint i outwards load joint i.
+                let mut moment = (axes.point - a).cross(&(g * load));
+                for (com, mass) in coms[i..].iter().zip(&c.link_mass[i..]) {
+                    moment += (com - a).cross(&(g * *mass));
+                }
+                w.dot(&moment) * 1e-3 // mm·N → N·m
+            })
+            .collect()
     }
 
     /// Joint deflection under gravity, rad: torque / stiffness.

@@ -1,0 +1,285 @@
+//! Identification against known injected errors, on the twin's pose design.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use robocal_data::MeasurementSet;
+use robocal_ident::{
+    CalibrationProblem, KinematicSettings, Observations, SolverKind, analyse, calibrate_kinematics,
+};
+use robocal_robot::{Base, Robot};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn nominal() -> Robot {
+    Robot::load(root().join("configs/robots/pmc6va030.toml")).unwrap()
+}
+
+/// The twin's 168 configurations (rad, row-major).
+fn configurations() -> Vec<Vec<f64>> {
+    let set = MeasurementSet::read(root().join("datasets/pmc6va030/measurements.csv"), 6).unwrap();
+    set.rows
+        .iter()
+        .filter(|r| r.sample.load == 0.0)
+        .map(|r| r.sample.joints_rad())
+        .collect()
+}
+
+fn observe(truth: &Robot, configs: &[Vec<f64>], noise: f64, seed: u64) -> Observations {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let normal = Normal::new(0.0, noise.max(1e-300)).unwrap();
+    let mut obs = Observations {
+        dof: 6,
+        q: Vec::new(),
+        points: Vec::new(),
+    };
+    for q in configs {
+        obs.q.extend_from_slice(q);
+        let mut p = truth.point(q);
+        if noise > 0.0 {
+            p += Vector3::from_fn(|_, _| normal.sample(&mut rng));
+        }
+        obs.points.push(p);
+    }
+    obs
+}
+
+/// A truth with random errors on every parameter the poses can identify, the others left at
+/// their nominal values, and the base far away and turned.
+fn injected(nominal: &Robot, configs: &[Vec<f64>], seed: u64) -> Robot {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut robot = nominal.clone();
+    robot.base = Base {
+        xyz: Vector3::new(2400.0, -1800.0, 350.0),
+        rpy: Vector3::new(0.02, -0.01, 2.6),
+    };
+    let obs = observe(&robot, configs, 0.0, 0);
+    let problem = CalibrationProblem::new(&robot, (0..robot.param_count()).collect(), &obs);
+    let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; robot.param_count()]);
+    let ids = robot.param_ids();
+    let ident = analyse(&jac, &ids, 1e-6);
+    for &i in &ident.identifiable {
+        let id = ids[i];
+        let err = match id.unit() {
+            robocal_robot::Unit::Mm => rng.random_range(-1.0..1.0),
+            robocal_robot::Unit::Rad => rng.random_range(-0.1f64..0.1).to_radians(),
+        };
+        robot.set_param(id, robot.param(id) + err).unwrap();
+    }
+    robot
+}
+
+fn split(configs: &[Vec<f64>]) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let (train, test): (Vec<_>, Vec<_>) = configs
+        .iter()
+        .cloned()
+        .enumerate()
+        .partition(|(i, _)| i % 3 != 2);
+    (
+        train.into_iter().map(|(_, q)| q).collect(),
+        test.into_iter().map(|(_, q)| q).collect(),
+    )
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+#[test]
+fn lm_recovers_injected_errors_from_noise_free_data() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 1);
+    let (train, test) = split(&configs);
+    let cal = calibrate_kinematics(
+        &nominal,
+        &observe(&truth, &train, 0.0, 0),
+        &KinematicSettings::default(),
+    )
+    .unwrap();
+    let held_out = observe(&truth, &test, 0.0, 0).errors(&cal.robot);
+    let worst = held_out.iter().copied().fold(0.0, f64::max);
+    assert!(worst < 1e-6, "held-out error {worst} mm");
+    let fixed: Vec<&str> = cal.report.fixed.iter().map(|f| f.name.as_str()).collect();
+    for id in nominal.param_ids() {
+        if fixed.contains(&id.to_string().as_str()) {
+            continue;
+        }
+        let (got, want) = (cal.robot.param(id), truth.param(id));
+        assert!(
+            (got - want).abs() < 1e-6,
+            "{id}: identified {got}, truth {want}"
+        );
+    }
+    let before = cal.report.before.mean;
+    assert!(
+        before > 0.2,
+        "the injected errors are visible before calibration: {before} mm"
+    );
+}
+
+#[test]
+fn bfgs_on_the_paper_cost_reaches_sub_micrometre_on_noise_free_data() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 2);
+    let (train, test) = split(&configs);
+    let settings = KinematicSettings {
+        solver: SolverKind::Bfgs,
+        max_iterations: 2000,
+        ..Default::default()
+    };
+    let cal = calibrate_kinematics(&nominal, &observe(&truth, &train, 0.0, 0), &settings).unwrap();
+    let held_out = mean(&observe(&truth, &test, 0.0, 0).errors(&cal.robot));
+    eprintln!(
+        "BFGS noise-free held-out mean error {held_out:e} mm, {} iterations",
+        cal.report.iterations
+    );
+    // The mean distance is not differentiable where a residual vanishes; BFGS still gets well
+    // below the 1e-3 mm asked for (it reached 7.8e-13 mm in 239 iterations when this was written).
+    assert!(held_out < 1e-3, "BFGS held-out mean error {held_out} mm");
+}
+
+#[test]
+fn noisy_identification_lies_within_four_standard_deviations() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 3);
+    let cal = calibrate_kinematics(
+        &nominal,
+        &observe(&truth, &configs, 0.02, 7),
+        &KinematicSettings::default(),
+    )
+    .unwrap();
+    let mut checked = 0;
+    for p in &cal.report.parameters {
+        let Some(std) = p.std else { continue };
+        let id = nominal.param_by_name(&p.name).unwrap();
+        let want = id.to_file_units(truth.param(id));
+        assert!(
+            (p.identified - want).abs() < 4.0 * std,
+            "{}: {} vs truth {} (σ {std})",
+            p.name,
+            p.identified,
+            want
+        );
+        checked += 1;
+    }
+    assert!(
+        checked >= 25,
+        "only {checked} parameters had a standard deviation"
+    );
+}
+
+#[test]
+fn converges_from_an_identity_base_with_a_large_rotation() {
+    let mut nominal = nominal();
+    nominal.base = Base {
+        xyz: Vector3::zeros(),
+        rpy: Vector3::zeros(),
+    };
+    let configs = configurations();
+    let mut truth = injected(&nominal, &configs, 4);
+    truth.base = Base {
+        xyz: Vector3::new(3500.0, 2200.0, -800.0),
+        rpy: Vector3::new(30f64.to_radians(), 0.0, 150f64.to_radians()),
+    };
+    let obs = observe(&truth, &configs, 0.0, 0);
+    for solver in [SolverKind::Lm, SolverKind::Bfgs] {
+        let settings = KinematicSettings {
+            solver,
+            max_iterations: 2000,
+            ..Default::default()
+        };
+        let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
+        assert!(
+            cal.report.after.max < 1e-3,
+            "{solver:?}: {}",
+            cal.report.after.max
+        );
+        assert!(
+            cal.report.before.mean < 20.0,
+            "registration placed the base: {}",
+            cal.report.before.mean
+        );
+    }
+}
+
+#[test]
+fn rank_deficient_designs_name_what_cannot_be_identified() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 5);
+    let few = observe(&truth, &configs[..3], 0.0, 0);
+    let cal = calibrate_kinematics(&nominal, &few, &KinematicSettings::default()).unwrap();
+    assert!(
+        cal.report.fixed.len() >= 34 - 9,
+        "{} fixed",
+        cal.report.fixed.len()
+    );
+    assert!(cal.report.after.mean.is_finite() && cal.report.after.max.is_finite());
+    assert!(cal.robot.params().iter().all(|v| v.is_finite()));
+
+    let one_joint: Vec<Vec<f64>> = (0..20)
+        .map(|k| {
+            let mut q = configs[0].clone();
+            q[0] = (-60.0 + 6.0 * k as f64).to_radians();
+            q
+        })
+        .collect();
+    let obs = observe(&truth, &one_joint, 0.0, 0);
+    let cal = calibrate_kinematics(&nominal, &obs, &KinematicSettings::default()).unwrap();
+    let fixed: Vec<&str> = cal.report.fixed.iter().map(|f| f.name.as_str()).collect();
+    for name in ["j2.a", "j4.d", "j5.theta", "j6.alpha"] {
+        assert!(
+            fixed.contains(&name),
+            "{name} cannot be seen when only joint 1 moves: {fixed:?}"
+        );
+    }
+    assert!(cal.report.after.max.is_finite() && cal.report.condition_number.is_finite());
+    assert!(cal.report.after.max < 1e-6, "what can be fitted is fitted");
+}
+
+#[test]
+fn lm_and_bfgs_agree_on_a_well_posed_problem() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 6);
+    let (train, test) = split(&configs);
+    // Five repeated measurements of each training pose: well posed, so that what is left is the
+    // test points' own noise and the two estimators' difference is small beside it.
+    let repeated: Vec<Vec<f64>> = train
+        .iter()
+        .flat_map(|q| std::iter::repeat_n(q.clone(), 5))
+        .collect();
+    let train = observe(&truth, &repeated, 0.03, 11);
+    let test = observe(&truth, &test, 0.03, 12);
+    let errors: Vec<f64> = [SolverKind::Lm, SolverKind::Bfgs]
+        .into_iter()
+        .map(|solver| {
+            let settings = KinematicSettings {
+                solver,
+                max_iterations: 2000,
+                ..Default::default()
+            };
+            mean(
+                &test.errors(
+                    &calibrate_kinematics(&nominal, &train, &settings)
+                        .unwrap()
+                        .robot,
+                ),
+            )
+        })
+        .collect();
+    assert!(
+        (errors[0] / errors[1] - 1.0).abs() < 0.01,
+        "LM {} vs BFGS {}",
+        errors[0],
+        errors[1]
+    );
+}
