@@ -19,3 +19,11 @@ bench:
 # API documentation
 doc:
     cargo doc --workspace --no-deps
+
+# the paper's section V-A on the twin: Table 4, before/after, cross-validation, error vs load
+table4:
+    cargo run --release -p robocal-ident --example paper_v_a
+
+# regenerate the bundled twin dataset (a test checks it matches byte for byte)
+twin:
+    cargo run --release -- simulate --twin configs/twin/pmc6va030.toml --out datasets/pmc6va030

@@ -152,49 +152,6 @@ fn evaluate_reports_known_errors() {
 }
 
 #[test]
-fn a_model_directory_predicts_like_its_table() {
-    let dir = tempfile::tempdir().unwrap();
-    let model = dir.path().join("model");
-    std::fs::create_dir(&model).unwrap();
-    std::fs::copy(ROBOT, model.join("kinematics.toml")).unwrap();
-    let data = hand_file(dir.path(), &[0.0, 0.0, 0.0]);
-    let a = dir.path().join("a.csv");
-    let b = dir.path().join("b.csv");
-    assert!(
-        robocal(&[
-            "predict",
-            "--robot",
-            ROBOT,
-            "--data",
-            s(&data),
-            "--out",
-            s(&a)
-        ])
-        .status
-        .success()
-    );
-    assert!(
-        robocal(&[
-            "predict",
-            "--model",
-            s(&model),
-            "--data",
-            s(&data),
-            "--out",
-            s(&b)
-        ])
-        .status
-        .success()
-    );
-    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
-    let empty = dir.path().join("empty-model");
-    std::fs::create_dir(&empty).unwrap();
-    let o = robocal(&["evaluate", "--model", s(&empty), "--data", s(&data)]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("kinematics.toml"));
-}
-
-#[test]
 fn bad_input_fails_cleanly_and_leaves_outputs_alone() {
     let dir = tempfile::tempdir().unwrap();
     let out = write(dir.path(), "pred.csv", "previous result\n");
@@ -255,4 +212,209 @@ fn bad_input_fails_cleanly_and_leaves_outputs_alone() {
     );
     let o = robocal(&["predict", "--data", s(&data), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "clap reports a usage error");
+}
+
+const TWIN_DATA: &str = "datasets/pmc6va030/measurements.csv";
+
+/// The bundled twin rows at loads 0 and 20 kg: small and fast to calibrate.
+fn twin_subset(dir: &Path, keep: impl Fn(usize, f64) -> bool) -> PathBuf {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(TWIN_DATA)).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    let mut poses: Vec<String> = Vec::new();
+    for line in lines {
+        let pose = line.split(',').next().unwrap().to_string();
+        if !poses.contains(&pose) {
+            poses.push(pose);
+        }
+        let load: f64 = line.split(',').nth(7).unwrap().parse().unwrap();
+        if keep(poses.len() - 1, load) {
+            out += line;
+            out += "\n";
+        }
+    }
+    let path = dir.join(format!("subset-{}.csv", out.len()));
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+#[test]
+fn calibrate_writes_a_model_that_predicts_like_its_kinematics_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = twin_subset(dir.path(), |pose, load| {
+        pose % 3 != 2 && (load == 0.0 || load == 20.0)
+    });
+    let test = twin_subset(dir.path(), |pose, load| pose % 3 == 2 && load == 0.0);
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(&train),
+        "--validate",
+        s(&test),
+        "--out",
+        s(&model),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(model.join("report.json")).unwrap()).unwrap();
+    let k = &report["kinematic"];
+    assert_eq!(k["solver"], "lm");
+    assert_eq!(k["points"], 112);
+    assert!(k["iterations"].as_u64().unwrap() > 0);
+    assert!(k["termination"].as_str().unwrap().contains("converged"));
+    let before = k["before"]["mean"].as_f64().unwrap();
+    let after = k["after"]["mean"].as_f64().unwrap();
+    assert!(
+        before > 2.0 && after < 0.6 && after < before / 5.0,
+        "{before} → {after}"
+    );
+    let validated = report["validation"]["after"]["mean"].as_f64().unwrap();
+    assert!(validated < 0.6, "held-out error {validated}");
+    assert!(k["condition_number"].as_f64().unwrap().is_finite());
+    let params = k["parameters"].as_array().unwrap();
+    assert_eq!(params.len(), 34);
+    let beta = params.iter().find(|p| p["name"] == "j3.beta").unwrap();
+    assert!(beta["std"].as_f64().unwrap() > 0.0 && beta["unit"] == "deg");
+    let fixed: Vec<&str> = k["fixed"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["name"].as_str().unwrap())
+        .collect();
+    assert!(
+        fixed.contains(&"j1.theta") && fixed.contains(&"j6.d"),
+        "{fixed:?}"
+    );
+    assert_eq!(report["model_format"], 1);
+
+    // kinematics.toml is a robot file: it predicts exactly as the model directory does.
+    let a = dir.path().join("a.csv");
+    let b = dir.path().join("b.csv");
+    let kin = model.join("kinematics.toml");
+    assert!(
+        robocal(&[
+            "predict",
+            "--robot",
+            s(&kin),
+            "--data",
+            s(&test),
+            "--out",
+            s(&a)
+        ])
+        .status
+        .success()
+    );
+    assert!(
+        robocal(&[
+            "predict",
+            "--model",
+            s(&model),
+            "--data",
+            s(&test),
+            "--out",
+            s(&b)
+        ])
+        .status
+        .success()
+    );
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let o = robocal(&[
+        "evaluate",
+        "--model",
+        s(&model),
+        "--data",
+        s(&test),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!((v["mean"].as_f64().unwrap() - validated).abs() < 1e-9);
+
+    // BFGS through a stage config.
+    let bfgs = dir.path().join("bfgs");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(&train),
+        "--out",
+        s(&bfgs),
+        "--config",
+        "configs/stages/kinematic-bfgs.toml",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(bfgs.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["kinematic"]["solver"], "bfgs");
+}
+
+#[test]
+fn calibrate_failures_leave_the_old_model_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = twin_subset(dir.path(), |pose, load| pose < 30 && load == 0.0);
+    let model = dir.path().join("model");
+    assert!(
+        robocal(&[
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(&train),
+            "--out",
+            s(&model)
+        ])
+        .status
+        .success()
+    );
+    let before = std::fs::read(model.join("report.json")).unwrap();
+    let bad_cfg = write(
+        dir.path(),
+        "stage.toml",
+        "[kinematic]\nsolver = \"newton\"\n",
+    );
+    let unknown = write(
+        dir.path(),
+        "unknown.toml",
+        "[kinematic]\nsolver = \"lm\"\nspeed = 3\n",
+    );
+    let bad_data = write(
+        dir.path(),
+        "bad.csv",
+        "pose,q1,q2,q3,q4,q5,q6,load,x,y,z\np,0,0,0,0,0,0,0,1,2,nan\n",
+    );
+    for (args, needle) in [
+        (
+            vec!["--data", s(&train), "--config", s(&bad_cfg)],
+            "kinematic.solver",
+        ),
+        (vec!["--data", s(&train), "--config", s(&unknown)], "speed"),
+        (vec!["--data", s(&bad_data)], "line 2, column `z`"),
+    ] {
+        let mut all = vec!["calibrate", "--robot", ROBOT, "--out", s(&model)];
+        all.extend(args);
+        let o = robocal(&all);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains(needle), "{stderr}");
+        assert!(!stderr.contains("panicked"));
+        assert_eq!(std::fs::read(model.join("report.json")).unwrap(), before);
+    }
+    // A model directory from another format version, or without its report, is refused.
+    let report = std::fs::read_to_string(model.join("report.json")).unwrap();
+    std::fs::write(
+        model.join("report.json"),
+        report.replace("\"model_format\": 1", "\"model_format\": 99"),
+    )
+    .unwrap();
+    let o = robocal(&["evaluate", "--model", s(&model), "--data", s(&train)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("model_format"));
+    std::fs::remove_file(model.join("report.json")).unwrap();
+    let o = robocal(&["evaluate", "--model", s(&model), "--data", s(&train)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("report.json"));
 }
