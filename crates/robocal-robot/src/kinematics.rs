@@ -94,7 +94,37 @@ pub struct JointAxes {
     pub point: Vector3<f64>,
 }
 
+/// Walks the chain joint by joint from the base frame, yielding each joint's frames.
+struct Steps<'a> {
+    joints: std::iter::Zip<std::slice::Iter<'a, Joint>, std::slice::Iter<'a, f64>>,
+    r: Matrix3<f64>,
+    o: Vector3<f64>,
+}
+
+impl Iterator for Steps<'_> {
+    type Item = JointStep;
+
+    #[inline]
+    fn next(&mut self) -> Option<JointStep> {
+        let (joint, &q) = self.joints.next()?;
+        let s = step(self.r, self.o, joint, q);
+        self.r = s.r;
+        self.o = s.o;
+        Some(s)
+    }
+}
+
 impl Robot {
+    /// The chain's joint steps for readings `q` (rad), base to tip.
+    #[inline]
+    fn steps<'a>(&'a self, q: &'a [f64]) -> Steps<'a> {
+        Steps {
+            joints: self.joints.iter().zip(q),
+            r: self.base_rotation(),
+            o: self.base.xyz,
+        }
+    }
+
     /// Rotation of the base frame in the world frame.
     pub fn base_rotation(&self) -> Matrix3<f64> {
         rpy_to_matrix(&self.base.rpy)
@@ -104,14 +134,9 @@ impl Robot {
     #[inline]
     pub fn flange_frame(&self, q: &[f64]) -> (Matrix3<f64>, Vector3<f64>) {
         debug_assert_eq!(q.len(), self.dof(), "one joint value per joint");
-        let mut r = self.base_rotation();
-        let mut o = self.base.xyz;
-        for (joint, &qi) in self.joints.iter().zip(q) {
-            let s = step(r, o, joint, qi);
-            r = s.r;
-            o = s.o;
-        }
-        (r, o)
+        self.steps(q)
+            .last()
+            .map_or((self.base_rotation(), self.base.xyz), |s| (s.r, s.o))
     }
 
     /// Flange pose in the world frame (translation in mm); `q` in rad.
@@ -146,10 +171,8 @@ impl Robot {
         };
         let rb = self.base_rotation();
         let mut r = rb;
-        let mut o = self.base.xyz;
         let mut col = 0;
-        for (joint, &qi) in self.joints.iter().zip(q) {
-            let s = step(r, o, joint, qi);
+        for (joint, s) in self.joints.iter().zip(self.steps(q)) {
             let wx = s.r0.column(0).into_owned();
             put(col, wx); // a
             put(col + 1, wx.cross(&(p - s.o0))); // alpha
@@ -164,7 +187,6 @@ impl Robot {
             put(col + 1, wz.cross(&(p - s.o2))); // theta
             col += 2;
             r = s.r;
-            o = s.o;
         }
         let rel = p - self.base.xyz;
         for axis in 0..3 {
@@ -206,39 +228,22 @@ impl Robot {
     pub fn joint_jacobian(&self, q: &[f64]) -> Matrix3xX<f64> {
         let p = self.point(q);
         let mut jac = Matrix3xX::zeros(self.dof());
-        let mut r = self.base_rotation();
-        let mut o = self.base.xyz;
-        for (i, (joint, &qi)) in self.joints.iter().zip(q).enumerate() {
-            let s = step(r, o, joint, qi);
-            let wz = s.r3.column(2).into_owned();
-            jac.set_column(i, &wz.cross(&(p - s.o2)));
-            r = s.r;
-            o = s.o;
+        for (i, s) in self.steps(q).enumerate() {
+            jac.set_column(i, &s.r3.column(2).cross(&(p - s.o2)));
         }
         jac
     }
 
     /// Every link frame {1}..{n} in the world frame as (rotation, origin mm); `q` in rad.
     pub fn link_frames(&self, q: &[f64]) -> Vec<(Matrix3<f64>, Vector3<f64>)> {
-        let mut frames = Vec::with_capacity(self.dof());
-        let mut r = self.base_rotation();
-        let mut o = self.base.xyz;
-        for (joint, &qi) in self.joints.iter().zip(q) {
-            let s = step(r, o, joint, qi);
-            r = s.r;
-            o = s.o;
-            frames.push((r, o));
-        }
-        frames
+        self.steps(q).map(|s| (s.r, s.o)).collect()
     }
 
     /// Joint axes for configuration `q`: the ingredients of the 6 × n geometric Jacobian.
     pub fn joint_axes(&self, q: &[f64]) -> JointAxes {
         let mut axes = Vec::with_capacity(self.dof());
-        let mut r = self.base_rotation();
-        let mut o = self.base.xyz;
-        for (joint, &qi) in self.joints.iter().zip(q) {
-            let s = step(r, o, joint, qi);
+        let (mut r, mut o) = (self.base_rotation(), self.base.xyz);
+        for s in self.steps(q) {
             axes.push((s.r3.column(2).into_owned(), s.o2));
             r = s.r;
             o = s.o;
