@@ -115,14 +115,20 @@ impl Iterator for Steps<'_> {
 }
 
 impl Robot {
+    /// The chain's joint steps for readings `q` (rad), base to tip, from the base rotation `rb`.
+    #[inline]
+    fn steps_from<'a>(&'a self, rb: Matrix3<f64>, q: &'a [f64]) -> Steps<'a> {
+        Steps {
+            joints: self.joints.iter().zip(q),
+            r: rb,
+            o: self.base.xyz,
+        }
+    }
+
     /// The chain's joint steps for readings `q` (rad), base to tip.
     #[inline]
     fn steps<'a>(&'a self, q: &'a [f64]) -> Steps<'a> {
-        Steps {
-            joints: self.joints.iter().zip(q),
-            r: self.base_rotation(),
-            o: self.base.xyz,
-        }
+        self.steps_from(self.base_rotation(), q)
     }
 
     /// Rotation of the base frame in the world frame.
@@ -134,9 +140,10 @@ impl Robot {
     #[inline]
     pub fn flange_frame(&self, q: &[f64]) -> (Matrix3<f64>, Vector3<f64>) {
         debug_assert_eq!(q.len(), self.dof(), "one joint value per joint");
-        self.steps(q)
+        let rb = self.base_rotation();
+        self.steps_from(rb, q)
             .last()
-            .map_or((self.base_rotation(), self.base.xyz), |s| (s.r, s.o))
+            .map_or((rb, self.base.xyz), |s| (s.r, s.o))
     }
 
     /// Flange pose in the world frame (translation in mm); `q` in rad.
@@ -172,7 +179,7 @@ impl Robot {
         let rb = self.base_rotation();
         let mut r = rb;
         let mut col = 0;
-        for (joint, s) in self.joints.iter().zip(self.steps(q)) {
+        for (joint, s) in self.joints.iter().zip(self.steps_from(rb, q)) {
             let wx = s.r0.column(0).into_owned();
             put(col, wx); // a
             put(col + 1, wx.cross(&(p - s.o0))); // alpha
