@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow};
-use robocal_data::{DataError, ErrorStats, MeasurementSet, write_dir_atomically};
+use robocal_data::{ErrorStats, MeasurementSet, write_dir_atomically, write_text_in};
 use robocal_ident::{
     KinematicReport, KinematicSettings, Observations, RawKinematicStage, calibrate_kinematics,
 };
@@ -125,14 +125,8 @@ pub fn run(
     calibrated.name = format!("{} (calibrated by robocal)", nominal.name);
     let json = serde_json::to_string_pretty(&report)? + "\n";
     write_dir_atomically(out, |dir| {
-        let write = |name: &str, text: &str| {
-            std::fs::write(dir.join(name), text).map_err(|source| DataError::Write {
-                path: out.join(name),
-                source,
-            })
-        };
-        write("kinematics.toml", &calibrated.to_toml_string())?;
-        write("report.json", &json)
+        write_text_in(dir, out, "kinematics.toml", &calibrated.to_toml_string())?;
+        write_text_in(dir, out, "report.json", &json)
     })?;
     Ok(())
 }

@@ -78,6 +78,15 @@ pub fn write_dir_atomically(out: &Path, fill: impl FnOnce(&Path) -> Result<()>) 
     Ok(())
 }
 
+/// Writes `text` to the file `name` inside `dir`, the temporary directory that
+/// [`write_dir_atomically`] hands to its `fill`; errors name the file's final place, `out/name`.
+pub fn write_text_in(dir: &Path, out: &Path, name: &str, text: &str) -> Result<()> {
+    std::fs::write(dir.join(name), text).map_err(|source| DataError::Write {
+        path: out.join(name),
+        source,
+    })
+}
+
 /// Temporary files and folders are private (0600/0700); outputs get the usual modes.
 #[cfg(unix)]
 fn set_mode(path: &Path, mode: u32) -> std::io::Result<()> {

@@ -16,7 +16,7 @@ pub mod csvio;
 pub mod error;
 pub mod stats;
 
-pub use atomic::{write_atomically, write_dir_atomically};
+pub use atomic::{write_atomically, write_dir_atomically, write_text_in};
 pub use csvio::{
     Measurement, MeasurementSet, Prediction, Sample, SampleSet, Target, csv_text, fixed6,
     read_targets, write_predictions,

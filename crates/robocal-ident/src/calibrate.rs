@@ -124,12 +124,10 @@ pub struct KinematicCalibration {
     pub report: KinematicReport,
 }
 
-fn frame_indices(robot: &Robot) -> Vec<usize> {
-    robot
-        .param_ids()
-        .iter()
-        .enumerate()
-        .filter(|(_, id)| matches!(id, ParamId::Base(_) | ParamId::Tool(_)))
+/// Indices of the parameters of `robot` that satisfy `keep`.
+fn indices(robot: &Robot, keep: impl Fn(ParamId) -> bool) -> Vec<usize> {
+    (robot.param_ids().into_iter().enumerate())
+        .filter(|&(_, id)| keep(id))
         .map(|(i, _)| i)
         .collect()
 }
@@ -138,13 +136,11 @@ fn frame_indices(robot: &Robot) -> Vec<usize> {
 /// the "before calibration" model of a tracker's best-fit alignment.
 pub fn align(robot: &Robot, obs: &Observations) -> Result<Robot> {
     let registered = register_base(robot, obs)?;
-    let frame = frame_indices(&registered);
     // Tool first (base held), then base and tool together.
-    let tool: Vec<usize> = frame
-        .iter()
-        .copied()
-        .filter(|&i| i >= frame[0] + 6)
-        .collect();
+    let tool = indices(&registered, |id| matches!(id, ParamId::Tool(_)));
+    let frame = indices(&registered, |id| {
+        matches!(id, ParamId::Base(_) | ParamId::Tool(_))
+    });
     let mut current = registered;
     for sel in [tool, frame] {
         let problem = CalibrationProblem::new(&current, sel, obs);
@@ -184,7 +180,8 @@ pub fn calibrate_kinematics(
     let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; selected.len()]);
     let sel_ids: Vec<ParamId> = selected.iter().map(|&i| ids[i]).collect();
     let ident = analyse(&jac, &sel_ids, settings.rank_tolerance);
-    let kept: Vec<usize> = ident.identifiable.iter().map(|&p| selected[p]).collect();
+    let problem = problem.restricted(&ident.identifiable);
+    let kept = problem.selected().to_vec();
     let fixed: Vec<FixedParameter> = ident
         .unidentifiable
         .iter()
@@ -199,7 +196,6 @@ pub fn calibrate_kinematics(
         })
         .collect();
 
-    let problem = CalibrationProblem::new(&aligned, kept.clone(), obs);
     let u0 = vec![0.0; kept.len()];
     let (u, iterations, termination) = if kept.is_empty() {
         (u0, 0, "nothing to identify".to_string())

@@ -108,6 +108,18 @@ impl<'a> CalibrationProblem<'a> {
         }
     }
 
+    /// The same problem with only some of its parameters (`positions` in [`Self::selected`]),
+    /// keeping their scales: no new Jacobian is computed.
+    pub fn restricted(&self, positions: &[usize]) -> Self {
+        Self {
+            robot: self.robot.clone(),
+            x0: self.x0.clone(),
+            selected: positions.iter().map(|&p| self.selected[p]).collect(),
+            scale: positions.iter().map(|&p| self.scale[p]).collect(),
+            obs: self.obs,
+        }
+    }
+
     /// Indices (into `param_ids()`) of the parameters being identified.
     pub fn selected(&self) -> &[usize] {
         &self.selected

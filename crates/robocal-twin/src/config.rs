@@ -387,9 +387,11 @@ impl TwinConfig {
         }
         c.non_negative("loads.trained", &l.trained)?;
         c.non_negative("loads.untrained", &l.untrained)?;
-        let mut all: Vec<f64> = l.trained.iter().chain(&l.untrained).copied().collect();
-        all.sort_by(f64::total_cmp);
-        if all.windows(2).any(|w| w[0] == w[1]) {
+        let loads = Loads {
+            trained: l.trained.clone(),
+            untrained: l.untrained.clone(),
+        };
+        if loads.all().windows(2).any(|w| w[0] == w[1]) {
             return c.fail(
                 "loads",
                 "a load is listed twice (trained and untrained must be disjoint)",
@@ -418,10 +420,7 @@ impl TwinConfig {
                 spin: p.spin.to_radians(),
                 min_conditioning: p.min_conditioning,
             },
-            loads: Loads {
-                trained: l.trained.clone(),
-                untrained: l.untrained.clone(),
-            },
+            loads,
         })
     }
 

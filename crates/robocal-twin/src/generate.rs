@@ -5,7 +5,7 @@ use std::path::Path;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use robocal_data::{DataError, Measurement, MeasurementSet, Sample, write_dir_atomically};
+use robocal_data::{Measurement, MeasurementSet, Sample, write_dir_atomically, write_text_in};
 
 use crate::config::TwinConfig;
 use crate::design::{PointStatus, PoseDesign};
@@ -86,8 +86,8 @@ impl TwinConfig {
         write_dir_atomically(out, |dir| {
             data.measurements.write(dir.join("measurements.csv"))?;
             data.truth.write(dir.join("truth.csv"))?;
-            write_text(&dir.join("grid.csv"), &grid_csv(&data.design))?;
-            write_text(&dir.join("README.md"), &self.readme(&data))
+            write_text_in(dir, out, "grid.csv", &grid_csv(&data.design))?;
+            write_text_in(dir, out, "README.md", &self.readme(&data))
         })?;
         Ok(data)
     }
@@ -181,11 +181,4 @@ fn grid_csv(design: &PoseDesign) -> String {
         );
     }
     s
-}
-
-fn write_text(path: &Path, text: &str) -> std::result::Result<(), DataError> {
-    std::fs::write(path, text).map_err(|source| DataError::Write {
-        path: path.to_path_buf(),
-        source,
-    })
 }
