@@ -24,6 +24,10 @@ doc:
 table4:
     cargo run --release -p robocal-ident --example paper_v_a
 
+# the twin's error budget and how bimodal its residual is, beside the paper's (TWIN: a twin file)
+twin-budget twin="configs/twin/pmc6va030.toml":
+    cargo run --release -p robocal-ident --example twin_budget -- {{twin}}
+
 # regenerate the bundled twin dataset (a test checks it matches byte for byte)
 twin:
     cargo run --release -- simulate --twin configs/twin/pmc6va030.toml --out datasets/pmc6va030

@@ -14,7 +14,15 @@ use argmin::solver::quasinewton::BFGS;
 use crate::error::{IdentError, Result};
 use crate::problem::{CalibrationProblem, MeanDistance};
 
+/// Restarts allowed after a line search failure.
+const RESTARTS: usize = 3;
+
 /// Runs BFGS from `u0`; returns (solution, iterations, termination text).
+///
+/// Near the minimum of this non-smooth cost, round-off can leave the inverse-Hessian estimate
+/// pointing uphill and the line search then fails. The run goes on from the best point seen with
+/// the estimate reset to the identity (a steepest-descent step), at most [`RESTARTS`] times; when
+/// even that step finds no descent, the best point is the answer and the termination says so.
 pub fn run_bfgs(
     problem: &CalibrationProblem<'_>,
     u0: Vec<f64>,
@@ -28,28 +36,58 @@ pub fn run_bfgs(
     let identity: Vec<Vec<f64>> = (0..k)
         .map(|i| (0..k).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
         .collect();
-    let solver = BFGS::new(MoreThuenteLineSearch::new())
-        .with_tolerance_grad(1e-12)
-        .map_err(fail)?
-        .with_tolerance_cost(1e-15)
-        .map_err(fail)?;
-    let result = Executor::new(MeanDistance(problem), solver)
-        .configure(|s| {
-            s.param(u0.clone())
-                .inv_hessian(identity)
-                .max_iters(max_iters)
-        })
-        .run();
-    match result {
-        Ok(res) => {
-            let reason = res
-                .state
-                .get_termination_reason()
-                .map_or("stopped".to_string(), |r| r.text().to_string());
-            let iters = res.state.get_iter();
-            let u = res.state.get_best_param().cloned().unwrap_or(u0);
-            Ok((u, iters, reason))
+    let mut start = u0;
+    let mut iterations = 0;
+    let mut restarts = 0;
+    loop {
+        let solver = BFGS::new(MoreThuenteLineSearch::new())
+            .with_tolerance_grad(1e-12)
+            .map_err(fail)?
+            .with_tolerance_cost(1e-15)
+            .map_err(fail)?;
+        let cost = MeanDistance::new(problem);
+        let best_seen = cost.best();
+        let start_cost = problem.mean_distance(&start);
+        let result = Executor::new(cost, solver)
+            .configure(|s| {
+                s.param(start.clone())
+                    .inv_hessian(identity.clone())
+                    .max_iters(max_iters - iterations)
+            })
+            .run();
+        match result {
+            Ok(res) => {
+                let reason = res
+                    .state
+                    .get_termination_reason()
+                    .map_or("stopped".to_string(), |r| r.text().to_string());
+                iterations += res.state.get_iter();
+                let u = res.state.get_best_param().cloned().unwrap_or(start);
+                let reason = if restarts > 0 {
+                    format!("{reason} (after {restarts} restart(s) on line search failures)")
+                } else {
+                    reason
+                };
+                return Ok((u, iterations, reason));
+            }
+            Err(e) => {
+                let Some((best_cost, best)) = best_seen.borrow_mut().take() else {
+                    return Err(fail(e));
+                };
+                // Iterations of the failed run are not reported by argmin; count the restart.
+                iterations += 1;
+                let improved = best_cost < start_cost;
+                if !improved || restarts == RESTARTS || iterations >= max_iters {
+                    let u = if improved { best } else { start };
+                    return Ok((
+                        u,
+                        iterations,
+                        format!("line search found no descent from the best point ({e})"),
+                    ));
+                }
+                restarts += 1;
+                start = best;
+            }
         }
-        Err(e) => Err(fail(e)),
     }
 }

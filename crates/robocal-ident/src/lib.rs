@@ -28,6 +28,8 @@ pub use calibrate::{
 pub use error::{IdentError, Result};
 pub use identifiability::{Identifiability, analyse, standard_deviations};
 pub use lm::{LevenbergMarquardt, run_lm};
-pub use problem::{CalibrationProblem, LeastSquares, MeanDistance, Observations, select};
+pub use problem::{
+    BestPoint, CalibrationProblem, LeastSquares, MeanDistance, Observations, select,
+};
 pub use registration::{kabsch, register_base};
 pub use stage::RawKinematicStage;

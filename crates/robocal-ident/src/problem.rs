@@ -4,6 +4,9 @@
 //! `s_j` makes every Jacobian column have unit RMS length per measured point at the start.
 //! That puts millimetres and radians on one footing for LM's damping and BFGS's first step.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Operator};
 use faer::Mat;
 use nalgebra::{DMatrix, Vector3};
@@ -192,22 +195,34 @@ impl<'a> CalibrationProblem<'a> {
     /// Gradient of [`Self::mean_distance`]: `(1/m) Σ J_iᵀ r_i / |r_i|`; a point with a zero
     /// residual (where the cost is not differentiable) contributes nothing.
     pub fn mean_distance_gradient(&self, u: &[f64]) -> Vec<f64> {
-        let (r, jac) = self.residuals_and_jacobian(u);
-        let m = self.obs.len().max(1) as f64;
+        self.mean_distance_and_gradient(u).1
+    }
+
+    /// [`Self::mean_distance`] and its gradient in one pass over the poses, each pose's 3 × P
+    /// Jacobian block written into one small buffer (no `3m × k` matrix is formed).
+    pub fn mean_distance_and_gradient(&self, u: &[f64]) -> (f64, Vec<f64>) {
+        let robot = self.robot_at(u);
+        let m = self.obs.len();
+        let mut block = DMatrix::zeros(3, robot.param_count());
+        let mut cost = 0.0;
         let mut g = vec![0.0; self.selected.len()];
-        for (i, c) in r.chunks_exact(3).enumerate() {
-            let norm = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        for i in 0..m {
+            let d =
+                robot.write_param_jacobian(self.obs.joints(i), &mut block, 0) - self.obs.points[i];
+            let norm = d.norm();
+            cost += norm;
             if norm == 0.0 {
                 continue;
             }
-            for (k, gk) in g.iter_mut().enumerate() {
-                let dot = jac[(3 * i, k)] * c[0]
-                    + jac[(3 * i + 1, k)] * c[1]
-                    + jac[(3 * i + 2, k)] * c[2];
-                *gk += dot / norm / m;
+            let unit = d / norm;
+            for ((gk, &col), &scale) in g.iter_mut().zip(&self.selected).zip(&self.scale) {
+                let c = block.column(col);
+                *gk += (c[0] * unit.x + c[1] * unit.y + c[2] * unit.z) * scale;
             }
         }
-        g
+        let m = m.max(1) as f64;
+        g.iter_mut().for_each(|gk| *gk /= m);
+        (cost / m, g)
     }
 }
 
@@ -232,14 +247,60 @@ impl Jacobian for LeastSquares<'_, '_> {
 }
 
 /// The paper's cost (mean distance) and its gradient, for BFGS.
-#[derive(Debug, Clone)]
-pub struct MeanDistance<'p, 'a>(pub &'p CalibrationProblem<'a>);
+///
+/// The line search asks for the cost and then the gradient at the same point, and BFGS asks for
+/// the gradient at the point the line search accepted: both come from one evaluation, cached
+/// for the last point. It also remembers the lowest cost seen, so a run that stops on a line
+/// search failure can go on from there.
+#[derive(Debug)]
+pub struct MeanDistance<'p, 'a> {
+    problem: &'p CalibrationProblem<'a>,
+    last: RefCell<Option<Evaluation>>,
+    best: BestPoint,
+}
+
+/// A point with its cost and gradient.
+type Evaluation = (Vec<f64>, f64, Vec<f64>);
+
+/// The lowest cost a [`MeanDistance`] has evaluated and its point, shared with whoever runs it.
+pub type BestPoint = Rc<RefCell<Option<(f64, Vec<f64>)>>>;
+
+impl<'p, 'a> MeanDistance<'p, 'a> {
+    /// Wraps a problem.
+    pub fn new(problem: &'p CalibrationProblem<'a>) -> Self {
+        Self {
+            problem,
+            last: RefCell::new(None),
+            best: Rc::new(RefCell::new(None)),
+        }
+    }
+
+    /// A handle on the lowest cost evaluated and its point; it outlives the executor run.
+    pub fn best(&self) -> BestPoint {
+        Rc::clone(&self.best)
+    }
+
+    fn evaluate(&self, u: &[f64]) -> (f64, Vec<f64>) {
+        if let Some((at, cost, grad)) = &*self.last.borrow()
+            && at.as_slice() == u
+        {
+            return (*cost, grad.clone());
+        }
+        let (cost, grad) = self.problem.mean_distance_and_gradient(u);
+        let mut best = self.best.borrow_mut();
+        if cost.is_finite() && best.as_ref().is_none_or(|(c, _)| cost < *c) {
+            *best = Some((cost, u.to_vec()));
+        }
+        *self.last.borrow_mut() = Some((u.to_vec(), cost, grad.clone()));
+        (cost, grad)
+    }
+}
 
 impl CostFunction for MeanDistance<'_, '_> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, u: &Vec<f64>) -> Result<f64, ArgminError> {
-        Ok(self.0.mean_distance(u))
+        Ok(self.evaluate(u).0)
     }
 }
 
@@ -247,7 +308,7 @@ impl Gradient for MeanDistance<'_, '_> {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;
     fn gradient(&self, u: &Vec<f64>) -> Result<Vec<f64>, ArgminError> {
-        Ok(self.0.mean_distance_gradient(u))
+        Ok(self.evaluate(u).1)
     }
 }
 

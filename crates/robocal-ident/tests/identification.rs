@@ -283,3 +283,41 @@ fn lm_and_bfgs_agree_on_a_well_posed_problem() {
         errors[1]
     );
 }
+
+/// The bundled twin data: after kinematic calibration on the unloaded rows, the world-X residual
+/// of every row splits into two modes by the flank joint 4's backlash rests on (the paper's
+/// bimodal X error, section V-B2), and no other axis does.
+#[test]
+fn bundled_twin_residual_is_bimodal_in_x_by_the_joint_4_flank() {
+    let twin = robocal_twin::TwinConfig::load(root().join("configs/twin/pmc6va030.toml")).unwrap();
+    let set = MeasurementSet::read(root().join("datasets/pmc6va030/measurements.csv"), 6).unwrap();
+    let unloaded = Observations::from_rows(6, set.rows.iter().filter(|r| r.sample.load == 0.0));
+    let cal = calibrate_kinematics(&nominal(), &unloaded, &KinematicSettings::default()).unwrap();
+    let mut groups: [Vec<Vector3<f64>>; 2] = [Vec::new(), Vec::new()];
+    for row in &set.rows {
+        let q = row.sample.joints_rad();
+        let flipped = twin.backlash_offset(&q, row.sample.load)[3] < 0.0;
+        groups[usize::from(flipped)].push(row.position - cal.robot.point(&q));
+    }
+    let stats = |g: &[Vector3<f64>], axis: usize| {
+        let n = g.len() as f64;
+        let mean = g.iter().map(|e| e[axis]).sum::<f64>() / n;
+        let var = g.iter().map(|e| (e[axis] - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean, var.sqrt())
+    };
+    let share = groups[1].len() as f64 / set.rows.len() as f64;
+    assert!(share > 0.2 && share < 0.5, "flipped share {share}");
+    let ((m0, s0), (m1, s1)) = (stats(&groups[0], 0), stats(&groups[1], 0));
+    let x_split = (m1 - m0).abs();
+    // The flipped rows sit a backlash jump away in X, further than either group spreads (the
+    // flipped group spreads more: the jump scales with the lever to the joint-4 axis).
+    assert!(
+        x_split > 0.4 && x_split > 2.0 * s0 && x_split > s1,
+        "X: {m0}±{s0} vs {m1}±{s1}"
+    );
+    // Y does not split; Z only through the flipped rows' heavier loads (more droop).
+    let (y0, y1) = (stats(&groups[0], 1).0, stats(&groups[1], 1).0);
+    assert!((y1 - y0).abs() < 0.1, "Y: {y0} vs {y1}");
+    let (z0, z1) = (stats(&groups[0], 2).0, stats(&groups[1], 2).0);
+    assert!(x_split > 2.0 * (z1 - z0).abs(), "Z: {z0} vs {z1}");
+}

@@ -17,9 +17,11 @@ struct RawTwin {
     nominal: PathBuf,
     truth: RobotTable,
     gravity: [f64; 3],
+    masses: RawMasses,
     compliance: RawCompliance,
     gear: RawGear,
-    backlash: RawBacklash,
+    #[serde(default)]
+    backlash: Vec<RawBacklash>,
     noise: RawNoise,
     poses: RawPoses,
     loads: RawLoads,
@@ -27,11 +29,17 @@ struct RawTwin {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct RawMasses {
+    link_mass: Vec<f64>,
+    link_com: Vec<[f64; 3]>,
+    payload_com: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct RawCompliance {
     enabled: bool,
     stiffness: Vec<f64>,
-    link_mass: Vec<f64>,
-    link_com: Vec<[f64; 3]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -50,7 +58,9 @@ struct RawBacklash {
     enabled: bool,
     joint: usize,
     width: f64,
-    home: f64,
+    side: String,
+    home: Option<f64>,
+    preload: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -83,15 +93,22 @@ struct RawLoads {
     untrained: Vec<f64>,
 }
 
+/// The links' masses: what gravity pulls on besides the payload.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Masses {
+    /// Mass of link i (moved by joint i), kg.
+    pub link_mass: Vec<f64>,
+    /// Centre of mass of link i in its frame {i}, mm.
+    pub link_com: Vec<Vector3<f64>>,
+    /// Centre of mass of the payload in the flange frame {n}, mm.
+    pub payload_com: Vector3<f64>,
+}
+
 /// Joint compliance: deflection = gravity torque / stiffness.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Compliance {
     /// Joint stiffness, N·m/rad, one per joint (> 0).
     pub stiffness: Vec<f64>,
-    /// Mass of link i (moved by joint i), kg.
-    pub link_mass: Vec<f64>,
-    /// Centre of mass of link i in its frame {i}, mm.
-    pub link_com: Vec<Vector3<f64>>,
 }
 
 /// Gear transmission error, per joint: `A1 sin(q + φ1) + A2 sin(2q + φ2)`.
@@ -107,16 +124,33 @@ pub struct Gear {
     pub phase_2: Vec<f64>,
 }
 
-/// Backlash of one joint: the joint rests on the flank on the side of its approach from home,
-/// `±width/2`.
+/// What decides the flank a joint with backlash rests on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BacklashSide {
+    /// The side of `home` (rad) the joint moved out to: `+width/2` at or above it.
+    Approach {
+        /// Home reading the joint moves out from, rad.
+        home: f64,
+    },
+    /// The sense of the torque on the joint: a constant `preload` (N·m: cable harness, motor
+    /// offsets) plus the gravity torque of the links and the payload. `+width/2` when it is
+    /// positive or zero. Unloaded, the preload decides; a payload held on the other side can
+    /// flip it.
+    Torque {
+        /// Torque on the joint besides gravity's, N·m.
+        preload: f64,
+    },
+}
+
+/// Backlash of one joint: the joint rests on one flank of its play, `±width/2`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Backlash {
     /// 0-based joint index.
     pub joint: usize,
     /// Total play, rad.
     pub width: f64,
-    /// Home reading the joint moves out from, rad.
-    pub home: f64,
+    /// Which flank.
+    pub side: BacklashSide,
 }
 
 /// Measurement noise, each world coordinate independent Gaussian.
@@ -204,12 +238,14 @@ pub struct TwinConfig {
     pub truth: Robot,
     /// Gravity in the robot base frame, m/s².
     pub gravity: Vector3<f64>,
+    /// The links' masses (gravity torques exist whether or not the joints give under them).
+    pub masses: Masses,
     /// Joint compliance, if enabled.
     pub compliance: Option<Compliance>,
     /// Gear transmission error, if enabled.
     pub gear: Option<Gear>,
-    /// Backlash, if enabled.
-    pub backlash: Option<Backlash>,
+    /// Backlash of the joints that have play (enabled entries, one per joint at most).
+    pub backlash: Vec<Backlash>,
     /// Measurement noise, if enabled.
     pub noise: Option<Noise>,
     /// Pose design.
@@ -294,6 +330,22 @@ impl TwinConfig {
             );
         }
         c.finite("gravity", &raw.gravity)?;
+        let m = &raw.masses;
+        c.per_joint("masses.link_mass", &m.link_mass, n)?;
+        c.non_negative("masses.link_mass", &m.link_mass)?;
+        if m.link_com.len() != n {
+            return c.fail(
+                "masses.link_com",
+                format!("needs one [x, y, z] per joint ({n})"),
+            );
+        }
+        c.finite("masses.link_com", &m.link_com.concat())?;
+        c.finite("masses.payload_com", &m.payload_com)?;
+        let masses = Masses {
+            link_mass: m.link_mass.clone(),
+            link_com: m.link_com.iter().map(|v| Vector3::from(*v)).collect(),
+            payload_com: Vector3::from(m.payload_com),
+        };
         let compliance = if raw.compliance.enabled {
             let r = &raw.compliance;
             c.per_joint("compliance.stiffness", &r.stiffness, n)?;
@@ -303,19 +355,8 @@ impl TwinConfig {
                     "stiffness must be positive (N·m/rad)",
                 );
             }
-            c.per_joint("compliance.link_mass", &r.link_mass, n)?;
-            c.non_negative("compliance.link_mass", &r.link_mass)?;
-            if r.link_com.len() != n {
-                return c.fail(
-                    "compliance.link_com",
-                    format!("needs one [x, y, z] per joint ({n})"),
-                );
-            }
-            c.finite("compliance.link_com", &r.link_com.concat())?;
             Some(Compliance {
                 stiffness: r.stiffness.clone(),
-                link_mass: r.link_mass.clone(),
-                link_com: r.link_com.iter().map(|v| Vector3::from(*v)).collect(),
             })
         } else {
             None
@@ -335,21 +376,55 @@ impl TwinConfig {
         } else {
             None
         };
-        let backlash = if raw.backlash.enabled {
-            let b = &raw.backlash;
-            if b.joint < 1 || b.joint > n {
-                return c.fail("backlash.joint", format!("must be a joint number 1..{n}"));
+        let mut backlash: Vec<Backlash> = Vec::new();
+        for (i, b) in raw.backlash.iter().enumerate() {
+            if !b.enabled {
+                continue;
             }
-            c.non_negative("backlash.width", &[b.width])?;
-            c.finite("backlash.home", &[b.home])?;
-            Some(Backlash {
+            let key = |field: &str| format!("backlash[{}].{field}", i + 1);
+            if b.joint < 1 || b.joint > n {
+                return c.fail(&key("joint"), format!("must be a joint number 1..{n}"));
+            }
+            c.non_negative(&key("width"), &[b.width])?;
+            let side = match (b.side.as_str(), b.home, b.preload) {
+                ("approach", Some(home), None) => {
+                    c.finite(&key("home"), &[home])?;
+                    BacklashSide::Approach {
+                        home: home.to_radians(),
+                    }
+                }
+                ("torque", None, Some(preload)) => {
+                    c.finite(&key("preload"), &[preload])?;
+                    BacklashSide::Torque { preload }
+                }
+                ("approach", _, _) => {
+                    return c.fail(
+                        &key("side"),
+                        "side = \"approach\" needs `home` (deg) and no `preload`",
+                    );
+                }
+                ("torque", _, _) => {
+                    return c.fail(
+                        &key("side"),
+                        "side = \"torque\" needs `preload` (N·m) and no `home`",
+                    );
+                }
+                (other, _, _) => {
+                    return c.fail(
+                        &key("side"),
+                        format!("unknown side rule `{other}`: use \"approach\" or \"torque\""),
+                    );
+                }
+            };
+            if backlash.iter().any(|other| other.joint == b.joint - 1) {
+                return c.fail(&key("joint"), "this joint already has a backlash entry");
+            }
+            backlash.push(Backlash {
                 joint: b.joint - 1,
                 width: b.width.to_radians(),
-                home: b.home.to_radians(),
-            })
-        } else {
-            None
-        };
+                side,
+            });
+        }
         let noise = if raw.noise.enabled {
             let z = &raw.noise;
             c.non_negative("noise.tracker_base", &[z.tracker_base])?;
@@ -405,6 +480,7 @@ impl TwinConfig {
             nominal,
             truth,
             gravity: Vector3::from(raw.gravity),
+            masses,
             compliance,
             gear,
             backlash,
@@ -429,7 +505,7 @@ impl TwinConfig {
         Self {
             compliance: None,
             gear: None,
-            backlash: None,
+            backlash: Vec::new(),
             noise: None,
             ..self.clone()
         }

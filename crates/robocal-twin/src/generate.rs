@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{Measurement, MeasurementSet, Sample, write_dir_atomically, write_text_in};
 
-use crate::config::TwinConfig;
+use crate::config::{BacklashSide, TwinConfig};
 use crate::design::{PointStatus, PoseDesign};
 use crate::error::Result;
 
@@ -150,16 +150,37 @@ impl TwinConfig {
         );
         let _ = writeln!(s, "## What the twin contains\n");
         let on = |b: bool| if b { "on" } else { "off" };
+        let backlash = if self.backlash.is_empty() {
+            "off".to_string()
+        } else {
+            self.backlash
+                .iter()
+                .map(|b| {
+                    let side = match b.side {
+                        BacklashSide::Approach { .. } => "the side of its approach from home",
+                        BacklashSide::Torque { .. } => {
+                            "the sense of its torque (preload + gravity of links and payload)"
+                        }
+                    };
+                    format!(
+                        "joint {}, {:.3} deg, flank set by {side}",
+                        b.joint + 1,
+                        b.width.to_degrees()
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join("; ")
+        };
         let _ = writeln!(
             s,
             "- true geometry: the paper's Table 4; base and reflector as in `[truth]` of the twin file\n\
              - joint compliance (gravity torque of links and payload / joint stiffness): {}\n\
              - gear transmission error (1st and 2nd harmonic per joint): {}\n\
-             - backlash (side set by the approach from home): {}\n\
+             - backlash: {}\n\
              - measurement noise (tracker accuracy and robot repeatability): {}\n",
             on(self.compliance.is_some()),
             on(self.gear.is_some()),
-            on(self.backlash.is_some()),
+            backlash,
             on(self.noise.is_some()),
         );
         s

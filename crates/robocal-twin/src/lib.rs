@@ -19,7 +19,9 @@ pub mod error;
 pub mod generate;
 pub mod physics;
 
-pub use config::{Backlash, Compliance, Gear, Loads, Noise, PoseGrid, TwinConfig};
+pub use config::{
+    Backlash, BacklashSide, Compliance, Gear, Loads, Masses, Noise, PoseGrid, TwinConfig,
+};
 pub use design::{GridPoint, PointStatus, PoseDesign};
 pub use error::{Result, TwinError};
 pub use generate::TwinDataset;

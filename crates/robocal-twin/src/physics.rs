@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
-use crate::config::TwinConfig;
+use crate::config::{BacklashSide, TwinConfig};
 
 impl TwinConfig {
     /// Gravity in the world (tracker) frame, m/s².
@@ -15,38 +15,60 @@ impl TwinConfig {
         self.truth.base_rotation() * self.gravity
     }
 
-    /// Gravity torque about every joint axis, N·m, at reading `q` (rad) with `load` kg at the
-    /// reflector; zero without a compliance model.
-    ///
-    /// `τ_i = w_i · Σ_{j ≥ i} (c_j − a_i) × m_j g`, with `w_i` the joint axis through `a_i`,
-    /// `c_j` the centre of mass of link j (or the payload at the tool point).
-    pub fn gravity_torques(&self, q: &[f64], load: f64) -> Vec<f64> {
-        let Some(c) = &self.compliance else {
-            return vec![0.0; q.len()];
-        };
-        let g = self.gravity_world();
+    /// Centres of mass of the links and of the payload in the world frame, mm, at real joint
+    /// angles `q` (rad).
+    fn mass_points(&self, q: &[f64]) -> (Vec<Vector3<f64>>, Vector3<f64>) {
         let frames = self.truth.link_frames(q);
-        let axes = self.truth.joint_axes(q);
-        let coms: Vec<Vector3<f64>> = frames
+        let coms = frames
             .iter()
-            .zip(&c.link_com)
+            .zip(&self.masses.link_com)
             .map(|((r, o), com)| o + r * com)
             .collect();
-        axes.axes
+        let payload = frames.last().map_or(self.masses.payload_com, |(r, o)| {
+            o + r * self.masses.payload_com
+        });
+        (coms, payload)
+    }
+
+    /// Gravity moment (N·m vector, world frame) about point `a` of the links from `first`
+    /// outwards and of `load` kg at `payload`.
+    fn gravity_moment(
+        &self,
+        (coms, payload): &(Vec<Vector3<f64>>, Vector3<f64>),
+        first: usize,
+        a: &Vector3<f64>,
+        load: f64,
+    ) -> Vector3<f64> {
+        let g = self.gravity_world();
+        let mut moment = (payload - a).cross(&(g * load));
+        for (com, mass) in coms[first..].iter().zip(&self.masses.link_mass[first..]) {
+            moment += (com - a).cross(&(g * *mass));
+        }
+        moment * 1e-3 // mm·N → N·m
+    }
+
+    /// Gravity torque about every joint axis, N·m, at reading `q` (rad) with `load` kg on the
+    /// flange.
+    ///
+    /// `τ_i = w_i · Σ_{j ≥ i} (c_j − a_i) × m_j g`, with `w_i` the joint axis through `a_i`,
+    /// `c_j` the centre of mass of link j (or of the payload).
+    pub fn gravity_torques(&self, q: &[f64], load: f64) -> Vec<f64> {
+        let masses = self.mass_points(q);
+        self.truth
+            .joint_axes(q)
+            .axes
             .iter()
             .enumerate()
-            .map(|(i, (w, a))| {
-                // The payload and every link from joint i outwards load joint i.
-                let mut moment = (axes.point - a).cross(&(g * load));
-                for (com, mass) in coms[i..].iter().zip(&c.link_mass[i..]) {
-                    moment += (com - a).cross(&(g * *mass));
-                }
-                w.dot(&moment) * 1e-3 // mm·N → N·m
-            })
+            .map(|(i, (w, a))| w.dot(&self.gravity_moment(&masses, i, a, load)))
             .collect()
     }
 
-    /// Joint deflection under gravity, rad: torque / stiffness.
+    /// The payload's centre of mass in the world frame, mm, at reading `q` (rad).
+    pub fn payload_point(&self, q: &[f64]) -> Vector3<f64> {
+        self.mass_points(q).1
+    }
+
+    /// Joint deflection under gravity, rad: torque / stiffness; zero without a compliance model.
     pub fn compliance_deflection(&self, q: &[f64], load: f64) -> Vec<f64> {
         match &self.compliance {
             Some(c) => self
@@ -74,14 +96,20 @@ impl TwinConfig {
         }
     }
 
-    /// Backlash offset of every joint at reading `q`, rad: the joint that has play rests on the
-    /// flank of its approach from home, `+width/2` when it moved out in the positive sense
-    /// (or stayed at home), `−width/2` otherwise.
-    pub fn backlash_offset(&self, q: &[f64]) -> Vec<f64> {
+    /// Backlash offset of every joint at reading `q` (rad) under `load` kg: a joint that has
+    /// play rests on one flank, `+width/2` or `−width/2`, as its side rule says.
+    pub fn backlash_offset(&self, q: &[f64], load: f64) -> Vec<f64> {
         let mut offset = vec![0.0; q.len()];
-        if let Some(b) = &self.backlash {
-            let side = if q[b.joint] >= b.home { 1.0 } else { -1.0 };
-            offset[b.joint] = side * b.width / 2.0;
+        let mut torques = None;
+        for b in &self.backlash {
+            let positive = match b.side {
+                BacklashSide::Approach { home } => q[b.joint] >= home,
+                BacklashSide::Torque { preload } => {
+                    let t = torques.get_or_insert_with(|| self.gravity_torques(q, load));
+                    preload + t[b.joint] >= 0.0
+                }
+            };
+            offset[b.joint] = if positive { 1.0 } else { -1.0 } * b.width / 2.0;
         }
         offset
     }
@@ -90,7 +118,7 @@ impl TwinConfig {
     pub fn actual_joints(&self, q: &[f64], load: f64) -> Vec<f64> {
         let deflection = self.compliance_deflection(q, load);
         let gear = self.gear_error(q);
-        let backlash = self.backlash_offset(q);
+        let backlash = self.backlash_offset(q, load);
         (0..q.len())
             .map(|i| q[i] + deflection[i] + gear[i] + backlash[i])
             .collect()

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use robocal_twin::{TwinConfig, TwinError};
+use robocal_twin::{Backlash, BacklashSide, TwinConfig, TwinError};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -37,7 +37,7 @@ fn compliance_droops_with_gravity_linearly_in_payload() {
     let base = twin();
     let t = TwinConfig {
         gear: None,
-        backlash: None,
+        backlash: Vec::new(),
         noise: None,
         ..base
     };
@@ -60,18 +60,21 @@ fn compliance_droops_with_gravity_linearly_in_payload() {
         "linear in payload"
     );
     // Joint deflection per kg of payload equals g × (moment arm) / stiffness on joint 2, whose axis
-    // is (nearly) horizontal: the arm is the distance from the axis across gravity, w × ĝ.
+    // is (nearly) horizontal: the arm is the payload's distance from the axis across gravity, w × ĝ.
     let c = t.compliance.clone().unwrap();
     let axes = t.truth.joint_axes(&q);
     let (w, a) = axes.axes[1];
     let across = w.cross(&g);
-    let arm_m = (axes.point - a).dot(&across).abs() / 1000.0;
+    let arm_m = (t.payload_point(&q) - a).dot(&across).abs() / 1000.0;
     let per_kg = t.compliance_deflection(&q, 1.0)[1] - t.compliance_deflection(&q, 0.0)[1];
     assert!((per_kg.abs() - 9.80665 * arm_m / c.stiffness[1]).abs() < 1e-12);
     // Longer arm, bigger deflection: stretch the arm out.
     let q_far = deg([12.0, -20.0, -60.0, 20.0, 50.0, -30.0]);
     let axes_far = t.truth.joint_axes(&q_far);
-    let arm_far = (axes_far.point - axes_far.axes[1].1).dot(&across).abs() / 1000.0;
+    let arm_far = (t.payload_point(&q_far) - axes_far.axes[1].1)
+        .dot(&across)
+        .abs()
+        / 1000.0;
     let per_kg_far =
         t.compliance_deflection(&q_far, 1.0)[1] - t.compliance_deflection(&q_far, 0.0)[1];
     assert!((per_kg_far / per_kg - arm_far / arm_m).abs() < 1e-9);
@@ -81,7 +84,7 @@ fn compliance_droops_with_gravity_linearly_in_payload() {
 fn gear_error_is_periodic_in_each_joint() {
     let t = TwinConfig {
         compliance: None,
-        backlash: None,
+        backlash: Vec::new(),
         noise: None,
         ..twin()
     };
@@ -113,21 +116,36 @@ fn gear_error_is_periodic_in_each_joint() {
     );
 }
 
-#[test]
-fn backlash_flips_with_the_side_of_approach() {
+/// The twin with only the backlash entry of `joint` (0-based), no other effect, no noise.
+fn backlash_only(joint: usize) -> (TwinConfig, Backlash) {
+    let base = twin();
+    let b = *base
+        .backlash
+        .iter()
+        .find(|b| b.joint == joint)
+        .expect("the bundled twin has this backlash");
     let t = TwinConfig {
         compliance: None,
         gear: None,
         noise: None,
-        ..twin()
+        backlash: vec![b],
+        ..base
     };
-    let b = t.backlash.unwrap();
+    (t, b)
+}
+
+#[test]
+fn approach_backlash_flips_with_the_side_of_home() {
+    let (t, b) = backlash_only(0);
+    let BacklashSide::Approach { home } = b.side else {
+        panic!("joint 1's flank is set by the approach from home");
+    };
     let mut plus = deg(Q);
-    plus[b.joint] = b.home + 1e-12;
+    plus[b.joint] = home + 1e-12;
     let mut minus = plus.clone();
-    minus[b.joint] = b.home - 1e-12;
-    assert_eq!(t.backlash_offset(&plus)[b.joint], b.width / 2.0);
-    assert_eq!(t.backlash_offset(&minus)[b.joint], -b.width / 2.0);
+    minus[b.joint] = home - 1e-12;
+    assert_eq!(t.backlash_offset(&plus, 0.0)[b.joint], b.width / 2.0);
+    assert_eq!(t.backlash_offset(&minus, 20.0)[b.joint], -b.width / 2.0);
     // The point jumps tangentially by about width × (distance from the joint-1 axis).
     let jump = t.true_point(&plus, 0.0) - t.true_point(&minus, 0.0);
     let axes = t.truth.joint_axes(&plus);
@@ -141,11 +159,46 @@ fn backlash_flips_with_the_side_of_approach() {
 }
 
 #[test]
+fn torque_backlash_flips_when_the_payload_overcomes_the_preload() {
+    let (t, b) = backlash_only(3);
+    let BacklashSide::Torque { preload } = b.side else {
+        panic!("joint 4's flank is set by its torque");
+    };
+    // A wrist pose whose payload pulls joint 4 against the preload: the torque per kg of payload
+    // is negative there, so some load between 0 and 20 kg flips the flank.
+    let q = (-90..=90)
+        .step_by(15)
+        .map(|q4| deg([10.0, -50.0, -20.0, f64::from(q4), 45.0, 30.0]))
+        .find(|q| {
+            let per_kg = t.gravity_torques(q, 1.0)[3] - t.gravity_torques(q, 0.0)[3];
+            preload + t.gravity_torques(q, 0.0)[3] > 0.0
+                && preload + t.gravity_torques(q, 20.0)[3] < 0.0
+                && per_kg < 0.0
+        })
+        .expect("a pose where 20 kg overcomes the preload");
+    let torque = |load: f64| preload + t.gravity_torques(&q, load)[3];
+    // Gravity torque is linear in the load: the flank changes where the line crosses zero.
+    let flip = -torque(0.0) / (torque(1.0) - torque(0.0));
+    assert!(flip > 0.0 && flip < 20.0);
+    assert_eq!(t.backlash_offset(&q, flip * 0.99)[3], b.width / 2.0);
+    assert_eq!(t.backlash_offset(&q, flip * 1.01)[3], -b.width / 2.0);
+    // Across the flip the point jumps by width × (distance from the joint-4 axis), beside the
+    // payload's smooth pull, which this twin does not have (no compliance).
+    let jump = t.true_point(&q, flip * 1.01) - t.true_point(&q, flip * 0.99);
+    let axes = t.truth.joint_axes(&q);
+    let (w, a) = axes.axes[3];
+    let radius = (axes.point - a - w * w.dot(&(axes.point - a))).norm();
+    assert!((jump.norm() - b.width * radius).abs() < 0.01 * jump.norm());
+    // The same pose unloaded, and with the payload on the preload's side, stays on the + flank.
+    assert_eq!(t.backlash_offset(&q, 0.0)[3], b.width / 2.0);
+}
+
+#[test]
 fn noise_has_the_stated_standard_deviation() {
     let t = TwinConfig {
         compliance: None,
         gear: None,
-        backlash: None,
+        backlash: Vec::new(),
         ..twin()
     };
     let noise = t.noise.unwrap();
@@ -255,7 +308,17 @@ fn bad_twin_files_are_rejected_with_the_key() {
     ));
     let err = bad(|t| t.replace("joint = 1\n", "joint = 9\n"));
     assert!(
-        matches!(&err, TwinError::InvalidValue { key, .. } if key == "backlash.joint"),
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "backlash[2].joint"),
+        "{err}"
+    );
+    let err = bad(|t| t.replace("side = \"torque\"", "side = \"approach\""));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "backlash[1].side"),
+        "{err}"
+    );
+    let err = bad(|t| t.replace("joint = 1\n", "joint = 4\n"));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, message, .. } if key == "backlash[2].joint" && message.contains("already")),
         "{err}"
     );
     let err = bad(|t| t.replace("a = 800.882", "a = nan"));
