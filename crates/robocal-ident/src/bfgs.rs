@@ -43,7 +43,7 @@ pub fn run_bfgs(
         let solver = BFGS::new(MoreThuenteLineSearch::new())
             .with_tolerance_grad(1e-12)
             .map_err(fail)?
-            .with_tolerance_cost(1e-15)
+            .with_tolerance_cost(1e-10)
             .map_err(fail)?;
         let cost = MeanDistance::new(problem);
         let best_seen = cost.best();
