@@ -418,3 +418,107 @@ fn calibrate_failures_leave_the_old_model_alone() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("report.json"));
 }
+
+#[test]
+fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = twin_subset(dir.path(), |pose, load| {
+        pose < 60 && pose % 4 != 3 && load <= 6.0
+    });
+    let held = twin_subset(dir.path(), |pose, load| {
+        pose < 60 && pose % 4 == 3 && load <= 6.0
+    });
+    let stage = write(
+        dir.path(),
+        "stage.toml",
+        "[residual]\nmodel = \"ca-somm\"\nseed = 7\n\
+         [residual.x]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
+         [residual.y]\nhidden = [8]\nactivation = \"relu\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
+         [residual.z]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
+         [residual.classifier]\nmin_samples_leaf = 10\n",
+    );
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(&train),
+        "--out",
+        s(&model),
+        "--config",
+        s(&stage),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for file in [
+        "kinematics.toml",
+        "report.json",
+        "residual.json",
+        "residual-a-x.bpk",
+        "residual-b-z.bpk",
+    ] {
+        assert!(model.join(file).is_file(), "{file}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap();
+    let r = &report["residual"];
+    assert_eq!(r["model"], "ca-somm");
+    assert_eq!(r["networks"].as_array().unwrap().len(), 6);
+    assert!(
+        r["validation_source"]
+            .as_str()
+            .unwrap()
+            .contains("held out")
+    );
+    assert!(r["classifier_accuracy_validation"].as_f64().is_some());
+    // The model directory predicts kinematics + residual: not what its kinematics file alone does,
+    // and the same on every run.
+    let (a, b, k) = (
+        dir.path().join("a.csv"),
+        dir.path().join("b.csv"),
+        dir.path().join("k.csv"),
+    );
+    for (src, flag, out) in [(s(&model), "--model", &a), (s(&model), "--model", &b)] {
+        let o = robocal(&["predict", flag, src, "--data", s(&held), "--out", s(out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let kin = model.join("kinematics.toml");
+    let o = robocal(&[
+        "predict",
+        "--robot",
+        s(&kin),
+        "--data",
+        s(&held),
+        "--out",
+        s(&k),
+    ]);
+    assert!(o.status.success());
+    let read = |p: &Path| std::fs::read_to_string(p).unwrap();
+    assert_eq!(read(&a), read(&b));
+    assert_ne!(read(&a), read(&k));
+    // A bad residual setting is refused with its key, and nothing is written.
+    let bad = write(
+        dir.path(),
+        "bad.toml",
+        "[residual]\nmodel = \"somm\"\n[residual.y]\nhidden = [4]\nactivation = \"relu\"\nlearning_rate = -1.0\n",
+    );
+    let out = dir.path().join("never");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(&train),
+        "--out",
+        s(&out),
+        "--config",
+        s(&bad),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("residual.y.learning_rate") && err.contains("bad.toml"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

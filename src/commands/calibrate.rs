@@ -2,43 +2,204 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, anyhow};
-use robocal_data::{ErrorStats, MeasurementSet, write_dir_atomically, write_text_in};
+use std::collections::HashSet;
+
+use anyhow::{Context, Result, anyhow, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use robocal_data::{ErrorStats, Measurement, MeasurementSet, write_dir_atomically, write_text_in};
 use robocal_ident::{
     KinematicReport, KinematicSettings, Observations, RawKinematicStage, calibrate_kinematics,
 };
+use robocal_residual::{RawResidualStage, ResidualModel, ResidualStage, Samples};
 use robocal_robot::Robot;
 use serde::{Deserialize, Serialize};
 
-use super::model::MODEL_FORMAT;
+use super::model::{MODEL_FORMAT, Model, residual_inputs};
 
 /// A stage config as written (`--config FILE`).
 #[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct RawStages {
     kinematic: Option<RawKinematicStage>,
+    residual: Option<RawResidualStage>,
+}
+
+/// The validated stages.
+struct Stages {
+    kinematic: KinematicSettings,
+    residual: Option<ResidualStage>,
 }
 
 /// Reads and validates a stage config.
-fn load_stages(path: Option<&Path>) -> Result<KinematicSettings> {
+fn load_stages(path: Option<&Path>) -> Result<Stages> {
     let Some(path) = path else {
-        return Ok(KinematicSettings::default());
+        return Ok(Stages {
+            kinematic: KinematicSettings::default(),
+            residual: None,
+        });
     };
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read the stage config", path.display()))?;
     let raw: RawStages =
         toml::from_str(&text).map_err(|e| anyhow!(robocal_robot::toml_error(path, &text, &e)))?;
-    raw.kinematic
-        .unwrap_or_default()
-        .validate()
-        .map_err(|(key, message)| anyhow!("{}: key `{key}`: {message}", path.display()))
+    let key =
+        |(key, message): (String, String)| anyhow!("{}: key `{key}`: {message}", path.display());
+    Ok(Stages {
+        kinematic: raw.kinematic.unwrap_or_default().validate().map_err(key)?,
+        residual: raw
+            .residual
+            .map(|r| r.validate())
+            .transpose()
+            .map_err(key)?,
+    })
+}
+
+/// Residual samples of `rows`: inputs (joints deg, load) and measured − kinematic error.
+fn residual_samples<'a>(robot: &Robot, rows: impl IntoIterator<Item = &'a Measurement>) -> Samples {
+    let mut samples = Samples::default();
+    for m in rows {
+        samples.inputs.push(residual_inputs(&m.sample));
+        let e = m.position - robot.point(&m.sample.joints_rad());
+        samples.errors.push([e.x, e.y, e.z]);
+    }
+    samples
+}
+
+/// Error norms left after subtracting `predicted` residuals.
+fn left(samples: &Samples, predicted: &[[f64; 3]]) -> ErrorStats {
+    let errors: Vec<f64> = samples
+        .errors
+        .iter()
+        .zip(predicted)
+        .map(|(e, p)| {
+            ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt()
+        })
+        .collect();
+    ErrorStats::from_errors(&errors)
+}
+
+/// One network's training, in the report.
+#[derive(Debug, Clone, Serialize)]
+struct NetTraining {
+    axes: String,
+    epochs: usize,
+    best_epoch: usize,
+    stopped_early: bool,
+}
+
+/// The residual stage in `report.json`.
+#[derive(Debug, Clone, Serialize)]
+struct ResidualReport {
+    model: &'static str,
+    seed: u64,
+    /// Where the early-stopping data came from.
+    validation_source: String,
+    training_rows: usize,
+    validation_rows: usize,
+    networks: Vec<NetTraining>,
+    /// Training rows: error after kinematics, and after kinematics + residual.
+    training_before: ErrorStats,
+    training_after: ErrorStats,
+    validation_before: ErrorStats,
+    validation_after: ErrorStats,
+    /// CA-SOMM: share of rows the classifier puts in their true class.
+    classifier_accuracy_training: Option<f64>,
+    classifier_accuracy_validation: Option<f64>,
+}
+
+/// Trains the residual stage on every row of `set` (less a hold-out of whole configurations when
+/// no validation file is given).
+fn train_residual(
+    stage: &ResidualStage,
+    robot: &Robot,
+    set: &MeasurementSet,
+    validation: Option<&MeasurementSet>,
+) -> Result<(ResidualModel, ResidualReport)> {
+    let seed = stage.settings.seed;
+    let (train, val, source) = match validation {
+        Some(v) => (
+            residual_samples(robot, &set.rows),
+            residual_samples(robot, &v.rows),
+            format!("{}", v.source.display()),
+        ),
+        None => {
+            let mut poses: Vec<&str> = set.rows.iter().map(|r| r.sample.pose.as_str()).collect();
+            poses.sort_unstable();
+            poses.dedup();
+            if poses.len() < 2 {
+                bail!(
+                    "{}: the residual stage needs a --validate file or at least two configurations to hold one out",
+                    set.source.display()
+                );
+            }
+            poses.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+            let n =
+                ((poses.len() as f64 * stage.holdout).round() as usize).clamp(1, poses.len() - 1);
+            let held: HashSet<&str> = poses[..n].iter().copied().collect();
+            let (v, t): (Vec<&Measurement>, Vec<&Measurement>) = set
+                .rows
+                .iter()
+                .partition(|r| held.contains(r.sample.pose.as_str()));
+            (
+                residual_samples(robot, t),
+                residual_samples(robot, v),
+                format!(
+                    "{n} of {} configurations held out (seed {seed})",
+                    poses.len()
+                ),
+            )
+        }
+    };
+    let bar = ProgressBar::new(ResidualModel::max_epochs(&stage.settings));
+    bar.set_style(
+        ProgressStyle::with_template(
+            "robocal: residual {msg} [{bar:30}] {pos}/{len} epochs (at most) {elapsed}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(stage.settings.kind.name());
+    let model = ResidualModel::fit(&stage.settings, &train, &val, Some(&bar))?;
+    bar.finish_and_clear();
+    let zero = |s: &Samples| vec![[0.0; 3]; s.len()];
+    let axes = |a: &[usize]| a.iter().map(|&i| ["x", "y", "z"][i]).collect::<String>();
+    let report = ResidualReport {
+        model: stage.settings.kind.name(),
+        seed,
+        validation_source: source,
+        training_rows: train.len(),
+        validation_rows: val.len(),
+        networks: model
+            .nets
+            .iter()
+            .map(|n| NetTraining {
+                axes: axes(&n.axes),
+                epochs: n.report.epochs,
+                best_epoch: n.report.best_epoch,
+                stopped_early: n.report.stopped_early,
+            })
+            .collect(),
+        training_before: left(&train, &zero(&train)),
+        training_after: left(&train, &model.predict(&train.inputs)),
+        validation_before: left(&val, &zero(&val)),
+        validation_after: left(&val, &model.predict(&val.inputs)),
+        classifier_accuracy_training: model.classifier.as_ref().map(|c| c.accuracy(&train)),
+        classifier_accuracy_validation: model.classifier.as_ref().map(|c| c.accuracy(&val)),
+    };
+    Ok((model, report))
 }
 
 /// Before/after statistics on the validation file.
 #[derive(Debug, Serialize)]
 struct Validation {
     file: PathBuf,
+    /// Nominal table, base and tool fitted.
     before: ErrorStats,
+    /// Calibrated kinematics alone.
+    after_kinematic: ErrorStats,
+    /// The whole model (kinematics + residual, if any).
     after: ErrorStats,
 }
 
@@ -52,6 +213,7 @@ struct Report {
     /// Rows used by the kinematic stage: those at the lightest load in the data.
     kinematic_load: f64,
     kinematic: KinematicReport,
+    residual: Option<ResidualReport>,
     validation: Option<Validation>,
 }
 
@@ -63,7 +225,7 @@ pub fn run(
     out: &Path,
     config: Option<&Path>,
 ) -> Result<()> {
-    let settings = load_stages(config)?;
+    let stages = load_stages(config)?;
     let nominal = Robot::load(robot)?;
     let set = MeasurementSet::read(data, nominal.dof())?;
     let validation = validate
@@ -75,16 +237,8 @@ pub fn run(
         nominal.dof(),
         set.rows.iter().filter(|r| r.sample.load == lightest),
     );
-    let cal = calibrate_kinematics(&nominal, &obs, &settings)
+    let cal = calibrate_kinematics(&nominal, &obs, &stages.kinematic)
         .with_context(|| format!("{}: calibration failed", data.display()))?;
-    let validation = validation.map(|v| {
-        let obs = Observations::from_set(&v);
-        Validation {
-            file: v.source.clone(),
-            before: ErrorStats::from_errors(&obs.errors(&cal.aligned)),
-            after: ErrorStats::from_errors(&obs.errors(&cal.robot)),
-        }
-    });
     let r = &cal.report;
     eprintln!(
         "robocal: kinematic ({}): {} points at {} kg, mean error {:.4} → {:.4} mm (max {:.4} → {:.4}), {} iterations",
@@ -104,12 +258,53 @@ pub fn run(
             names.join(", ")
         );
     }
+    let residual = stages
+        .residual
+        .as_ref()
+        .map(|stage| train_residual(stage, &cal.robot, &set, validation.as_ref()))
+        .transpose()?;
+    if let Some((_, r)) = &residual {
+        eprintln!(
+            "robocal: residual ({}): training mean {:.4} → {:.4} mm, validation ({}) {:.4} → {:.4} mm{}",
+            r.model,
+            r.training_before.mean,
+            r.training_after.mean,
+            r.validation_source,
+            r.validation_before.mean,
+            r.validation_after.mean,
+            r.classifier_accuracy_validation
+                .map_or(String::new(), |a| format!(
+                    ", classifier accuracy {:.1} %",
+                    100.0 * a
+                ))
+        );
+    }
+    let model = Model {
+        robot: cal.robot.clone(),
+        residual: residual.as_ref().map(|(m, _)| m.clone()),
+    };
+    let validation = validation.map(|v| {
+        let obs = Observations::from_set(&v);
+        let full: Vec<f64> = model
+            .predict_all(v.rows.iter().map(|m| &m.sample))
+            .iter()
+            .zip(&v.rows)
+            .map(|(p, m)| (p - m.position).norm())
+            .collect();
+        Validation {
+            file: v.source.clone(),
+            before: ErrorStats::from_errors(&obs.errors(&cal.aligned)),
+            after_kinematic: ErrorStats::from_errors(&obs.errors(&cal.robot)),
+            after: ErrorStats::from_errors(&full),
+        }
+    });
     if let Some(v) = &validation {
         eprintln!(
-            "robocal: validation {}: mean {:.4} → {:.4} mm",
+            "robocal: validation {}: mean {:.4} → {:.4} mm (kinematics alone {:.4})",
             v.file.display(),
             v.before.mean,
-            v.after.mean
+            v.after.mean,
+            v.after_kinematic.mean
         );
     }
     let report = Report {
@@ -119,14 +314,31 @@ pub fn run(
         data_file: data.to_path_buf(),
         kinematic_load: lightest,
         kinematic: cal.report.clone(),
+        residual: residual.as_ref().map(|(_, r)| r.clone()),
         validation,
     };
     let mut calibrated = cal.robot.clone();
     calibrated.name = format!("{} (calibrated by robocal)", nominal.name);
     let json = serde_json::to_string_pretty(&report)? + "\n";
+    let mut residual_error = None;
     write_dir_atomically(out, |dir| {
         write_text_in(dir, out, "kinematics.toml", &calibrated.to_toml_string())?;
+        if let Some((model, _)) = &residual
+            && let Err(e) = model.save(dir)
+        {
+            // The directory is discarded; the residual error is reported below.
+            residual_error = Some(e);
+            return Err(robocal_data::DataError::Write {
+                path: out.to_path_buf(),
+                source: std::io::Error::other("the residual model could not be written"),
+            });
+        }
         write_text_in(dir, out, "report.json", &json)
+    })
+    .map_err(|e| {
+        residual_error
+            .take()
+            .map_or_else(|| anyhow!(e), |r| anyhow!(r))
     })?;
     Ok(())
 }

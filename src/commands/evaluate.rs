@@ -12,10 +12,12 @@ use crate::cli::ModelSource;
 pub fn run(source: &ModelSource, data: &Path, json: bool) -> Result<()> {
     let model = Model::load(source)?;
     let set = MeasurementSet::read(data, model.robot.dof())?;
+    let predicted = model.predict_all(set.rows.iter().map(|m| &m.sample));
     let errors: Vec<f64> = set
         .rows
         .iter()
-        .map(|m| (model.predict(&m.sample) - m.position).norm())
+        .zip(predicted)
+        .map(|(m, p)| (p - m.position).norm())
         .collect();
     let stats = ErrorStats::from_errors(&errors);
     if json {

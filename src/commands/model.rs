@@ -5,6 +5,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use nalgebra::Vector3;
 use robocal_data::Sample;
+use robocal_residual::{MANIFEST, ResidualModel};
 use robocal_robot::Robot;
 use serde::Deserialize;
 
@@ -18,6 +19,15 @@ pub const MODEL_FORMAT: u32 = 1;
 pub struct Model {
     /// Kinematic table (nominal or identified).
     pub robot: Robot,
+    /// What the kinematics leave, learned (if a residual stage ran).
+    pub residual: Option<ResidualModel>,
+}
+
+/// The residual model's input row for a sample: joint angles (deg), then the load (kg).
+pub fn residual_inputs(sample: &Sample) -> Vec<f64> {
+    let mut row = sample.joints.clone();
+    row.push(sample.load);
+    row
 }
 
 #[derive(Deserialize)]
@@ -32,6 +42,7 @@ impl Model {
         match (&source.robot, &source.model) {
             (Some(robot), _) => Ok(Self {
                 robot: Robot::load(robot)?,
+                residual: None,
             }),
             (None, Some(dir)) => Self::load_dir(dir),
             (None, None) => bail!("give --robot ROBOT_TOML or --model MODEL_DIR"),
@@ -62,11 +73,39 @@ impl Model {
             None => bail!("{}: key `model_format` missing", report.display()),
         }
         let robot = Robot::load(dir.join("kinematics.toml"))?;
-        Ok(Self { robot })
+        let residual = if dir.join(MANIFEST).exists() {
+            let model = ResidualModel::load(dir)?;
+            if model.inputs != robot.dof() + 1 {
+                bail!(
+                    "{}: key `inputs`: the residual model takes {} inputs, the robot has {} joints (+ load)",
+                    dir.join(MANIFEST).display(),
+                    model.inputs,
+                    robot.dof()
+                );
+            }
+            Some(model)
+        } else {
+            None
+        };
+        Ok(Self { robot, residual })
     }
 
-    /// Predicted target point, mm, world frame.
-    pub fn predict(&self, sample: &Sample) -> Vector3<f64> {
-        self.robot.point(&sample.joints_rad())
+    /// Predicted target points, mm, world frame: kinematics, plus the residual model's error.
+    pub fn predict_all<'a>(
+        &self,
+        samples: impl IntoIterator<Item = &'a Sample>,
+    ) -> Vec<Vector3<f64>> {
+        let samples: Vec<&Sample> = samples.into_iter().collect();
+        let mut points: Vec<Vector3<f64>> = samples
+            .iter()
+            .map(|s| self.robot.point(&s.joints_rad()))
+            .collect();
+        if let Some(residual) = &self.residual {
+            let inputs: Vec<Vec<f64>> = samples.iter().map(|s| residual_inputs(s)).collect();
+            for (p, e) in points.iter_mut().zip(residual.predict(&inputs)) {
+                *p += Vector3::from(e);
+            }
+        }
+        points
     }
 }

@@ -15,10 +15,11 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path) -> Result<()> {
     let rows: Vec<Prediction> = samples
         .rows
         .iter()
-        .map(|s| Prediction {
+        .zip(model.predict_all(&samples.rows))
+        .map(|(s, position)| Prediction {
             pose: s.pose.clone(),
             load: s.load,
-            position: model.predict(s),
+            position,
         })
         .collect();
     write_predictions(out, &rows)?;

@@ -1,0 +1,20 @@
+//! Residual learning (paper section III-B, V-B): what kinematic calibration leaves, learned as a
+//! function of the joint angles and the load.
+//!
+//! - [`mlp`]: one burn MLP on the CPU `flex` backend, Adam, mini-batches, early stopping.
+//! - [`model`]: SOMM (one network per world axis), MOSM (one three-output network) and CA-SOMM
+//!   (a linfa decision tree picks one of two SOMM sets), standardised inputs and outputs, and the
+//!   saved form (`residual.json` + one burn record per network).
+
+pub mod error;
+pub mod mlp;
+pub mod model;
+pub mod stage;
+
+pub use error::{ResidualError, Result};
+pub use mlp::{Activation, Mlp, NetSettings, Split, TrainReport, train};
+pub use model::{
+    AxisNet, Classifier, ClassifierSettings, MANIFEST, RESIDUAL_FORMAT, ResidualKind,
+    ResidualModel, ResidualSettings, Samples, Standardizer, two_means_threshold,
+};
+pub use stage::{DEFAULT_SEED, RawResidualStage, ResidualStage};

@@ -1,0 +1,271 @@
+//! One multilayer perceptron (burn, CPU `flex` backend) and its training loop: Adam on the
+//! mean squared error, shuffled mini-batches, early stopping on the validation loss with the best
+//! epoch's weights kept.
+
+use burn::nn::{Linear, LinearConfig};
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::prelude::*;
+use burn::tensor::TensorData;
+use burn::tensor::activation::{relu, tanh};
+use indicatif::ProgressBar;
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// The activation between hidden layers (the output layer is linear).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Activation {
+    /// Hyperbolic tangent.
+    Tanh,
+    /// Rectified linear unit.
+    Relu,
+}
+
+fn default_batch() -> usize {
+    200
+}
+fn default_epochs() -> usize {
+    200
+}
+fn default_patience() -> usize {
+    5
+}
+
+/// Architecture and training settings of one network (paper Tables 2 and 3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NetSettings {
+    /// Neurons of each hidden layer.
+    pub hidden: Vec<usize>,
+    /// Activation of the hidden layers.
+    pub activation: Activation,
+    /// Adam learning rate.
+    pub learning_rate: f64,
+    /// Samples per mini-batch.
+    #[serde(default = "default_batch")]
+    pub batch_size: usize,
+    /// Most epochs.
+    #[serde(default = "default_epochs")]
+    pub max_epochs: usize,
+    /// Stop when the validation loss has not improved for this many epochs.
+    #[serde(default = "default_patience")]
+    pub patience: usize,
+}
+
+impl NetSettings {
+    /// The paper's X-axis network: 20-20-20-20-10-20 tanh, Adam 8e-4.
+    pub fn paper_x() -> Self {
+        Self::paper(vec![20, 20, 20, 20, 10, 20], Activation::Tanh, 8e-4)
+    }
+    /// The paper's Y-axis network: 100-50 ReLU, Adam 5e-4.
+    pub fn paper_y() -> Self {
+        Self::paper(vec![100, 50], Activation::Relu, 5e-4)
+    }
+    /// The paper's Z-axis network: 50-50-40-30 tanh, Adam 1e-3.
+    pub fn paper_z() -> Self {
+        Self::paper(vec![50, 50, 40, 30], Activation::Tanh, 1e-3)
+    }
+
+    fn paper(hidden: Vec<usize>, activation: Activation, learning_rate: f64) -> Self {
+        Self {
+            hidden,
+            activation,
+            learning_rate,
+            batch_size: default_batch(),
+            max_epochs: default_epochs(),
+            patience: default_patience(),
+        }
+    }
+
+    /// Checks the settings; the message names the field.
+    pub fn check(&self) -> Result<(), String> {
+        if self.hidden.contains(&0) {
+            return Err("hidden: every layer needs at least one neuron".into());
+        }
+        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
+            return Err("learning_rate: must be a positive number".into());
+        }
+        if self.batch_size == 0 {
+            return Err("batch_size: must be at least 1".into());
+        }
+        if self.max_epochs == 0 {
+            return Err("max_epochs: must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// A fully connected network: linear layers with an activation between them.
+#[derive(Module, Debug)]
+pub struct Mlp {
+    layers: Vec<Linear>,
+    #[module(skip)]
+    activation: Activation,
+}
+
+impl Mlp {
+    /// A freshly initialised network (weights from the device's seeded generator).
+    pub fn new(
+        inputs: usize,
+        hidden: &[usize],
+        outputs: usize,
+        activation: Activation,
+        device: &Device,
+    ) -> Self {
+        let mut sizes = vec![inputs];
+        sizes.extend_from_slice(hidden);
+        sizes.push(outputs);
+        let layers = sizes
+            .windows(2)
+            .map(|w| LinearConfig::new(w[0], w[1]).init(device))
+            .collect();
+        Self { layers, activation }
+    }
+
+    /// Forward pass, `[batch, inputs] → [batch, outputs]`.
+    pub fn forward(&self, x: Tensor<2>) -> Tensor<2> {
+        let last = self.layers.len() - 1;
+        let mut x = x;
+        for (i, layer) in self.layers.iter().enumerate() {
+            x = layer.forward(x);
+            if i < last {
+                x = match self.activation {
+                    Activation::Tanh => tanh(x),
+                    Activation::Relu => relu(x),
+                };
+            }
+        }
+        x
+    }
+
+    /// Predictions for `rows` inputs stored row-major in `x`, row-major `rows × outputs`.
+    pub fn predict(&self, x: &[f32], inputs: usize) -> Vec<f32> {
+        let rows = x.len() / inputs.max(1);
+        if rows == 0 {
+            return Vec::new();
+        }
+        let device = Device::flex();
+        let t = Tensor::<2>::from_data(TensorData::new(x.to_vec(), [rows, inputs]), &device);
+        self.forward(t)
+            .into_data()
+            .try_to_vec::<f32>()
+            .unwrap_or_default()
+    }
+}
+
+/// What training did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainReport {
+    /// Epochs run.
+    pub epochs: usize,
+    /// The epoch (1-based) whose weights were kept: lowest validation loss.
+    pub best_epoch: usize,
+    /// Mean squared training loss per epoch (standardised units).
+    pub train_loss: Vec<f64>,
+    /// Mean squared validation loss per epoch (standardised units).
+    pub validation_loss: Vec<f64>,
+    /// Whether early stopping ended the run before `max_epochs`.
+    pub stopped_early: bool,
+}
+
+/// Training data in standardised units, row-major.
+#[derive(Debug, Clone, Copy)]
+pub struct Split<'a> {
+    /// Inputs, `rows × inputs`.
+    pub x: &'a [f32],
+    /// Targets, `rows × outputs`.
+    pub y: &'a [f32],
+}
+
+fn mse(pred: &[f32], y: &[f32]) -> f64 {
+    if y.is_empty() {
+        return 0.0;
+    }
+    pred.iter()
+        .zip(y)
+        .map(|(p, t)| f64::from(p - t).powi(2))
+        .sum::<f64>()
+        / y.len() as f64
+}
+
+/// Trains a network on `train`, early-stopping on `validation`; returns the best epoch's network
+/// (inference device) and the report. Deterministic for a given `seed` on the CPU backend.
+pub fn train(
+    settings: &NetSettings,
+    inputs: usize,
+    outputs: usize,
+    train: Split<'_>,
+    validation: Split<'_>,
+    seed: u64,
+    progress: Option<&ProgressBar>,
+) -> (Mlp, TrainReport) {
+    let device = Device::flex().autodiff();
+    device.seed(seed);
+    let mut model = Mlp::new(
+        inputs,
+        &settings.hidden,
+        outputs,
+        settings.activation,
+        &device,
+    );
+    let mut optim = AdamConfig::new().init();
+    let rows = train.y.len() / outputs;
+    let mut order: Vec<usize> = (0..rows).collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut best = (f64::INFINITY, 0usize, model.valid());
+    let mut report = TrainReport {
+        epochs: 0,
+        best_epoch: 0,
+        train_loss: Vec::new(),
+        validation_loss: Vec::new(),
+        stopped_early: false,
+    };
+    let (mut xb, mut yb) = (Vec::new(), Vec::new());
+    for epoch in 1..=settings.max_epochs {
+        order.shuffle(&mut rng);
+        let mut total = 0.0;
+        for batch in order.chunks(settings.batch_size) {
+            xb.clear();
+            yb.clear();
+            for &i in batch {
+                xb.extend_from_slice(&train.x[i * inputs..(i + 1) * inputs]);
+                yb.extend_from_slice(&train.y[i * outputs..(i + 1) * outputs]);
+            }
+            let x =
+                Tensor::<2>::from_data(TensorData::new(xb.clone(), [batch.len(), inputs]), &device);
+            let y = Tensor::<2>::from_data(
+                TensorData::new(yb.clone(), [batch.len(), outputs]),
+                &device,
+            );
+            let loss = (model.forward(x) - y).powi_scalar(2).mean();
+            let grads = loss.backward();
+            total += f64::from(loss.into_scalar::<f32>()) * batch.len() as f64;
+            let grads = GradientsParams::from_grads(grads, &model);
+            model = optim.step(settings.learning_rate, model, grads);
+        }
+        let current = model.valid();
+        let train_loss = total / rows.max(1) as f64;
+        // Without validation data, early stopping watches the training loss.
+        let val = if validation.y.is_empty() {
+            train_loss
+        } else {
+            mse(&current.predict(validation.x, inputs), validation.y)
+        };
+        report.epochs = epoch;
+        report.train_loss.push(train_loss);
+        report.validation_loss.push(val);
+        if let Some(bar) = progress {
+            bar.inc(1);
+        }
+        if val < best.0 {
+            best = (val, epoch, current);
+        } else if epoch - best.1 >= settings.patience {
+            report.stopped_early = epoch < settings.max_epochs;
+            break;
+        }
+    }
+    report.best_epoch = best.1;
+    (best.2, report)
+}

@@ -1,0 +1,696 @@
+//! Residual models over (joint angles, load) → position error per world axis: SOMM (one network
+//! per axis), MOSM (one network, three outputs) and CA-SOMM (a decision tree picks one of two
+//! per-axis model sets), with standardisation, training, and the saved form.
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::prelude::Device;
+use indicatif::ProgressBar;
+use linfa::prelude::*;
+use linfa_trees::DecisionTree;
+use ndarray::{Array1, Array2};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ResidualError, Result};
+use crate::mlp::{Mlp, NetSettings, Split, TrainReport, train};
+
+/// Version of the saved residual model (`residual.json`).
+pub const RESIDUAL_FORMAT: u32 = 1;
+
+/// Residual samples: one input row (joint angles in degrees, then the load in kg) and the
+/// position error (measured − kinematic prediction, mm, world X/Y/Z) per sample.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Samples {
+    /// Input rows, all of one length.
+    pub inputs: Vec<Vec<f64>>,
+    /// Errors, mm.
+    pub errors: Vec<[f64; 3]>,
+}
+
+impl Samples {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.errors.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.errors.is_empty()
+    }
+
+    fn subset(&self, keep: &[bool]) -> Self {
+        let pick = |i: &usize| keep[*i];
+        let idx: Vec<usize> = (0..self.len()).filter(pick).collect();
+        Self {
+            inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
+            errors: idx.iter().map(|&i| self.errors[i]).collect(),
+        }
+    }
+}
+
+/// Per-column mean and standard deviation from training data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Standardizer {
+    /// Column means.
+    pub mean: Vec<f64>,
+    /// Column standard deviations (1 where a column is constant).
+    pub std: Vec<f64>,
+}
+
+impl Standardizer {
+    /// Fits the columns of `rows`.
+    pub fn fit(rows: &[Vec<f64>]) -> Self {
+        let cols = rows.first().map_or(0, Vec::len);
+        let n = rows.len().max(1) as f64;
+        let mean: Vec<f64> = (0..cols)
+            .map(|c| rows.iter().map(|r| r[c]).sum::<f64>() / n)
+            .collect();
+        let std = (0..cols)
+            .map(|c| {
+                let v = rows.iter().map(|r| (r[c] - mean[c]).powi(2)).sum::<f64>() / n;
+                if v > 1e-24 { v.sqrt() } else { 1.0 }
+            })
+            .collect();
+        Self { mean, std }
+    }
+
+    fn forward(&self, row: &[f64], out: &mut Vec<f32>) {
+        for ((v, m), s) in row.iter().zip(&self.mean).zip(&self.std) {
+            out.push(((v - m) / s) as f32);
+        }
+    }
+
+    fn back(&self, col: usize, v: f32) -> f64 {
+        f64::from(v) * self.std[col] + self.mean[col]
+    }
+}
+
+/// One trained network with its scaling: inputs → the error on `axes`.
+#[derive(Debug, Clone)]
+pub struct AxisNet {
+    /// Which world axes (0 = X, 1 = Y, 2 = Z) the outputs are.
+    pub axes: Vec<usize>,
+    /// Its settings.
+    pub settings: NetSettings,
+    /// Input scaling.
+    pub input_scale: Standardizer,
+    /// Output scaling.
+    pub output_scale: Standardizer,
+    /// What training did.
+    pub report: TrainReport,
+    net: Mlp,
+}
+
+impl AxisNet {
+    fn inputs(&self) -> usize {
+        self.input_scale.mean.len()
+    }
+
+    fn fit(
+        axes: Vec<usize>,
+        settings: &NetSettings,
+        train_set: &Samples,
+        validation: &Samples,
+        seed: u64,
+        progress: Option<&ProgressBar>,
+    ) -> Self {
+        let input_scale = Standardizer::fit(&train_set.inputs);
+        let targets = |s: &Samples| -> Vec<Vec<f64>> {
+            s.errors
+                .iter()
+                .map(|e| axes.iter().map(|&a| e[a]).collect())
+                .collect()
+        };
+        let train_y = targets(train_set);
+        let output_scale = Standardizer::fit(&train_y);
+        let flat = |s: &Samples, y: &[Vec<f64>]| {
+            let (mut x, mut t) = (Vec::new(), Vec::new());
+            for row in &s.inputs {
+                input_scale.forward(row, &mut x);
+            }
+            for row in y {
+                output_scale.forward(row, &mut t);
+            }
+            (x, t)
+        };
+        let (tx, ty) = flat(train_set, &train_y);
+        let (vx, vy) = flat(validation, &targets(validation));
+        let (net, report) = train(
+            settings,
+            input_scale.mean.len(),
+            axes.len(),
+            Split { x: &tx, y: &ty },
+            Split { x: &vx, y: &vy },
+            seed,
+            progress,
+        );
+        Self {
+            axes,
+            settings: settings.clone(),
+            input_scale,
+            output_scale,
+            report,
+            net,
+        }
+    }
+
+    /// Adds this network's predictions (mm) for `inputs` into `out`.
+    fn predict_into(&self, inputs: &[Vec<f64>], out: &mut [[f64; 3]]) {
+        let mut x = Vec::with_capacity(inputs.len() * self.inputs());
+        for row in inputs {
+            self.input_scale.forward(row, &mut x);
+        }
+        let y = self.net.predict(&x, self.inputs());
+        let k = self.axes.len();
+        for (row, o) in y.chunks_exact(k).zip(out.iter_mut()) {
+            for (c, &axis) in self.axes.iter().enumerate() {
+                o[axis] = self.output_scale.back(c, row[c]);
+            }
+        }
+    }
+}
+
+/// Which residual model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ResidualKind {
+    /// One network per axis (the paper's SOMM-ANN).
+    Somm,
+    /// One network with three outputs (the paper's "traditional" MOSM-ANN baseline).
+    Mosm,
+    /// A classifier picks one of two SOMM sets (the paper's CA-SOMM-ANN).
+    CaSomm,
+}
+
+impl ResidualKind {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Somm => "somm",
+            Self::Mosm => "mosm",
+            Self::CaSomm => "ca-somm",
+        }
+    }
+}
+
+fn default_depth() -> usize {
+    3
+}
+fn default_leaf() -> usize {
+    66
+}
+fn default_axis() -> char {
+    'x'
+}
+
+/// The CA-SOMM classifier's settings (paper section V-B3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClassifierSettings {
+    /// The bimodal axis whose error splits the training set: `x`, `y` or `z`.
+    #[serde(default = "default_axis")]
+    pub axis: char,
+    /// Deepest tree.
+    #[serde(default = "default_depth")]
+    pub max_depth: usize,
+    /// Fewest training samples in a leaf.
+    #[serde(default = "default_leaf")]
+    pub min_samples_leaf: usize,
+}
+
+impl Default for ClassifierSettings {
+    fn default() -> Self {
+        Self {
+            axis: default_axis(),
+            max_depth: default_depth(),
+            min_samples_leaf: default_leaf(),
+        }
+    }
+}
+
+/// Everything that defines how a residual model is trained.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResidualSettings {
+    /// Which model.
+    pub kind: ResidualKind,
+    /// Per-axis networks (SOMM, and each CA-SOMM set).
+    pub axes: [NetSettings; 3],
+    /// The multi-output network (MOSM).
+    pub mosm: NetSettings,
+    /// The CA-SOMM classifier.
+    pub classifier: ClassifierSettings,
+    /// Seed of weight initialisation and batch order.
+    pub seed: u64,
+}
+
+impl ResidualSettings {
+    /// The paper's settings (Tables 2 and 3) for `kind`. The MOSM network has no published
+    /// architecture; it gets the Z network's (the largest tanh one) with three outputs.
+    pub fn paper(kind: ResidualKind, seed: u64) -> Self {
+        Self {
+            kind,
+            axes: [
+                NetSettings::paper_x(),
+                NetSettings::paper_y(),
+                NetSettings::paper_z(),
+            ],
+            mosm: NetSettings::paper_z(),
+            classifier: ClassifierSettings::default(),
+            seed,
+        }
+    }
+
+    /// Checks every setting the kind uses; the message names the field.
+    pub fn check(&self) -> Result<()> {
+        let fail = |key: &str, m: String| Err(ResidualError::Settings(format!("{key}.{m}")));
+        match self.kind {
+            ResidualKind::Mosm => {
+                if let Err(m) = self.mosm.check() {
+                    return fail("mosm", m);
+                }
+            }
+            _ => {
+                for (name, s) in ["x", "y", "z"].iter().zip(&self.axes) {
+                    if let Err(m) = s.check() {
+                        return fail(name, m);
+                    }
+                }
+            }
+        }
+        if self.kind == ResidualKind::CaSomm {
+            if !matches!(self.classifier.axis, 'x' | 'y' | 'z') {
+                return fail("classifier", "axis: must be x, y or z".into());
+            }
+            if self.classifier.max_depth == 0 {
+                return fail("classifier", "max_depth: must be at least 1".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The CA-SOMM gate: a decision tree on the inputs, and how its classes were made.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Classifier {
+    /// The split axis (0 = X).
+    pub axis: usize,
+    /// Training errors on that axis at or above this (mm) are class B, below class A.
+    pub threshold: f64,
+    /// The tree: inputs → 0 (A) or 1 (B).
+    pub tree: DecisionTree<f64, usize>,
+}
+
+impl Classifier {
+    /// Class of each input row (0 = A, 1 = B).
+    pub fn classify(&self, inputs: &[Vec<f64>]) -> Vec<usize> {
+        if inputs.is_empty() {
+            return Vec::new();
+        }
+        let cols = inputs[0].len();
+        let x = Array2::from_shape_fn((inputs.len(), cols), |(i, j)| inputs[i][j]);
+        self.tree.predict(&x).to_vec()
+    }
+
+    /// The true class of each sample, from its error.
+    pub fn truth(&self, samples: &Samples) -> Vec<usize> {
+        samples
+            .errors
+            .iter()
+            .map(|e| usize::from(e[self.axis] >= self.threshold))
+            .collect()
+    }
+
+    /// Fraction of samples whose predicted class is the true one.
+    pub fn accuracy(&self, samples: &Samples) -> f64 {
+        if samples.is_empty() {
+            return f64::NAN;
+        }
+        let hit = self
+            .classify(&samples.inputs)
+            .iter()
+            .zip(self.truth(samples))
+            .filter(|(p, t)| **p == *t)
+            .count();
+        hit as f64 / samples.len() as f64
+    }
+}
+
+/// Two-means in one dimension: the threshold between two groups that minimises the within-group
+/// sum of squares (every split of the sorted values is tried).
+pub fn two_means_threshold(values: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 2 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let total: f64 = v.iter().sum();
+    let total_sq: f64 = v.iter().map(|x| x * x).sum();
+    let (mut best, mut threshold) = (f64::INFINITY, None);
+    let (mut s, mut s2) = (0.0, 0.0);
+    for k in 1..n {
+        s += v[k - 1];
+        s2 += v[k - 1] * v[k - 1];
+        if v[k] == v[k - 1] {
+            continue;
+        }
+        let (m1, m2) = (k as f64, (n - k) as f64);
+        let sse = (s2 - s * s / m1) + ((total_sq - s2) - (total - s).powi(2) / m2);
+        if sse < best {
+            best = sse;
+            threshold = Some(0.5 * (v[k - 1] + v[k]));
+        }
+    }
+    threshold
+}
+
+/// A trained residual model.
+#[derive(Debug, Clone)]
+pub struct ResidualModel {
+    /// Which model.
+    pub kind: ResidualKind,
+    /// Length of an input row.
+    pub inputs: usize,
+    /// The networks: SOMM X, Y, Z; MOSM one; CA-SOMM A's X, Y, Z then B's.
+    pub nets: Vec<AxisNet>,
+    /// The CA-SOMM gate.
+    pub classifier: Option<Classifier>,
+}
+
+/// A model file's manifest entry for one network.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NetEntry {
+    file: String,
+    axes: Vec<usize>,
+    settings: NetSettings,
+    input_scale: Standardizer,
+    output_scale: Standardizer,
+    report: TrainReport,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    residual_format: u32,
+    kind: ResidualKind,
+    inputs: usize,
+    nets: Vec<NetEntry>,
+    classifier: Option<Classifier>,
+}
+
+/// Manifest file name inside a model directory.
+pub const MANIFEST: &str = "residual.json";
+
+impl ResidualModel {
+    /// Trains the model `settings` describe on `train_set`, early-stopping on `validation`.
+    /// `progress` advances by one per epoch of every network.
+    pub fn fit(
+        settings: &ResidualSettings,
+        train_set: &Samples,
+        validation: &Samples,
+        progress: Option<&ProgressBar>,
+    ) -> Result<Self> {
+        settings.check()?;
+        let inputs = match train_set.inputs.first() {
+            Some(r) => r.len(),
+            None => return Err(ResidualError::Data("no training samples".into())),
+        };
+        if train_set
+            .inputs
+            .iter()
+            .chain(&validation.inputs)
+            .any(|r| r.len() != inputs)
+        {
+            return Err(ResidualError::Data(
+                "input rows of different lengths".into(),
+            ));
+        }
+        let seed = settings.seed;
+        let somm = |set: &Samples, val: &Samples, offset: u64| -> Vec<AxisNet> {
+            (0..3)
+                .map(|a| {
+                    AxisNet::fit(
+                        vec![a],
+                        &settings.axes[a],
+                        set,
+                        val,
+                        seed.wrapping_add(offset + a as u64),
+                        progress,
+                    )
+                })
+                .collect()
+        };
+        let (nets, classifier) = match settings.kind {
+            ResidualKind::Somm => (somm(train_set, validation, 0), None),
+            ResidualKind::Mosm => (
+                vec![AxisNet::fit(
+                    vec![0, 1, 2],
+                    &settings.mosm,
+                    train_set,
+                    validation,
+                    seed,
+                    progress,
+                )],
+                None,
+            ),
+            ResidualKind::CaSomm => {
+                let c = &settings.classifier;
+                let axis = match c.axis {
+                    'y' => 1,
+                    'z' => 2,
+                    _ => 0,
+                };
+                let values: Vec<f64> = train_set.errors.iter().map(|e| e[axis]).collect();
+                let threshold = two_means_threshold(&values).ok_or_else(|| {
+                    ResidualError::Data(format!(
+                        "the {} error has fewer than two distinct values: nothing to classify",
+                        c.axis
+                    ))
+                })?;
+                let labels: Vec<usize> = values
+                    .iter()
+                    .map(|v| usize::from(*v >= threshold))
+                    .collect();
+                let x = Array2::from_shape_fn((train_set.len(), inputs), |(i, j)| {
+                    train_set.inputs[i][j]
+                });
+                let data = Dataset::new(x, Array1::from_vec(labels.clone()));
+                let tree = DecisionTree::params()
+                    .max_depth(Some(c.max_depth))
+                    .min_weight_leaf(c.min_samples_leaf as f32)
+                    .fit(&data)
+                    .map_err(|e| ResidualError::Data(format!("classifier: {e}")))?;
+                let classifier = Classifier {
+                    axis,
+                    threshold,
+                    tree,
+                };
+                let in_b: Vec<bool> = labels.iter().map(|l| *l == 1).collect();
+                let in_a: Vec<bool> = in_b.iter().map(|b| !b).collect();
+                let val_b: Vec<bool> = classifier
+                    .truth(validation)
+                    .iter()
+                    .map(|l| *l == 1)
+                    .collect();
+                let val_a: Vec<bool> = val_b.iter().map(|b| !b).collect();
+                for (name, keep) in [("A", &in_a), ("B", &in_b)] {
+                    if keep.iter().filter(|k| **k).count() < 2 {
+                        return Err(ResidualError::Data(format!(
+                            "class {name} has fewer than two training samples"
+                        )));
+                    }
+                }
+                let mut nets = somm(&train_set.subset(&in_a), &validation.subset(&val_a), 0);
+                nets.extend(somm(
+                    &train_set.subset(&in_b),
+                    &validation.subset(&val_b),
+                    10,
+                ));
+                (nets, Some(classifier))
+            }
+        };
+        Ok(Self {
+            kind: settings.kind,
+            inputs,
+            nets,
+            classifier,
+        })
+    }
+
+    /// Epochs the training of `settings` can take at most: the length of a progress bar.
+    pub fn max_epochs(settings: &ResidualSettings) -> u64 {
+        let axes: usize = settings.axes.iter().map(|s| s.max_epochs).sum();
+        (match settings.kind {
+            ResidualKind::Somm => axes,
+            ResidualKind::Mosm => settings.mosm.max_epochs,
+            ResidualKind::CaSomm => 2 * axes,
+        }) as u64
+    }
+
+    /// Predicted error (mm, world X/Y/Z) for each input row.
+    pub fn predict(&self, inputs: &[Vec<f64>]) -> Vec<[f64; 3]> {
+        let mut out = vec![[0.0; 3]; inputs.len()];
+        match &self.classifier {
+            None => {
+                for net in &self.nets {
+                    net.predict_into(inputs, &mut out);
+                }
+            }
+            Some(c) => {
+                let classes = c.classify(inputs);
+                for (class, nets) in self.nets.chunks(3).enumerate() {
+                    let keep: Vec<usize> =
+                        (0..inputs.len()).filter(|&i| classes[i] == class).collect();
+                    if keep.is_empty() {
+                        continue;
+                    }
+                    let rows: Vec<Vec<f64>> = keep.iter().map(|&i| inputs[i].clone()).collect();
+                    let mut part = vec![[0.0; 3]; rows.len()];
+                    for net in nets {
+                        net.predict_into(&rows, &mut part);
+                    }
+                    for (&i, p) in keep.iter().zip(part) {
+                        out[i] = p;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn net_file(&self, i: usize) -> String {
+        let axis = ["x", "y", "z"];
+        match self.kind {
+            ResidualKind::Somm => format!("residual-{}.bpk", axis[i]),
+            ResidualKind::Mosm => "residual-xyz.bpk".into(),
+            ResidualKind::CaSomm => {
+                format!("residual-{}-{}.bpk", ["a", "b"][i / 3], axis[i % 3])
+            }
+        }
+    }
+
+    /// Writes `residual.json` and one burn record per network into `dir` (an existing
+    /// directory; the caller makes the whole directory atomic).
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let io = |path: PathBuf| move |source| ResidualError::Io { path, source };
+        let mut entries = Vec::new();
+        for (i, net) in self.nets.iter().enumerate() {
+            let file = self.net_file(i);
+            let path = dir.join(&file);
+            net.net
+                .clone()
+                .save_file(&path)
+                .map_err(|e| ResidualError::Format {
+                    path: path.clone(),
+                    message: format!("cannot write the network: {e}"),
+                })?;
+            entries.push(NetEntry {
+                file,
+                axes: net.axes.clone(),
+                settings: net.settings.clone(),
+                input_scale: net.input_scale.clone(),
+                output_scale: net.output_scale.clone(),
+                report: net.report.clone(),
+            });
+        }
+        let manifest = Manifest {
+            residual_format: RESIDUAL_FORMAT,
+            kind: self.kind,
+            inputs: self.inputs,
+            nets: entries,
+            classifier: self.classifier.clone(),
+        };
+        let path = dir.join(MANIFEST);
+        let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(&path, text + "\n").map_err(io(path))
+    }
+
+    /// Reads a model written by [`Self::save`] from `dir`.
+    pub fn load(dir: &Path) -> Result<Self> {
+        let path = dir.join(MANIFEST);
+        let text = std::fs::read_to_string(&path).map_err(|source| ResidualError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let format = |message: String| ResidualError::Format {
+            path: path.clone(),
+            message,
+        };
+        let version: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| format(e.to_string()))?;
+        match version
+            .get("residual_format")
+            .and_then(serde_json::Value::as_u64)
+        {
+            Some(v) if v == u64::from(RESIDUAL_FORMAT) => {}
+            Some(v) => {
+                return Err(format(format!(
+                    "residual_format {v}: this robocal reads format {RESIDUAL_FORMAT}"
+                )));
+            }
+            None => return Err(format("no residual_format field".into())),
+        }
+        let m: Manifest = serde_json::from_value(version).map_err(|e| format(e.to_string()))?;
+        let expected = match m.kind {
+            ResidualKind::Somm => 3,
+            ResidualKind::Mosm => 1,
+            ResidualKind::CaSomm => 6,
+        };
+        if m.nets.len() != expected || (m.kind == ResidualKind::CaSomm) != m.classifier.is_some() {
+            return Err(format(format!(
+                "a {} model has {expected} networks{}",
+                m.kind.name(),
+                if m.kind == ResidualKind::CaSomm {
+                    " and a classifier"
+                } else {
+                    ""
+                }
+            )));
+        }
+        let device = Device::flex();
+        let mut nets = Vec::new();
+        for e in m.nets {
+            if e.input_scale.mean.len() != m.inputs
+                || e.output_scale.mean.len() != e.axes.len()
+                || e.axes.iter().any(|a| *a > 2)
+            {
+                return Err(format(format!(
+                    "{}: scaling does not fit the network",
+                    e.file
+                )));
+            }
+            let file = dir.join(&e.file);
+            let net = Mlp::new(
+                m.inputs,
+                &e.settings.hidden,
+                e.axes.len(),
+                e.settings.activation,
+                &device,
+            )
+            .try_load_file(&file)
+            .map_err(|err| ResidualError::Format {
+                path: file.clone(),
+                message: format!("cannot read the network: {err}"),
+            })?;
+            nets.push(AxisNet {
+                axes: e.axes,
+                settings: e.settings,
+                input_scale: e.input_scale,
+                output_scale: e.output_scale,
+                report: e.report,
+                net,
+            });
+        }
+        Ok(Self {
+            kind: m.kind,
+            inputs: m.inputs,
+            nets,
+            classifier: m.classifier,
+        })
+    }
+}

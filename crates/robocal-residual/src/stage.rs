@@ -1,0 +1,99 @@
+//! The residual stage of a stage config (`[residual]`), raw and validated.
+
+use serde::Deserialize;
+
+use crate::mlp::NetSettings;
+use crate::model::{ClassifierSettings, ResidualKind, ResidualSettings};
+
+/// `[residual]` as written. Absent networks get the paper's settings (Tables 2 and 3).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawResidualStage {
+    /// `"somm"`, `"mosm"` or `"ca-somm"`.
+    pub model: String,
+    /// Seed of initialisation, batch order and the validation hold-out.
+    pub seed: Option<u64>,
+    /// Share of the training configurations held out for early stopping when no `--validate`
+    /// file is given (whole configurations, every load of each), default 0.2.
+    pub holdout: Option<f64>,
+    /// The X network.
+    pub x: Option<NetSettings>,
+    /// The Y network.
+    pub y: Option<NetSettings>,
+    /// The Z network.
+    pub z: Option<NetSettings>,
+    /// The multi-output network (MOSM).
+    pub mosm: Option<NetSettings>,
+    /// The CA-SOMM classifier.
+    pub classifier: Option<ClassifierSettings>,
+}
+
+/// A validated residual stage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResidualStage {
+    /// Model settings.
+    pub settings: ResidualSettings,
+    /// Share of configurations held out for validation when no file is given.
+    pub holdout: f64,
+}
+
+/// Default seed of a residual stage.
+pub const DEFAULT_SEED: u64 = 2020;
+
+impl RawResidualStage {
+    /// Validates; errors name the key (`residual.x.learning_rate`, …).
+    pub fn validate(&self) -> Result<ResidualStage, (String, String)> {
+        let kind = match self.model.as_str() {
+            "somm" => ResidualKind::Somm,
+            "mosm" => ResidualKind::Mosm,
+            "ca-somm" => ResidualKind::CaSomm,
+            other => {
+                return Err((
+                    "residual.model".into(),
+                    format!(
+                        "`{other}` is not a residual model; use \"somm\", \"mosm\" or \"ca-somm\""
+                    ),
+                ));
+            }
+        };
+        let mut settings = ResidualSettings::paper(kind, self.seed.unwrap_or(DEFAULT_SEED));
+        for (slot, given) in settings.axes.iter_mut().zip([&self.x, &self.y, &self.z]) {
+            if let Some(s) = given {
+                *slot = s.clone();
+            }
+        }
+        if let Some(s) = &self.mosm {
+            settings.mosm = s.clone();
+        }
+        if let Some(c) = &self.classifier {
+            settings.classifier = c.clone();
+        }
+        let check = |key: &str, s: &NetSettings| {
+            s.check().map_err(|m| {
+                let (field, message) = m.split_once(": ").unwrap_or(("", m.as_str()));
+                (format!("residual.{key}.{field}"), message.to_string())
+            })
+        };
+        for (key, s) in ["x", "y", "z"].iter().zip(&settings.axes) {
+            check(key, s)?;
+        }
+        check("mosm", &settings.mosm)?;
+        if !matches!(settings.classifier.axis, 'x' | 'y' | 'z') {
+            return Err((
+                "residual.classifier.axis".into(),
+                "must be \"x\", \"y\" or \"z\"".into(),
+            ));
+        }
+        if settings.classifier.max_depth == 0 {
+            return Err((
+                "residual.classifier.max_depth".into(),
+                "must be at least 1".into(),
+            ));
+        }
+        let holdout = self.holdout.unwrap_or(0.2);
+        if !(holdout > 0.0 && holdout < 1.0) {
+            return Err(("residual.holdout".into(), "must lie between 0 and 1".into()));
+        }
+        Ok(ResidualStage { settings, holdout })
+    }
+}

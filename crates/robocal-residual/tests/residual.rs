@@ -1,0 +1,180 @@
+//! Residual learning on synthetic data with known answers.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use robocal_residual::{
+    Activation, NetSettings, ResidualKind, ResidualModel, ResidualSettings, Samples, Split,
+    two_means_threshold,
+};
+
+fn settings(hidden: Vec<usize>, lr: f64, epochs: usize) -> NetSettings {
+    NetSettings {
+        hidden,
+        activation: Activation::Tanh,
+        learning_rate: lr,
+        batch_size: 50,
+        max_epochs: epochs,
+        patience: 1000,
+    }
+}
+
+/// `n` rows of 7 inputs uniform in [-1, 1] with `f` of them as the error on all three axes.
+fn samples(n: usize, seed: u64, f: impl Fn(&[f64]) -> [f64; 3]) -> Samples {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let inputs: Vec<Vec<f64>> = (0..n)
+        .map(|_| (0..7).map(|_| rng.random_range(-1.0..1.0)).collect())
+        .collect();
+    let errors = inputs.iter().map(|r| f(r)).collect();
+    Samples { inputs, errors }
+}
+
+fn smooth(x: &[f64]) -> f64 {
+    x[0].sin() + 0.5 * x[1] * x[2] - 0.3 * x[3] * x[3] + 0.2 * (x[4] + x[5]).cos() + 0.1 * x[6]
+}
+
+fn rms(model: &ResidualModel, s: &Samples, axis: usize) -> f64 {
+    let p = model.predict(&s.inputs);
+    (p.iter()
+        .zip(&s.errors)
+        .map(|(p, e)| (p[axis] - e[axis]).powi(2))
+        .sum::<f64>()
+        / s.len() as f64)
+        .sqrt()
+}
+
+fn std_of(s: &Samples, axis: usize) -> f64 {
+    let n = s.len() as f64;
+    let m = s.errors.iter().map(|e| e[axis]).sum::<f64>() / n;
+    (s.errors.iter().map(|e| (e[axis] - m).powi(2)).sum::<f64>() / n).sqrt()
+}
+
+fn somm(axes: NetSettings, seed: u64) -> ResidualSettings {
+    ResidualSettings {
+        axes: [axes.clone(), axes.clone(), axes.clone()],
+        mosm: axes,
+        ..ResidualSettings::paper(ResidualKind::Somm, seed)
+    }
+}
+
+#[test]
+fn an_mlp_learns_a_smooth_function_of_seven_inputs() {
+    let f = |x: &[f64]| [smooth(x), 0.0, 0.0];
+    let (train, val, test) = (samples(800, 1, f), samples(200, 2, f), samples(300, 3, f));
+    let mut s = somm(settings(vec![32, 32], 5e-3, 80), 7);
+    s.kind = ResidualKind::Mosm;
+    s.mosm = settings(vec![32, 32], 5e-3, 80);
+    let model = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let (err, spread) = (rms(&model, &test, 0), std_of(&test, 0));
+    // Stated tolerance: held-out RMS error under 10 % of the target's spread.
+    assert!(err < 0.1 * spread, "rms {err} vs spread {spread}");
+}
+
+#[test]
+fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
+    let f = |x: &[f64]| [smooth(x), x[0] - x[1], 0.3 * x[2]];
+    let (train, val) = (samples(300, 4, f), samples(100, 5, f));
+    let s = somm(settings(vec![8, 8], 3e-3, 4), 11);
+    let a = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let b = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let (pa, pb) = (a.predict(&val.inputs), b.predict(&val.inputs));
+    assert_eq!(pa, pb, "same seed, same model");
+    let dir = tempfile::tempdir().unwrap();
+    a.save(dir.path()).unwrap();
+    let loaded = ResidualModel::load(dir.path()).unwrap();
+    let pl = loaded.predict(&val.inputs);
+    for (x, y) in pa.iter().flatten().zip(pl.iter().flatten()) {
+        assert_eq!(x.to_bits(), y.to_bits());
+    }
+    // A different seed gives a different model.
+    let c = ResidualModel::fit(&ResidualSettings { seed: 12, ..s }, &train, &val, None).unwrap();
+    assert_ne!(c.predict(&val.inputs), pa);
+}
+
+#[test]
+fn early_stopping_stops_and_keeps_the_best_epoch() {
+    // Validation targets are the negated training targets: the validation loss is lowest early
+    // and rises as the network learns the training data.
+    let train = samples(400, 6, |x| [smooth(x), 0.0, 0.0]);
+    let val = samples(100, 7, |x| [-smooth(x), 0.0, 0.0]);
+    let mut net = settings(vec![16], 1e-2, 60);
+    net.patience = 3;
+    let mut s = somm(net.clone(), 3);
+    s.kind = ResidualKind::Mosm;
+    s.mosm = net;
+    let model = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let r = &model.nets[0].report;
+    assert!(r.stopped_early, "{r:?}");
+    assert_eq!(r.epochs, r.best_epoch + 3);
+    let best = r
+        .validation_loss
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(r.validation_loss[r.best_epoch - 1], best);
+    // The model returned is the best epoch's: its validation loss (standardised MSE over all
+    // three outputs, recomputed here) equals the best recorded.
+    let net = &model.nets[0];
+    let p = model.predict(&val.inputs);
+    let mse: f64 = p
+        .iter()
+        .zip(&val.errors)
+        .map(|(p, e)| {
+            (0..3)
+                .map(|a| ((p[a] - e[a]) / net.output_scale.std[a]).powi(2))
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / (3 * val.len()) as f64;
+    assert!(
+        (mse - best).abs() < 1e-4 * best.max(1e-3),
+        "{mse} vs {best}"
+    );
+}
+
+#[test]
+fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
+    // X is bimodal: a jump of 2 where the third input passes 0.3, plus a smooth part.
+    let f = |x: &[f64]| {
+        let jump = if x[2] > 0.3 { 1.0 } else { -1.0 };
+        [jump + 0.3 * smooth(x), 0.2 * x[0], 0.1 * x[1]]
+    };
+    let (train, val, test) = (samples(1200, 8, f), samples(300, 9, f), samples(400, 10, f));
+    let t = two_means_threshold(&train.errors.iter().map(|e| e[0]).collect::<Vec<_>>()).unwrap();
+    assert!(t.abs() < 0.6, "the split falls between the modes: {t}");
+    let net = settings(vec![16, 16], 5e-3, 30);
+    let plain = ResidualModel::fit(&somm(net.clone(), 5), &train, &val, None).unwrap();
+    let mut s = somm(net, 5);
+    s.kind = ResidualKind::CaSomm;
+    let gated = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let classifier = gated.classifier.as_ref().unwrap();
+    let accuracy = classifier.accuracy(&test);
+    assert!(accuracy > 0.95, "classification accuracy {accuracy}");
+    let (e_plain, e_gated) = (rms(&plain, &test, 0), rms(&gated, &test, 0));
+    assert!(
+        e_gated < 0.8 * e_plain,
+        "CA-SOMM {e_gated} vs SOMM {e_plain}"
+    );
+    // Save and load keep the gate.
+    let dir = tempfile::tempdir().unwrap();
+    gated.save(dir.path()).unwrap();
+    let loaded = ResidualModel::load(dir.path()).unwrap();
+    assert_eq!(loaded.predict(&test.inputs), gated.predict(&test.inputs));
+}
+
+#[test]
+fn bad_settings_and_bad_files_are_refused() {
+    let train = samples(50, 1, |x| [x[0], 0.0, 0.0]);
+    let mut s = somm(settings(vec![0], 1e-3, 2), 1);
+    let err = ResidualModel::fit(&s, &train, &train, None).unwrap_err();
+    assert!(err.to_string().contains("x.hidden"), "{err}");
+    s.axes[0] = settings(vec![4], -1.0, 2);
+    let err = ResidualModel::fit(&s, &train, &train, None).unwrap_err();
+    assert!(err.to_string().contains("x.learning_rate"), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let err = ResidualModel::load(dir.path()).unwrap_err();
+    assert!(err.to_string().contains("residual.json"), "{err}");
+    std::fs::write(dir.path().join("residual.json"), "{\"residual_format\": 9}").unwrap();
+    let err = ResidualModel::load(dir.path()).unwrap_err();
+    assert!(err.to_string().contains("residual_format 9"), "{err}");
+    let _ = Split { x: &[], y: &[] };
+}
