@@ -24,6 +24,10 @@ doc:
 table4:
     cargo run --release -p robocal-ident --example paper_v_a
 
+# the paper's section V-B on the twin: GA/GB splits, SOMM / MOSM / CA-SOMM, Tables 5 and 6
+table5:
+    cargo run --release -p robocal-residual --example paper_v_b
+
 # the twin's error budget and how bimodal its residual is, beside the paper's (TWIN: a twin file)
 twin-budget twin="configs/twin/pmc6va030.toml":
     cargo run --release -p robocal-ident --example twin_budget -- {{twin}}
