@@ -1,0 +1,100 @@
+//! Residual-learning benchmarks on synthetic data of the paper's size (1680 samples × 7 inputs):
+//! training one axis network with the paper's settings for a fixed 200 epochs (target < 5 s),
+//! one sample through kinematics + three MLPs (target < 20 µs), and a batch of 10 000.
+
+use divan::{Bencher, black_box};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use robocal_residual::{NetSettings, ResidualKind, ResidualModel, ResidualSettings, Samples};
+use robocal_robot::Robot;
+
+fn main() {
+    divan::main();
+}
+
+fn samples(n: usize, seed: u64) -> Samples {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let inputs: Vec<Vec<f64>> = (0..n)
+        .map(|_| {
+            let mut r: Vec<f64> = (0..6).map(|_| rng.random_range(-90.0..90.0)).collect();
+            r.push(rng.random_range(0.0..20.0));
+            r
+        })
+        .collect();
+    let errors = inputs
+        .iter()
+        .map(|r| {
+            let s = (r[1].to_radians()).sin() * r[6] * 0.05;
+            [s, 0.1 * r[2].to_radians().cos(), -0.02 * r[6]]
+        })
+        .collect();
+    Samples { inputs, errors }
+}
+
+/// The paper's settings, every network trained for exactly 200 epochs (no early stop).
+fn fixed_epochs(kind: ResidualKind) -> ResidualSettings {
+    let mut s = ResidualSettings::paper(kind, 1);
+    for n in s.axes.iter_mut().chain(std::iter::once(&mut s.mosm)) {
+        n.patience = usize::MAX;
+    }
+    s
+}
+
+#[divan::bench(args = ["x", "y", "z"], sample_count = 3, sample_size = 1)]
+fn train_one_axis_1680x7_200_epochs(b: Bencher, axis: &str) {
+    let (train, val) = (samples(1680, 1), samples(336, 2));
+    let net = match axis {
+        "x" => NetSettings::paper_x(),
+        "y" => NetSettings::paper_y(),
+        _ => NetSettings::paper_z(),
+    };
+    let settings = ResidualSettings {
+        mosm: NetSettings {
+            patience: usize::MAX,
+            ..net
+        },
+        ..fixed_epochs(ResidualKind::Mosm)
+    };
+    b.bench_local(|| ResidualModel::fit(&settings, &train, &val, None).expect("fit"));
+}
+
+fn model() -> (Robot, ResidualModel) {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let robot = Robot::load(root.join("configs/robots/pmc6va030.toml")).expect("robot");
+    let mut settings = fixed_epochs(ResidualKind::Somm);
+    for n in &mut settings.axes {
+        n.max_epochs = 2;
+    }
+    let model =
+        ResidualModel::fit(&settings, &samples(400, 3), &samples(100, 4), None).expect("fit");
+    (robot, model)
+}
+
+#[divan::bench]
+fn predict_one_sample_kinematics_plus_somm(b: Bencher) {
+    let (robot, model) = model();
+    let input = vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]];
+    let q: Vec<f64> = input[0][..6].iter().map(|d: &f64| d.to_radians()).collect();
+    b.bench_local(|| {
+        let p = robot.point(black_box(&q));
+        let e = model.predict(black_box(&input))[0];
+        [p.x + e[0], p.y + e[1], p.z + e[2]]
+    });
+}
+
+#[divan::bench(sample_count = 20)]
+fn predict_batch_10000_kinematics_plus_somm(b: Bencher) {
+    let (robot, model) = model();
+    let inputs = samples(10_000, 5).inputs;
+    let qs: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|r| r[..6].iter().map(|d| d.to_radians()).collect())
+        .collect();
+    b.bench_local(|| {
+        let e = model.predict(black_box(&inputs));
+        qs.iter()
+            .zip(e)
+            .map(|(q, e)| robot.point(q).x + e[0])
+            .sum::<f64>()
+    });
+}
