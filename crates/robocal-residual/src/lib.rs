@@ -12,7 +12,7 @@ pub mod model;
 pub mod stage;
 
 pub use error::{ResidualError, Result};
-pub use mlp::{Activation, Mlp, NetSettings, Split, TrainReport, train};
+pub use mlp::{Activation, Dense, Mlp, NetSettings, Split, TrainReport, train};
 pub use model::{
     AxisNet, Classifier, ClassifierSettings, MANIFEST, RESIDUAL_FORMAT, ResidualKind,
     ResidualModel, ResidualSettings, Samples, Standardizer, two_means_threshold,

@@ -140,6 +140,27 @@ impl Mlp {
         x
     }
 
+    /// The weights as plain matrices, for [`Dense::forward`].
+    pub fn dense(&self) -> Dense {
+        let layers = self
+            .layers
+            .iter()
+            .map(|l| {
+                let w = l.weight.val();
+                let [inputs, outputs] = w.dims();
+                let w = w.into_data().try_to_vec::<f32>().unwrap_or_default();
+                let b = l.bias.as_ref().map_or(vec![0.0; outputs], |b| {
+                    b.val().into_data().try_to_vec::<f32>().unwrap_or_default()
+                });
+                (inputs, outputs, w, b)
+            })
+            .collect();
+        Dense {
+            layers,
+            activation: self.activation,
+        }
+    }
+
     /// Predictions for `rows` inputs stored row-major in `x`, row-major `rows × outputs`.
     pub fn predict(&self, x: &[f32], inputs: usize) -> Vec<f32> {
         let rows = x.len() / inputs.max(1);
@@ -152,6 +173,43 @@ impl Mlp {
             .into_data()
             .try_to_vec::<f32>()
             .unwrap_or_default()
+    }
+}
+
+/// A trained network's weights as plain row-major matrices: inference without burn's per-call
+/// tensor setup (one sample through three small networks in a few microseconds).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dense {
+    /// Per layer: inputs, outputs, weights (`inputs × outputs`, row-major), biases.
+    layers: Vec<(usize, usize, Vec<f32>, Vec<f32>)>,
+    activation: Activation,
+}
+
+impl Dense {
+    /// Forward pass of one input row; `out` receives the outputs.
+    pub fn forward(&self, x: &[f32], out: &mut Vec<f32>) {
+        let last = self.layers.len() - 1;
+        let mut current = x.to_vec();
+        for (k, (inputs, outputs, w, b)) in self.layers.iter().enumerate() {
+            let mut next = b.clone();
+            for (i, xi) in current.iter().enumerate().take(*inputs) {
+                let row = &w[i * outputs..(i + 1) * outputs];
+                for (n, wij) in next.iter_mut().zip(row) {
+                    *n += xi * wij;
+                }
+            }
+            if k < last {
+                for v in &mut next {
+                    *v = match self.activation {
+                        Activation::Tanh => v.tanh(),
+                        Activation::Relu => v.max(0.0),
+                    };
+                }
+            }
+            current = next;
+        }
+        out.clear();
+        out.extend_from_slice(&current);
     }
 }
 

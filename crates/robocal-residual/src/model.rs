@@ -13,7 +13,7 @@ use ndarray::{Array1, Array2};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
-use crate::mlp::{Mlp, NetSettings, Split, TrainReport, train};
+use crate::mlp::{Dense, Mlp, NetSettings, Split, TrainReport, train};
 
 /// Version of the saved residual model (`residual.json`).
 pub const RESIDUAL_FORMAT: u32 = 1;
@@ -100,6 +100,7 @@ pub struct AxisNet {
     /// What training did.
     pub report: TrainReport,
     net: Mlp,
+    dense: Dense,
 }
 
 impl AxisNet {
@@ -151,23 +152,39 @@ impl AxisNet {
             input_scale,
             output_scale,
             report,
+            dense: net.dense(),
             net,
         }
     }
 
-    /// Adds this network's predictions (mm) for `inputs` into `out`.
+    /// Writes this network's predictions (mm) for `inputs` into its axes of `out`.
     fn predict_into(&self, inputs: &[Vec<f64>], out: &mut [[f64; 3]]) {
-        let mut x = Vec::with_capacity(inputs.len() * self.inputs());
-        for row in inputs {
+        let (mut x, mut y) = (Vec::with_capacity(self.inputs()), Vec::new());
+        for (row, o) in inputs.iter().zip(out.iter_mut()) {
+            x.clear();
             self.input_scale.forward(row, &mut x);
-        }
-        let y = self.net.predict(&x, self.inputs());
-        let k = self.axes.len();
-        for (row, o) in y.chunks_exact(k).zip(out.iter_mut()) {
+            self.dense.forward(&x, &mut y);
             for (c, &axis) in self.axes.iter().enumerate() {
-                o[axis] = self.output_scale.back(c, row[c]);
+                o[axis] = self.output_scale.back(c, y[c]);
             }
         }
+    }
+
+    /// The burn network's own predictions in standardised units, row-major (what
+    /// [`Self::predict_standardised`] must agree with).
+    pub fn burn_forward(&self, x: &[f32]) -> Vec<f32> {
+        self.net.predict(x, self.inputs())
+    }
+
+    /// The plain-matrix forward pass in standardised units, row-major.
+    pub fn predict_standardised(&self, x: &[f32]) -> Vec<f32> {
+        let mut out = Vec::new();
+        let mut y = Vec::new();
+        for row in x.chunks_exact(self.inputs()) {
+            self.dense.forward(row, &mut y);
+            out.extend_from_slice(&y);
+        }
+        out
     }
 }
 
@@ -683,6 +700,7 @@ impl ResidualModel {
                 input_scale: e.input_scale,
                 output_scale: e.output_scale,
                 report: e.report,
+                dense: net.dense(),
                 net,
             });
         }

@@ -85,6 +85,17 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
     for (x, y) in pa.iter().flatten().zip(pl.iter().flatten()) {
         assert_eq!(x.to_bits(), y.to_bits());
     }
+    // The plain-matrix inference agrees with burn's forward pass.
+    for net in &a.nets {
+        let x: Vec<f32> = (0..70)
+            .map(|i| ((i * 37 % 23) as f32 - 11.0) / 7.0)
+            .collect();
+        let (dense, burn) = (net.predict_standardised(&x), net.burn_forward(&x));
+        assert_eq!(dense.len(), burn.len());
+        for (d, b) in dense.iter().zip(&burn) {
+            assert!((d - b).abs() <= 1e-5 * (1.0 + b.abs()), "{d} vs {b}");
+        }
+    }
     // A different seed gives a different model.
     let c = ResidualModel::fit(&ResidualSettings { seed: 12, ..s }, &train, &val, None).unwrap();
     assert_ne!(c.predict(&val.inputs), pa);
