@@ -13,7 +13,7 @@ use robocal_data::{ErrorStats, Measurement, MeasurementSet, write_dir_atomically
 use robocal_ident::{
     KinematicReport, KinematicSettings, Observations, RawKinematicStage, calibrate_kinematics,
 };
-use robocal_residual::{RawResidualStage, ResidualModel, ResidualStage, Samples};
+use robocal_residual::{RawResidualStage, ResidualModel, ResidualStage, Samples, SearchLog};
 use robocal_robot::Robot;
 use serde::{Deserialize, Serialize};
 
@@ -108,6 +108,8 @@ struct ResidualReport {
     /// CA-SOMM: share of rows the classifier puts in their true class.
     classifier_accuracy_training: Option<f64>,
     classifier_accuracy_validation: Option<f64>,
+    /// TPE searches that chose the settings (when the stage asked for one).
+    search: Vec<SearchLog>,
 }
 
 /// Trains the residual stage on every row of `set` (less a hold-out of whole configurations when
@@ -187,6 +189,7 @@ fn train_residual(
         validation_after: left(&val, &model.predict(&val.inputs)),
         classifier_accuracy_training: model.classifier.as_ref().map(|c| c.accuracy(&train)),
         classifier_accuracy_validation: model.classifier.as_ref().map(|c| c.accuracy(&val)),
+        search: model.search.clone(),
     };
     Ok((model, report))
 }

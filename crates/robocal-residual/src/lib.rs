@@ -5,10 +5,12 @@
 //! - [`model`]: SOMM (one network per world axis), MOSM (one three-output network) and CA-SOMM
 //!   (a linfa decision tree picks one of two SOMM sets), standardised inputs and outputs, and the
 //!   saved form (`residual.json` + one burn record per network).
+//! - [`search`]: TPE hyper-parameter search (layers, neurons, activation, learning rate).
 
 pub mod error;
 pub mod mlp;
 pub mod model;
+pub mod search;
 pub mod stage;
 
 pub use error::{ResidualError, Result};
@@ -17,4 +19,5 @@ pub use model::{
     AxisNet, Classifier, ClassifierSettings, MANIFEST, RESIDUAL_FORMAT, ResidualKind,
     ResidualModel, ResidualSettings, Samples, Standardizer, two_means_threshold,
 };
+pub use search::{SearchLog, SearchSettings, Trial, search};
 pub use stage::{DEFAULT_SEED, RawResidualStage, ResidualStage};

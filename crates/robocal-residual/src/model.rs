@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
 use crate::mlp::{Dense, Mlp, NetSettings, Split, TrainReport, train};
+use crate::search::{SearchLog, SearchSettings, search};
 
 /// Version of the saved residual model (`residual.json`).
 pub const RESIDUAL_FORMAT: u32 = 1;
@@ -257,6 +258,8 @@ pub struct ResidualSettings {
     pub mosm: NetSettings,
     /// The CA-SOMM classifier.
     pub classifier: ClassifierSettings,
+    /// A TPE search of each network's architecture and learning rate before training, if asked.
+    pub search: Option<SearchSettings>,
     /// Seed of weight initialisation and batch order.
     pub seed: u64,
 }
@@ -274,6 +277,7 @@ impl ResidualSettings {
             ],
             mosm: NetSettings::paper_z(),
             classifier: ClassifierSettings::default(),
+            search: None,
             seed,
         }
     }
@@ -294,6 +298,11 @@ impl ResidualSettings {
                     }
                 }
             }
+        }
+        if let Some(search) = &self.search
+            && let Err(m) = search.check()
+        {
+            return fail("search", m);
         }
         if self.kind == ResidualKind::CaSomm {
             if !matches!(self.classifier.axis, 'x' | 'y' | 'z') {
@@ -393,6 +402,8 @@ pub struct ResidualModel {
     pub nets: Vec<AxisNet>,
     /// The CA-SOMM gate.
     pub classifier: Option<Classifier>,
+    /// The hyper-parameter searches that chose the networks' settings (empty without search).
+    pub search: Vec<SearchLog>,
 }
 
 /// A model file's manifest entry for one network.
@@ -415,6 +426,8 @@ struct Manifest {
     inputs: usize,
     nets: Vec<NetEntry>,
     classifier: Option<Classifier>,
+    #[serde(default)]
+    search: Vec<SearchLog>,
 }
 
 /// Manifest file name inside a model directory.
@@ -445,6 +458,8 @@ impl ResidualModel {
             ));
         }
         let seed = settings.seed;
+        let (settings, search_logs) = Self::searched(settings, train_set, validation);
+        let settings = &settings;
         let somm = |set: &Samples, val: &Samples, offset: u64| -> Vec<AxisNet> {
             (0..3)
                 .map(|a| {
@@ -533,7 +548,58 @@ impl ResidualModel {
             inputs,
             nets,
             classifier,
+            search: search_logs,
         })
+    }
+
+    /// The settings after the TPE search `settings.search` asks for (each network searched on
+    /// the whole training set; CA-SOMM's two sets share the result), and the search logs.
+    fn searched(
+        settings: &ResidualSettings,
+        train_set: &Samples,
+        validation: &Samples,
+    ) -> (ResidualSettings, Vec<SearchLog>) {
+        let mut tuned = settings.clone();
+        let Some(s) = &settings.search else {
+            return (tuned, Vec::new());
+        };
+        let seed = settings.seed;
+        let score = |axes: Vec<usize>, offset: u64| {
+            move |ns: &NetSettings| {
+                let net =
+                    AxisNet::fit(axes.clone(), ns, train_set, validation, seed + offset, None);
+                net.report
+                    .validation_loss
+                    .iter()
+                    .copied()
+                    .fold(f64::INFINITY, f64::min)
+            }
+        };
+        let mut logs = Vec::new();
+        if settings.kind == ResidualKind::Mosm {
+            let (best, log) = search(
+                &settings.mosm,
+                s,
+                vec![0, 1, 2],
+                seed + 100,
+                score(vec![0, 1, 2], 0),
+            );
+            tuned.mosm = best;
+            logs.push(log);
+        } else {
+            for a in 0..3 {
+                let (best, log) = search(
+                    &settings.axes[a],
+                    s,
+                    vec![a],
+                    seed + 100 + a as u64,
+                    score(vec![a], a as u64),
+                );
+                tuned.axes[a] = best;
+                logs.push(log);
+            }
+        }
+        (tuned, logs)
     }
 
     /// Epochs the training of `settings` can take at most: the length of a progress bar.
@@ -618,6 +684,7 @@ impl ResidualModel {
             inputs: self.inputs,
             nets: entries,
             classifier: self.classifier.clone(),
+            search: self.search.clone(),
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
@@ -709,6 +776,7 @@ impl ResidualModel {
             inputs: m.inputs,
             nets,
             classifier: m.classifier,
+            search: m.search,
         })
     }
 }

@@ -4,6 +4,7 @@ use serde::Deserialize;
 
 use crate::mlp::NetSettings;
 use crate::model::{ClassifierSettings, ResidualKind, ResidualSettings};
+use crate::search::SearchSettings;
 
 /// `[residual]` as written. Absent networks get the paper's settings (Tables 2 and 3).
 #[derive(Debug, Clone, Deserialize)]
@@ -26,6 +27,8 @@ pub struct RawResidualStage {
     pub mosm: Option<NetSettings>,
     /// The CA-SOMM classifier.
     pub classifier: Option<ClassifierSettings>,
+    /// A TPE search of every network's architecture and learning rate before training.
+    pub search: Option<SearchSettings>,
 }
 
 /// A validated residual stage.
@@ -67,6 +70,13 @@ impl RawResidualStage {
         }
         if let Some(c) = &self.classifier {
             settings.classifier = c.clone();
+        }
+        if let Some(s) = &self.search {
+            s.check().map_err(|m| {
+                let (field, message) = m.split_once(": ").unwrap_or(("", m.as_str()));
+                (format!("residual.search.{field}"), message.to_string())
+            })?;
+            settings.search = Some(s.clone());
         }
         let check = |key: &str, s: &NetSettings| {
             s.check().map_err(|m| {

@@ -189,3 +189,40 @@ fn bad_settings_and_bad_files_are_refused() {
     assert!(err.to_string().contains("residual_format 9"), "{err}");
     let _ = Split { x: &[], y: &[] };
 }
+
+#[test]
+fn tpe_search_tries_the_asked_trials_within_bounds_and_keeps_the_best() {
+    let f = |x: &[f64]| [smooth(x), 0.0, 0.0];
+    let (train, val) = (samples(300, 21, f), samples(100, 22, f));
+    let mut s = somm(settings(vec![4], 1e-3, 5), 9);
+    s.kind = ResidualKind::Mosm;
+    s.mosm = settings(vec![4], 1e-3, 5);
+    s.search = Some(robocal_residual::SearchSettings {
+        trials: 5,
+        layers: [1, 3],
+        neurons: [4, 16],
+        learning_rate: [1e-3, 1e-2],
+    });
+    let a = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let b = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    assert_eq!(a.search, b.search, "seeded: the same trials");
+    let log = &a.search[0];
+    assert_eq!(log.trials.len(), 5);
+    for t in &log.trials {
+        assert!((1..=3).contains(&t.hidden.len()));
+        assert!(t.hidden.iter().all(|n| (4..=16).contains(n)));
+        assert!(t.learning_rate >= 1e-3 && t.learning_rate <= 1e-2);
+    }
+    let best = &log.trials[log.best];
+    assert!(
+        log.trials
+            .iter()
+            .all(|t| t.validation_loss >= best.validation_loss)
+    );
+    // The final network is trained with the best trial's settings, and the log is saved.
+    assert_eq!(a.nets[0].settings.hidden, best.hidden);
+    assert_eq!(a.nets[0].settings.learning_rate, best.learning_rate);
+    let dir = tempfile::tempdir().unwrap();
+    a.save(dir.path()).unwrap();
+    assert_eq!(ResidualModel::load(dir.path()).unwrap().search, a.search);
+}
