@@ -157,6 +157,12 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     let mut s = somm(net, 5);
     s.kind = ResidualKind::CaSomm;
     let gated = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let again = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    assert_eq!(
+        again.predict(&test.inputs),
+        gated.predict(&test.inputs),
+        "CA-SOMM training is deterministic too"
+    );
     let classifier = gated.classifier.as_ref().unwrap();
     let accuracy = classifier.accuracy(&test);
     assert!(accuracy > 0.95, "classification accuracy {accuracy}");
