@@ -323,25 +323,13 @@ pub fn run(
     let mut calibrated = cal.robot.clone();
     calibrated.name = format!("{} (calibrated by robocal)", nominal.name);
     let json = serde_json::to_string_pretty(&report)? + "\n";
-    let mut residual_error = None;
-    write_dir_atomically(out, |dir| {
+    write_dir_atomically(out, |dir| -> Result<()> {
         write_text_in(dir, out, "kinematics.toml", &calibrated.to_toml_string())?;
-        if let Some((model, _)) = &residual
-            && let Err(e) = model.save(dir)
-        {
-            // The directory is discarded; the residual error is reported below.
-            residual_error = Some(e);
-            return Err(robocal_data::DataError::Write {
-                path: out.to_path_buf(),
-                source: std::io::Error::other("the residual model could not be written"),
-            });
+        if let Some((model, _)) = &residual {
+            model.save(dir)?;
         }
-        write_text_in(dir, out, "report.json", &json)
-    })
-    .map_err(|e| {
-        residual_error
-            .take()
-            .map_or_else(|| anyhow!(e), |r| anyhow!(r))
+        write_text_in(dir, out, "report.json", &json)?;
+        Ok(())
     })?;
     Ok(())
 }

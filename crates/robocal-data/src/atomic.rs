@@ -38,8 +38,13 @@ pub fn write_atomically(
 
 /// Writes a whole directory atomically: `fill` writes into a fresh temporary directory beside
 /// `out`, which then replaces `out` (an existing `out` is moved aside and removed only after the
-/// new one is in place). When `fill` fails, `out` is left exactly as it was.
-pub fn write_dir_atomically(out: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+/// new one is in place). When `fill` fails, `out` is left exactly as it was. `fill` may fail with
+/// any error that a [`DataError`] converts into, so callers writing their own file kinds keep
+/// their own errors.
+pub fn write_dir_atomically<E: From<DataError>>(
+    out: &Path,
+    fill: impl FnOnce(&Path) -> std::result::Result<(), E>,
+) -> std::result::Result<(), E> {
     let err = |source| DataError::Write {
         path: out.to_path_buf(),
         source,
@@ -50,7 +55,7 @@ pub fn write_dir_atomically(out: &Path, fill: impl FnOnce(&Path) -> Result<()>) 
     };
     std::fs::create_dir_all(&parent).map_err(err)?;
     if out.exists() && !out.is_dir() {
-        return Err(err(std::io::Error::other("exists and is not a directory")));
+        return Err(err(std::io::Error::other("exists and is not a directory")).into());
     }
     let tmp = tempfile::Builder::new()
         .prefix(".robocal-")
@@ -68,12 +73,12 @@ pub fn write_dir_atomically(out: &Path, fill: impl FnOnce(&Path) -> Result<()>) 
             // Put the previous directory back before reporting.
             let _ = std::fs::rename(&old, out);
             let _ = std::fs::remove_dir_all(&new);
-            return Err(err(e));
+            return Err(err(e).into());
         }
         std::fs::remove_dir_all(&old).map_err(err)?;
     } else if let Err(e) = std::fs::rename(&new, out) {
         let _ = std::fs::remove_dir_all(&new);
-        return Err(err(e));
+        return Err(err(e).into());
     }
     Ok(())
 }

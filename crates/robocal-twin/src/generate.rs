@@ -83,11 +83,12 @@ impl TwinConfig {
     /// `README.md` into `out`, atomically.
     pub fn write_dataset(&self, out: &Path) -> Result<TwinDataset> {
         let data = self.generate()?;
-        write_dir_atomically(out, |dir| {
+        write_dir_atomically(out, |dir| -> Result<()> {
             data.measurements.write(dir.join("measurements.csv"))?;
             data.truth.write(dir.join("truth.csv"))?;
             write_text_in(dir, out, "grid.csv", &grid_csv(&data.design))?;
-            write_text_in(dir, out, "README.md", &self.readme(&data))
+            write_text_in(dir, out, "README.md", &self.readme(&data))?;
+            Ok(())
         })?;
         Ok(data)
     }
