@@ -79,19 +79,19 @@ impl NetSettings {
         }
     }
 
-    /// Checks the settings; the message names the field.
-    pub fn check(&self) -> Result<(), String> {
+    /// Checks the settings: the first bad one as (field, message).
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
         if self.hidden.contains(&0) {
-            return Err("hidden: every layer needs at least one neuron".into());
+            return Err(("hidden", "every layer needs at least one neuron".into()));
         }
         if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
-            return Err("learning_rate: must be a positive number".into());
+            return Err(("learning_rate", "must be a positive number".into()));
         }
         if self.batch_size == 0 {
-            return Err("batch_size: must be at least 1".into());
+            return Err(("batch_size", "must be at least 1".into()));
         }
         if self.max_epochs == 0 {
-            return Err("max_epochs: must be at least 1".into());
+            return Err(("max_epochs", "must be at least 1".into()));
         }
         Ok(())
     }

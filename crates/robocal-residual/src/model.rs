@@ -282,37 +282,38 @@ impl ResidualSettings {
         }
     }
 
-    /// Checks every setting the kind uses; the message names the field.
-    pub fn check(&self) -> Result<()> {
-        let fail = |key: &str, m: String| Err(ResidualError::Settings(format!("{key}.{m}")));
-        match self.kind {
-            ResidualKind::Mosm => {
-                if let Err(m) = self.mosm.check() {
-                    return fail("mosm", m);
-                }
-            }
-            _ => {
-                for (name, s) in ["x", "y", "z"].iter().zip(&self.axes) {
-                    if let Err(m) = s.check() {
-                        return fail(name, m);
-                    }
-                }
+    /// The first invalid setting as (key relative to `[residual]`, message), e.g.
+    /// (`x.learning_rate`, …); every network is checked, used by this kind or not.
+    pub fn invalid(&self) -> Option<(String, String)> {
+        let [x, y, z] = &self.axes;
+        for (name, s) in [("x", x), ("y", y), ("z", z), ("mosm", &self.mosm)] {
+            if let Err((field, m)) = s.check() {
+                return Some((format!("{name}.{field}"), m));
             }
         }
         if let Some(search) = &self.search
-            && let Err(m) = search.check()
+            && let Err((field, m)) = search.check()
         {
-            return fail("search", m);
+            return Some((format!("search.{field}"), m));
         }
-        if self.kind == ResidualKind::CaSomm {
-            if !matches!(self.classifier.axis, 'x' | 'y' | 'z') {
-                return fail("classifier", "axis: must be x, y or z".into());
-            }
-            if self.classifier.max_depth == 0 {
-                return fail("classifier", "max_depth: must be at least 1".into());
-            }
+        if !matches!(self.classifier.axis, 'x' | 'y' | 'z') {
+            return Some((
+                "classifier.axis".into(),
+                "must be \"x\", \"y\" or \"z\"".into(),
+            ));
         }
-        Ok(())
+        if self.classifier.max_depth == 0 {
+            return Some(("classifier.max_depth".into(), "must be at least 1".into()));
+        }
+        None
+    }
+
+    /// Checks every setting; the error names the key.
+    pub fn check(&self) -> Result<()> {
+        match self.invalid() {
+            Some((key, m)) => Err(ResidualError::Settings(format!("{key}: {m}"))),
+            None => Ok(()),
+        }
     }
 }
 

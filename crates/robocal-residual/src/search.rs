@@ -39,20 +39,20 @@ pub struct SearchSettings {
 }
 
 impl SearchSettings {
-    /// Checks the ranges; the message names the field.
-    pub fn check(&self) -> Result<(), String> {
+    /// Checks the ranges: the first bad one as (field, message).
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
         if self.trials == 0 {
-            return Err("trials: must be at least 1".into());
+            return Err(("trials", "must be at least 1".into()));
         }
         if self.layers[0] == 0 || self.layers[0] > self.layers[1] {
-            return Err("layers: needs 1 <= low <= high".into());
+            return Err(("layers", "needs 1 <= low <= high".into()));
         }
         if self.neurons[0] == 0 || self.neurons[0] > self.neurons[1] {
-            return Err("neurons: needs 1 <= low <= high".into());
+            return Err(("neurons", "needs 1 <= low <= high".into()));
         }
         let [lo, hi] = self.learning_rate;
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi) {
-            return Err("learning_rate: needs 0 < low < high".into());
+            return Err(("learning_rate", "needs 0 < low < high".into()));
         }
         Ok(())
     }

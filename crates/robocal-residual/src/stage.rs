@@ -71,34 +71,9 @@ impl RawResidualStage {
         if let Some(c) = &self.classifier {
             settings.classifier = c.clone();
         }
-        if let Some(s) = &self.search {
-            s.check().map_err(|m| {
-                let (field, message) = m.split_once(": ").unwrap_or(("", m.as_str()));
-                (format!("residual.search.{field}"), message.to_string())
-            })?;
-            settings.search = Some(s.clone());
-        }
-        let check = |key: &str, s: &NetSettings| {
-            s.check().map_err(|m| {
-                let (field, message) = m.split_once(": ").unwrap_or(("", m.as_str()));
-                (format!("residual.{key}.{field}"), message.to_string())
-            })
-        };
-        for (key, s) in ["x", "y", "z"].iter().zip(&settings.axes) {
-            check(key, s)?;
-        }
-        check("mosm", &settings.mosm)?;
-        if !matches!(settings.classifier.axis, 'x' | 'y' | 'z') {
-            return Err((
-                "residual.classifier.axis".into(),
-                "must be \"x\", \"y\" or \"z\"".into(),
-            ));
-        }
-        if settings.classifier.max_depth == 0 {
-            return Err((
-                "residual.classifier.max_depth".into(),
-                "must be at least 1".into(),
-            ));
+        settings.search = self.search.clone();
+        if let Some((key, message)) = settings.invalid() {
+            return Err((format!("residual.{key}"), message));
         }
         let holdout = self.holdout.unwrap_or(0.2);
         if !(holdout > 0.0 && holdout < 1.0) {
