@@ -30,7 +30,7 @@ table5:
 
 # the twin's error budget and how bimodal its residual is, beside the paper's (TWIN: a twin file)
 twin-budget twin="configs/twin/pmc6va030.toml":
-    cargo run --release -p robocal-ident --example twin_budget -- {{twin}}
+    cargo run --release -p robocal-residual --example twin_budget -- {{twin}}
 
 # regenerate the bundled twin dataset (a test checks it matches byte for byte)
 twin:

@@ -17,7 +17,7 @@ use robocal_residual::{RawResidualStage, ResidualModel, ResidualStage, Samples, 
 use robocal_robot::Robot;
 use serde::{Deserialize, Serialize};
 
-use super::model::{MODEL_FORMAT, Model, residual_inputs};
+use super::model::{MODEL_FORMAT, Model};
 
 /// A stage config as written (`--config FILE`).
 #[derive(Debug, Deserialize, Default)]
@@ -55,30 +55,6 @@ fn load_stages(path: Option<&Path>) -> Result<Stages> {
             .transpose()
             .map_err(key)?,
     })
-}
-
-/// Residual samples of `rows`: inputs (joints deg, load) and measured − kinematic error.
-fn residual_samples<'a>(robot: &Robot, rows: impl IntoIterator<Item = &'a Measurement>) -> Samples {
-    let mut samples = Samples::default();
-    for m in rows {
-        samples.inputs.push(residual_inputs(&m.sample));
-        let e = m.position - robot.point(&m.sample.joints_rad());
-        samples.errors.push([e.x, e.y, e.z]);
-    }
-    samples
-}
-
-/// Error norms left after subtracting `predicted` residuals.
-fn left(samples: &Samples, predicted: &[[f64; 3]]) -> ErrorStats {
-    let errors: Vec<f64> = samples
-        .errors
-        .iter()
-        .zip(predicted)
-        .map(|(e, p)| {
-            ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt()
-        })
-        .collect();
-    ErrorStats::from_errors(&errors)
 }
 
 /// One network's training, in the report.
@@ -123,8 +99,8 @@ fn train_residual(
     let seed = stage.settings.seed;
     let (train, val, source) = match validation {
         Some(v) => (
-            residual_samples(robot, &set.rows),
-            residual_samples(robot, &v.rows),
+            Samples::from_measurements(robot, &set.rows),
+            Samples::from_measurements(robot, &v.rows),
             format!("{}", v.source.display()),
         ),
         None => {
@@ -146,8 +122,8 @@ fn train_residual(
                 .iter()
                 .partition(|r| held.contains(r.sample.pose.as_str()));
             (
-                residual_samples(robot, t),
-                residual_samples(robot, v),
+                Samples::from_measurements(robot, t),
+                Samples::from_measurements(robot, v),
                 format!(
                     "{n} of {} configurations held out (seed {seed})",
                     poses.len()
@@ -165,7 +141,9 @@ fn train_residual(
     bar.set_message(stage.settings.kind.name());
     let model = ResidualModel::fit(&stage.settings, &train, &val, Some(&bar))?;
     bar.finish_and_clear();
-    let zero = |s: &Samples| vec![[0.0; 3]; s.len()];
+    let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
+        ErrorStats::from_errors(&s.remaining(predicted))
+    };
     let axes = |a: &[usize]| a.iter().map(|&i| ["x", "y", "z"][i]).collect::<String>();
     let report = ResidualReport {
         model: stage.settings.kind.name(),
@@ -183,10 +161,10 @@ fn train_residual(
                 stopped_early: n.report.stopped_early,
             })
             .collect(),
-        training_before: left(&train, &zero(&train)),
-        training_after: left(&train, &model.predict(&train.inputs)),
-        validation_before: left(&val, &zero(&val)),
-        validation_after: left(&val, &model.predict(&val.inputs)),
+        training_before: left(&train, None),
+        training_after: left(&train, Some(&model.predict(&train.inputs))),
+        validation_before: left(&val, None),
+        validation_after: left(&val, Some(&model.predict(&val.inputs))),
         classifier_accuracy_training: model.classifier.as_ref().map(|c| c.accuracy(&train)),
         classifier_accuracy_validation: model.classifier.as_ref().map(|c| c.accuracy(&val)),
         search: model.search.clone(),

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use nalgebra::Vector3;
 use robocal_data::Sample;
-use robocal_residual::{MANIFEST, ResidualModel};
+use robocal_residual::{MANIFEST, ResidualModel, inputs_of};
 use robocal_robot::Robot;
 use serde::Deserialize;
 
@@ -21,13 +21,6 @@ pub struct Model {
     pub robot: Robot,
     /// What the kinematics leave, learned (if a residual stage ran).
     pub residual: Option<ResidualModel>,
-}
-
-/// The residual model's input row for a sample: joint angles (deg), then the load (kg).
-pub fn residual_inputs(sample: &Sample) -> Vec<f64> {
-    let mut row = sample.joints.clone();
-    row.push(sample.load);
-    row
 }
 
 #[derive(Deserialize)]
@@ -101,7 +94,7 @@ impl Model {
             .map(|s| self.robot.point(&s.joints_rad()))
             .collect();
         if let Some(residual) = &self.residual {
-            let inputs: Vec<Vec<f64>> = samples.iter().map(|s| residual_inputs(s)).collect();
+            let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
             for (p, e) in points.iter_mut().zip(residual.predict(&inputs)) {
                 *p += Vector3::from(e);
             }

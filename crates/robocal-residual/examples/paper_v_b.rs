@@ -21,28 +21,11 @@ use robocal_twin::TwinConfig;
 const SEED: u64 = 2020;
 
 fn samples(robot: &Robot, rows: &[&Measurement]) -> Samples {
-    let mut s = Samples::default();
-    for m in rows {
-        let mut input = m.sample.joints.clone();
-        input.push(m.sample.load);
-        s.inputs.push(input);
-        let e = m.position - robot.point(&m.sample.joints_rad());
-        s.errors.push([e.x, e.y, e.z]);
-    }
-    s
+    Samples::from_measurements(robot, rows.iter().copied())
 }
 
 fn stats(s: &Samples, predicted: Option<&[[f64; 3]]>) -> ErrorStats {
-    let errors: Vec<f64> = s
-        .errors
-        .iter()
-        .enumerate()
-        .map(|(i, e)| {
-            let p = predicted.map_or([0.0; 3], |p| p[i]);
-            ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt()
-        })
-        .collect();
-    ErrorStats::from_errors(&errors)
+    ErrorStats::from_errors(&s.remaining(predicted))
 }
 
 fn row(label: &str, s: &ErrorStats, paper: &str) {

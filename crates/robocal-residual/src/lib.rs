@@ -17,7 +17,7 @@ pub use error::{ResidualError, Result};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Split, TrainReport, train};
 pub use model::{
     AxisNet, Classifier, ClassifierSettings, MANIFEST, RESIDUAL_FORMAT, ResidualKind,
-    ResidualModel, ResidualSettings, Samples, Standardizer, two_means_threshold,
+    ResidualModel, ResidualSettings, Samples, Standardizer, inputs_of, two_means_threshold,
 };
 pub use search::{SearchLog, SearchSettings, Trial, search};
 pub use stage::{DEFAULT_SEED, RawResidualStage, ResidualStage};

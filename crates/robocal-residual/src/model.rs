@@ -10,6 +10,8 @@ use indicatif::ProgressBar;
 use linfa::prelude::*;
 use linfa_trees::DecisionTree;
 use ndarray::{Array1, Array2};
+use robocal_data::{Measurement, Sample};
+use robocal_robot::Robot;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
@@ -29,7 +31,41 @@ pub struct Samples {
     pub errors: Vec<[f64; 3]>,
 }
 
+/// The residual model's input row for a sample: joint angles (deg), then the load (kg).
+pub fn inputs_of(sample: &Sample) -> Vec<f64> {
+    let mut row = sample.joints.clone();
+    row.push(sample.load);
+    row
+}
+
 impl Samples {
+    /// Residual samples of measured rows: inputs, and measured − `robot`'s predicted point.
+    pub fn from_measurements<'a>(
+        robot: &Robot,
+        rows: impl IntoIterator<Item = &'a Measurement>,
+    ) -> Self {
+        let mut samples = Self::default();
+        for m in rows {
+            samples.inputs.push(inputs_of(&m.sample));
+            let e = m.position - robot.point(&m.sample.joints_rad());
+            samples.errors.push([e.x, e.y, e.z]);
+        }
+        samples
+    }
+
+    /// Length of each sample's error left after subtracting `predicted` (`None`: the error
+    /// itself), mm.
+    pub fn remaining(&self, predicted: Option<&[[f64; 3]]>) -> Vec<f64> {
+        self.errors
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let p = predicted.map_or([0.0; 3], |p| p[i]);
+                ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt()
+            })
+            .collect()
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.errors.len()

@@ -10,30 +10,8 @@
 
 use robocal_data::ErrorStats;
 use robocal_ident::{KinematicSettings, Observations, calibrate_kinematics};
+use robocal_residual::two_means_threshold;
 use robocal_twin::{BacklashSide, TwinConfig};
-
-/// Two-means in one dimension: the threshold between two groups minimising the within-group
-/// sum of squares (exact: every split of the sorted values is tried).
-fn two_means(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let total: f64 = v.iter().sum();
-    let total_sq: f64 = v.iter().map(|x| x * x).sum();
-    let (mut best, mut threshold) = (f64::INFINITY, v[n / 2]);
-    let (mut s, mut s2) = (0.0, 0.0);
-    for k in 1..n {
-        s += v[k - 1];
-        s2 += v[k - 1] * v[k - 1];
-        let (m1, m2) = (k as f64, (n - k) as f64);
-        let sse = (s2 - s * s / m1) + ((total_sq - s2) - (total - s).powi(2) / m2);
-        if sse < best {
-            best = sse;
-            threshold = 0.5 * (v[k - 1] + v[k]);
-        }
-    }
-    threshold
-}
 
 /// A text histogram over mean ± 3 std, 24 bins.
 fn histogram(v: &[f64]) {
@@ -87,7 +65,7 @@ fn shape(label: &str, residual: &[[f64; 3]], side: &[bool], keep: &[bool]) {
             histogram(&v);
         }
         let (m, s) = mean_std(&v);
-        let t = two_means(&v);
+        let t = two_means_threshold(&v).unwrap_or(m);
         let (lo, hi): (Vec<f64>, Vec<f64>) = v.iter().partition(|&&x| x < t);
         let ((m1, s1), (m2, s2)) = (mean_std(&lo), mean_std(&hi));
         let d = std::f64::consts::SQRT_2 * (m2 - m1).abs() / (s1 * s1 + s2 * s2).sqrt();
