@@ -51,8 +51,9 @@ impl TwinConfig {
                     load,
                     line: 0,
                 };
-                let exact = self.true_point(&q, load).map(round6);
-                let noisy = self.measure(&q, load, &mut rng).map(round6);
+                let point = self.true_point(&q, load);
+                let exact = point.map(round6);
+                let noisy = self.add_noise(point, &mut rng).map(round6);
                 truth.push(Measurement {
                     sample: sample.clone(),
                     position: exact,

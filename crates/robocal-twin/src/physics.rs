@@ -70,9 +70,15 @@ impl TwinConfig {
 
     /// Joint deflection under gravity, rad: torque / stiffness; zero without a compliance model.
     pub fn compliance_deflection(&self, q: &[f64], load: f64) -> Vec<f64> {
+        self.deflection_with(q, load, &mut None)
+    }
+
+    /// [`Self::compliance_deflection`], with the gravity torques computed into (or taken from)
+    /// `torques`, so one evaluation serves compliance and torque-side backlash.
+    fn deflection_with(&self, q: &[f64], load: f64, torques: &mut Option<Vec<f64>>) -> Vec<f64> {
         match &self.compliance {
-            Some(c) => self
-                .gravity_torques(q, load)
+            Some(c) => torques
+                .get_or_insert_with(|| self.gravity_torques(q, load))
                 .iter()
                 .zip(&c.stiffness)
                 .map(|(t, k)| t / k)
@@ -99,8 +105,12 @@ impl TwinConfig {
     /// Backlash offset of every joint at reading `q` (rad) under `load` kg: a joint that has
     /// play rests on one flank, `+width/2` or `−width/2`, as its side rule says.
     pub fn backlash_offset(&self, q: &[f64], load: f64) -> Vec<f64> {
+        self.backlash_with(q, load, &mut None)
+    }
+
+    /// [`Self::backlash_offset`], sharing the gravity torques as [`Self::deflection_with`] does.
+    fn backlash_with(&self, q: &[f64], load: f64, torques: &mut Option<Vec<f64>>) -> Vec<f64> {
         let mut offset = vec![0.0; q.len()];
-        let mut torques = None;
         for b in &self.backlash {
             let positive = match b.side {
                 BacklashSide::Approach { home } => q[b.joint] >= home,
@@ -116,9 +126,10 @@ impl TwinConfig {
 
     /// The real joint angles for reading `q` (rad) under `load` kg.
     pub fn actual_joints(&self, q: &[f64], load: f64) -> Vec<f64> {
-        let deflection = self.compliance_deflection(q, load);
+        let mut torques = None;
+        let deflection = self.deflection_with(q, load, &mut torques);
         let gear = self.gear_error(q);
-        let backlash = self.backlash_offset(q, load);
+        let backlash = self.backlash_with(q, load, &mut torques);
         (0..q.len())
             .map(|i| q[i] + deflection[i] + gear[i] + backlash[i])
             .collect()
@@ -131,7 +142,11 @@ impl TwinConfig {
 
     /// A tracker measurement of the true point: noise as configured (or none).
     pub fn measure(&self, q: &[f64], load: f64, rng: &mut impl Rng) -> Vector3<f64> {
-        let p = self.true_point(q, load);
+        self.add_noise(self.true_point(q, load), rng)
+    }
+
+    /// What the tracker reads for the true point `p`: `p` plus noise as configured (or none).
+    pub fn add_noise(&self, p: Vector3<f64>, rng: &mut impl Rng) -> Vector3<f64> {
         match &self.noise {
             Some(noise) => {
                 let sigma = noise.sigma(p.norm());
