@@ -192,14 +192,10 @@ impl<'a> CalibrationProblem<'a> {
             / m
     }
 
-    /// Gradient of [`Self::mean_distance`]: `(1/m) Σ J_iᵀ r_i / |r_i|`; a point with a zero
-    /// residual (where the cost is not differentiable) contributes nothing.
-    pub fn mean_distance_gradient(&self, u: &[f64]) -> Vec<f64> {
-        self.mean_distance_and_gradient(u).1
-    }
-
-    /// [`Self::mean_distance`] and its gradient in one pass over the poses, each pose's 3 × P
-    /// Jacobian block written into one small buffer (no `3m × k` matrix is formed).
+    /// [`Self::mean_distance`] and its gradient `(1/m) Σ J_iᵀ r_i / |r_i|` in one pass over the
+    /// poses, each pose's 3 × P Jacobian block written into one small buffer (no `3m × k` matrix
+    /// is formed); a point with a zero residual (where the cost is not differentiable)
+    /// contributes nothing to the gradient.
     pub fn mean_distance_and_gradient(&self, u: &[f64]) -> (f64, Vec<f64>) {
         let robot = self.robot_at(u);
         let m = self.obs.len();
