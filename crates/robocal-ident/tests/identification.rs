@@ -321,3 +321,32 @@ fn bundled_twin_residual_is_bimodal_in_x_by_the_joint_4_flank() {
     let (z0, z1) = (stats(&groups[0], 2).0, stats(&groups[1], 2).0);
     assert!(x_split > 2.0 * (z1 - z0).abs(), "Z: {z0} vs {z1}");
 }
+
+/// The paper's cost and its analytic gradient (one pass, per-pose Jacobian blocks, scaled
+/// parameters) against the plain mean distance and central differences of it.
+#[test]
+fn mean_distance_gradient_matches_central_differences() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 5);
+    let obs = observe(&truth, &configs[..40], 0.0, 0);
+    let problem = CalibrationProblem::new(&nominal, (0..nominal.param_count()).collect(), &obs);
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    let u: Vec<f64> = (0..nominal.param_count())
+        .map(|_| rng.random_range(-1e-3..1e-3))
+        .collect();
+    let (cost, grad) = problem.mean_distance_and_gradient(&u);
+    assert!((cost - problem.mean_distance(&u)).abs() < 1e-12 * cost);
+    let h = 1e-6;
+    for k in 0..u.len() {
+        let (mut up, mut down) = (u.clone(), u.clone());
+        up[k] += h;
+        down[k] -= h;
+        let fd = (problem.mean_distance(&up) - problem.mean_distance(&down)) / (2.0 * h);
+        assert!(
+            (grad[k] - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+            "parameter {k}: analytic {} vs central difference {fd}",
+            grad[k]
+        );
+    }
+}
