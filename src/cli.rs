@@ -79,4 +79,14 @@ pub enum Command {
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
     },
+    /// Run an experiment: its data, split and models; write reports/<name>/ (report.md,
+    /// results.json, the resolved experiment, plots) and print the tables.
+    Run {
+        /// Experiment file (TOML), e.g. configs/experiments/paper.toml.
+        #[arg(value_name = "EXPERIMENT_TOML")]
+        experiment: PathBuf,
+        /// Folder for the report folder, instead of the experiment's `output` (default reports).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+    },
 }

@@ -4,57 +4,23 @@ use std::path::{Path, PathBuf};
 
 use std::collections::HashSet;
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, write_dir_atomically, write_text_in};
-use robocal_ident::{
-    KinematicReport, KinematicSettings, Observations, RawKinematicStage, calibrate_kinematics,
-};
-use robocal_residual::{RawResidualStage, ResidualModel, ResidualStage, Samples, SearchLog};
+use robocal_ident::{KinematicReport, Observations, calibrate_kinematics};
+use robocal_pipeline::Stages;
+use robocal_residual::{ResidualModel, ResidualStage, Samples, SearchLog};
 use robocal_robot::Robot;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::model::{MODEL_FORMAT, Model};
 
-/// A stage config as written (`--config FILE`).
-#[derive(Debug, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct RawStages {
-    kinematic: Option<RawKinematicStage>,
-    residual: Option<RawResidualStage>,
-}
-
-/// The validated stages.
-struct Stages {
-    kinematic: KinematicSettings,
-    residual: Option<ResidualStage>,
-}
-
-/// Reads and validates a stage config.
+/// Reads and validates a stage config (absent: the defaults).
 fn load_stages(path: Option<&Path>) -> Result<Stages> {
-    let Some(path) = path else {
-        return Ok(Stages {
-            kinematic: KinematicSettings::default(),
-            residual: None,
-        });
-    };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read the stage config", path.display()))?;
-    let raw: RawStages =
-        toml::from_str(&text).map_err(|e| anyhow!(robocal_robot::toml_error(path, &text, &e)))?;
-    let key =
-        |(key, message): (String, String)| anyhow!("{}: key `{key}`: {message}", path.display());
-    Ok(Stages {
-        kinematic: raw.kinematic.unwrap_or_default().validate().map_err(key)?,
-        residual: raw
-            .residual
-            .map(|r| r.validate())
-            .transpose()
-            .map_err(key)?,
-    })
+    Ok(path.map(Stages::load).transpose()?.unwrap_or_default())
 }
 
 /// One network's training, in the report.

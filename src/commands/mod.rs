@@ -4,6 +4,7 @@ mod calibrate;
 mod evaluate;
 mod model;
 mod predict;
+mod run;
 mod simulate;
 
 use anyhow::Result;
@@ -23,5 +24,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Predict { source, data, out } => predict::run(&source, &data, &out),
         Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
         Command::Simulate { twin, out } => simulate::run(&twin, &out),
+        Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
 }

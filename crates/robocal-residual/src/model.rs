@@ -284,7 +284,7 @@ impl Default for ClassifierSettings {
 }
 
 /// Everything that defines how a residual model is trained.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResidualSettings {
     /// Which model.
     pub kind: ResidualKind,

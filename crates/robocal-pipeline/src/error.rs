@@ -1,0 +1,61 @@
+//! Errors of the pipeline crate. Every variant names the file, and the key or line where there is
+//! one.
+
+use std::path::PathBuf;
+
+/// Everything that can stop an experiment or a stage config.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// A config file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        /// File at fault.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// A key has an unacceptable value (also: a value the data contradict).
+    #[error("{path}: key `{key}`: {message}")]
+    Key {
+        /// File at fault.
+        path: PathBuf,
+        /// Dotted key, e.g. `model[2].residual.x.learning_rate`.
+        key: String,
+        /// Why.
+        message: String,
+    },
+    /// A plot could not be drawn or written.
+    #[error("{path}: cannot draw the plot: {message}")]
+    Plot {
+        /// Output file.
+        path: PathBuf,
+        /// What the plotting library said.
+        message: String,
+    },
+    /// A robot table is bad (or a TOML file does not parse).
+    #[error(transparent)]
+    Robot(#[from] robocal_robot::RobotError),
+    /// A measurement file is bad, or an output could not be written.
+    #[error(transparent)]
+    Data(#[from] robocal_data::DataError),
+    /// A twin description is bad.
+    #[error(transparent)]
+    Twin(#[from] robocal_twin::TwinError),
+    /// Kinematic identification failed.
+    #[error(transparent)]
+    Ident(#[from] robocal_ident::IdentError),
+    /// Residual learning failed.
+    #[error(transparent)]
+    Residual(#[from] robocal_residual::ResidualError),
+}
+
+/// Result of the pipeline crate.
+pub type Result<T> = std::result::Result<T, PipelineError>;
+
+/// Reads a config file as text, naming it when that fails.
+pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| PipelineError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
+}

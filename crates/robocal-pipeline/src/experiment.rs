@@ -1,0 +1,423 @@
+//! Experiment files (`robocal run EXPERIMENT.toml`): parsed raw (unknown keys refused) and
+//! validated once into an [`Experiment`], errors naming the key.
+//!
+//! Paths inside the file are relative to the file's folder; the output folder is relative to the
+//! working directory (default `reports`, the report going to `<output>/<name>/`).
+
+use std::path::{Path, PathBuf};
+
+use robocal_ident::SolverKind;
+use robocal_residual::ResidualKind;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{PipelineError, Result, read_text};
+use crate::stages::{RawStages, Stages};
+
+/// An experiment file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawExperiment {
+    /// Name of the experiment and of its report folder (letters, digits, `-`, `_`, `.`).
+    pub name: String,
+    /// One line on what it shows, printed at the top of the report.
+    pub description: Option<String>,
+    /// Seed of the split and, unless a stage gives its own, of the residual models (default 2020).
+    pub seed: Option<u64>,
+    /// Folder the report folder goes into (default `reports`, relative to the working directory).
+    pub output: Option<PathBuf>,
+    /// Where the measurements come from.
+    pub data: RawData,
+    /// The split design (section IV-E of the paper).
+    pub split: Option<RawSplit>,
+    /// The models to build and compare, each a kinematic stage and an optional residual stage.
+    #[serde(default, rename = "model")]
+    pub models: Vec<RawModel>,
+    /// Which model fills which paper table.
+    pub tables: Option<RawTables>,
+}
+
+/// `[data]` as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawData {
+    /// A twin description: measurements are generated from it in memory (unless `measurements`
+    /// is given), and its truth fills Table 4.
+    pub twin: Option<PathBuf>,
+    /// The nominal robot table (default: the twin's).
+    pub robot: Option<PathBuf>,
+    /// A measurement CSV (default: generated from the twin).
+    pub measurements: Option<PathBuf>,
+}
+
+/// `[split]` as written.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawSplit {
+    /// Configurations drawn (by the seed) for training; the rest are untrained (paper: 112).
+    pub trained_configurations: Option<usize>,
+    /// Loads never trained on (default: the twin's `[loads] untrained`; required without a twin).
+    pub untrained_loads: Option<Vec<f64>>,
+    /// Trained loads (drawn by the seed) whose untrained-configuration rows validate: GB20
+    /// (paper: 6).
+    pub validation_loads: Option<usize>,
+    /// Load of the rows the kinematic stage fits (default: the lightest trained load).
+    pub kinematic_load: Option<f64>,
+}
+
+/// `[[model]]` as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawModel {
+    /// Name in tables and plots, unique in the experiment.
+    pub name: String,
+    /// `[model.kinematic]`, as in a stage config (absent: LM, every parameter).
+    pub kinematic: Option<robocal_ident::RawKinematicStage>,
+    /// `[model.residual]`, as in a stage config (absent: none).
+    pub residual: Option<robocal_residual::RawResidualStage>,
+}
+
+/// `[tables]` as written.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawTables {
+    /// The model whose train/validation/test errors fill Table 5 (default: the first SOMM model
+    /// on a BFGS kinematic stage, else the first SOMM model).
+    pub table5: Option<String>,
+}
+
+/// Where the data come from, paths resolved.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DataSource {
+    /// Twin description.
+    pub twin: Option<PathBuf>,
+    /// Nominal robot table.
+    pub robot: Option<PathBuf>,
+    /// Measurement CSV.
+    pub measurements: Option<PathBuf>,
+}
+
+/// The split design; sizes are checked against the data when it runs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SplitDesign {
+    /// Trained configurations.
+    pub trained_configurations: usize,
+    /// Untrained loads (`None`: the twin's).
+    pub untrained_loads: Option<Vec<f64>>,
+    /// Validation loads drawn from the trained ones.
+    pub validation_loads: usize,
+    /// Load of the kinematic rows (`None`: the lightest trained load).
+    pub kinematic_load: Option<f64>,
+}
+
+/// One model to build: its stages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelPlan {
+    /// Name in tables and plots.
+    pub name: String,
+    /// Kinematic, then residual.
+    pub stages: Stages,
+}
+
+impl ModelPlan {
+    /// The paper's Table 6 row this model corresponds to, if any (mean, std, max in mm).
+    pub fn paper_row(&self) -> Option<(&'static str, [f64; 3])> {
+        crate::paper::table6_row(
+            self.stages.kinematic.solver,
+            self.stages.residual.as_ref().map(|r| r.settings.kind),
+        )
+    }
+}
+
+/// A validated experiment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Experiment {
+    /// The file it came from.
+    pub source: PathBuf,
+    /// Name (and report folder).
+    pub name: String,
+    /// What it shows.
+    pub description: Option<String>,
+    /// Seed of the split (and of residual models without their own).
+    pub seed: u64,
+    /// Folder the report folder goes into.
+    pub output: PathBuf,
+    /// Where the data come from.
+    pub data: DataSource,
+    /// The split design.
+    pub split: SplitDesign,
+    /// Models in the order they are built and shown.
+    pub models: Vec<ModelPlan>,
+    /// Index into `models` of the Table 5 model.
+    pub table5: Option<usize>,
+}
+
+/// Default seed of an experiment.
+pub const DEFAULT_SEED: u64 = 2020;
+
+fn key(path: &Path, key: impl Into<String>, message: impl Into<String>) -> PipelineError {
+    PipelineError::Key {
+        path: path.to_path_buf(),
+        key: key.into(),
+        message: message.into(),
+    }
+}
+
+/// `a/b/../c` → `a/c`, lexically (no file system access); leading `..` are kept.
+fn tidy(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out: Vec<Component<'_>> = Vec::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.last(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    if out.is_empty() {
+        PathBuf::from(".")
+    } else {
+        out.iter().collect()
+    }
+}
+
+impl Experiment {
+    /// Reads and validates an experiment file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = read_text(path)?;
+        let raw: RawExperiment =
+            toml::from_str(&text).map_err(|e| robocal_robot::toml_error(path, &text, &e))?;
+        raw.validate(path)
+    }
+}
+
+impl RawExperiment {
+    /// Validates into an experiment; `path` is the file (relative paths resolve against its
+    /// folder, errors name it).
+    pub fn validate(&self, path: &Path) -> Result<Experiment> {
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let resolve = |p: &Option<PathBuf>| p.as_ref().map(|p| tidy(&folder.join(p)));
+        let name_ok = !self.name.is_empty()
+            && !self.name.starts_with('.')
+            && self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+        if !name_ok {
+            return Err(key(
+                path,
+                "name",
+                format!(
+                    "`{}` cannot name a report folder; use letters, digits, `-`, `_` and `.`",
+                    self.name
+                ),
+            ));
+        }
+        let seed = self.seed.unwrap_or(DEFAULT_SEED);
+        let data = DataSource {
+            twin: resolve(&self.data.twin),
+            robot: resolve(&self.data.robot),
+            measurements: resolve(&self.data.measurements),
+        };
+        if data.twin.is_none() && (data.robot.is_none() || data.measurements.is_none()) {
+            return Err(key(
+                path,
+                "data",
+                "give a `twin`, or a `robot` and its `measurements`",
+            ));
+        }
+        let split = self.split.clone().unwrap_or_default();
+        if data.twin.is_none() && split.untrained_loads.is_none() {
+            return Err(key(
+                path,
+                "split.untrained_loads",
+                "required when the data do not come from a twin (list them, or `[]` for none)",
+            ));
+        }
+        let design = SplitDesign {
+            trained_configurations: split.trained_configurations.unwrap_or(112),
+            untrained_loads: split.untrained_loads.clone(),
+            validation_loads: split.validation_loads.unwrap_or(6),
+            kinematic_load: split.kinematic_load,
+        };
+        if design.trained_configurations == 0 {
+            return Err(key(
+                path,
+                "split.trained_configurations",
+                "must be at least 1",
+            ));
+        }
+        if design.validation_loads == 0 {
+            return Err(key(path, "split.validation_loads", "must be at least 1"));
+        }
+        if let Some(loads) = &design.untrained_loads
+            && let Some(l) = loads.iter().find(|l| !(l.is_finite() && **l >= 0.0))
+        {
+            return Err(key(
+                path,
+                "split.untrained_loads",
+                format!("{l} is not a load (kg, finite, not negative)"),
+            ));
+        }
+        if let Some(l) = design.kinematic_load
+            && !(l.is_finite() && l >= 0.0)
+        {
+            return Err(key(
+                path,
+                "split.kinematic_load",
+                "must be a finite load, not negative (kg)",
+            ));
+        }
+        if self.models.is_empty() {
+            return Err(key(
+                path,
+                "model",
+                "lists no model; add at least one [[model]] with a name",
+            ));
+        }
+        let mut models: Vec<ModelPlan> = Vec::new();
+        for (i, m) in self.models.iter().enumerate() {
+            let at = format!("model[{}]", i + 1);
+            if m.name.trim().is_empty() {
+                return Err(key(path, format!("{at}.name"), "is empty"));
+            }
+            if models.iter().any(|o| o.name == m.name) {
+                return Err(key(
+                    path,
+                    format!("{at}.name"),
+                    format!("`{}` names two models", m.name),
+                ));
+            }
+            let stages = RawStages {
+                kinematic: m.kinematic.clone(),
+                residual: m.residual.clone(),
+            }
+            .validate(Some(seed))
+            .map_err(|(k, message)| key(path, format!("{at}.{k}"), message))?;
+            models.push(ModelPlan {
+                name: m.name.clone(),
+                stages,
+            });
+        }
+        let is_somm = |m: &ModelPlan| {
+            m.stages.residual.as_ref().map(|r| r.settings.kind) == Some(ResidualKind::Somm)
+        };
+        let table5 = match self.tables.as_ref().and_then(|t| t.table5.as_ref()) {
+            Some(name) => Some(models.iter().position(|m| &m.name == name).ok_or_else(|| {
+                key(
+                    path,
+                    "tables.table5",
+                    format!("no [[model]] is named `{name}`"),
+                )
+            })?),
+            None => models
+                .iter()
+                .position(|m| is_somm(m) && m.stages.kinematic.solver == SolverKind::Bfgs)
+                .or_else(|| models.iter().position(is_somm)),
+        };
+        Ok(Experiment {
+            source: path.to_path_buf(),
+            name: self.name.clone(),
+            description: self.description.clone(),
+            seed,
+            output: self
+                .output
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("reports")),
+            data,
+            split: design,
+            models,
+            table5,
+        })
+    }
+}
+
+/// The experiment as it ran, every default filled in: written beside the report.
+#[derive(Debug, Serialize)]
+pub struct Resolved<'a> {
+    /// Name.
+    pub name: &'a str,
+    /// Seed of the split.
+    pub seed: u64,
+    /// The experiment file.
+    pub source: &'a Path,
+    /// Data source.
+    pub data: &'a DataSource,
+    /// Split design (untrained loads and kinematic load as used).
+    pub split: ResolvedSplit,
+    /// Every model's stages.
+    pub model: Vec<ResolvedModel<'a>>,
+}
+
+/// The split as used.
+#[derive(Debug, Serialize)]
+pub struct ResolvedSplit {
+    /// Trained configurations.
+    pub trained_configurations: usize,
+    /// Untrained loads, kg.
+    pub untrained_loads: Vec<f64>,
+    /// Validation loads drawn from the trained ones.
+    pub validation_loads: usize,
+    /// Load of the kinematic rows, kg.
+    pub kinematic_load: f64,
+}
+
+/// One model's stages as used.
+#[derive(Debug, Serialize)]
+pub struct ResolvedModel<'a> {
+    /// Name.
+    pub name: &'a str,
+    /// Kinematic stage.
+    pub kinematic: ResolvedKinematic<'a>,
+    /// Residual stage.
+    pub residual: Option<&'a robocal_residual::ResidualSettings>,
+    /// Residual hold-out share (unused by experiments, which validate on GB20).
+    pub residual_holdout: Option<f64>,
+}
+
+/// A kinematic stage as used.
+#[derive(Debug, Serialize)]
+pub struct ResolvedKinematic<'a> {
+    /// `lm` or `bfgs`.
+    pub solver: &'static str,
+    /// Parameters identified (`None`: all identifiable).
+    pub parameters: Option<&'a [String]>,
+    /// Iteration limit.
+    pub max_iterations: u64,
+    /// Rank tolerance of the identifiability analysis.
+    pub rank_tolerance: f64,
+}
+
+impl Experiment {
+    /// The resolved form, given the untrained and kinematic loads the split settled on.
+    pub fn resolved(&self, untrained_loads: Vec<f64>, kinematic_load: f64) -> Resolved<'_> {
+        Resolved {
+            name: &self.name,
+            seed: self.seed,
+            source: &self.source,
+            data: &self.data,
+            split: ResolvedSplit {
+                trained_configurations: self.split.trained_configurations,
+                untrained_loads,
+                validation_loads: self.split.validation_loads,
+                kinematic_load,
+            },
+            model: self
+                .models
+                .iter()
+                .map(|m| ResolvedModel {
+                    name: &m.name,
+                    kinematic: ResolvedKinematic {
+                        solver: m.stages.kinematic.solver.name(),
+                        parameters: m.stages.kinematic.parameters.as_deref(),
+                        max_iterations: m.stages.kinematic.max_iterations,
+                        rank_tolerance: m.stages.kinematic.rank_tolerance,
+                    },
+                    residual: m.stages.residual.as_ref().map(|r| &r.settings),
+                    residual_holdout: m.stages.residual.as_ref().map(|r| r.holdout),
+                })
+                .collect(),
+        }
+    }
+}

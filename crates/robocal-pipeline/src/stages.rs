@@ -1,0 +1,66 @@
+//! Stage configs (`robocal calibrate --config FILE`, and each `[[model]]` of an experiment): the
+//! kinematic stage, then an optional residual stage, raw and validated.
+
+use std::path::Path;
+
+use robocal_ident::{KinematicSettings, RawKinematicStage};
+use robocal_residual::{RawResidualStage, ResidualStage};
+use serde::Deserialize;
+
+use crate::error::{PipelineError, Result, read_text};
+
+/// A stage config as written.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawStages {
+    /// `[kinematic]`; absent: the defaults (LM, every parameter).
+    pub kinematic: Option<RawKinematicStage>,
+    /// `[residual]`; absent: no residual model.
+    pub residual: Option<RawResidualStage>,
+}
+
+/// Validated stages, in the order they run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Stages {
+    /// Kinematic identification.
+    pub kinematic: KinematicSettings,
+    /// Residual learning on what the kinematics leave, if any.
+    pub residual: Option<ResidualStage>,
+}
+
+impl RawStages {
+    /// Validates; errors give the key relative to the stage table (`kinematic.solver`,
+    /// `residual.x.learning_rate`). `seed` is the residual seed when the stage gives none.
+    pub fn validate(&self, seed: Option<u64>) -> std::result::Result<Stages, (String, String)> {
+        let kinematic = self.kinematic.clone().unwrap_or_default().validate()?;
+        let residual = match &self.residual {
+            None => None,
+            Some(raw) => {
+                let mut stage = raw.validate()?;
+                if let (None, Some(seed)) = (raw.seed, seed) {
+                    stage.settings.seed = seed;
+                }
+                Some(stage)
+            }
+        };
+        Ok(Stages {
+            kinematic,
+            residual,
+        })
+    }
+}
+
+impl Stages {
+    /// Reads and validates a stage config file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = read_text(path)?;
+        let raw: RawStages =
+            toml::from_str(&text).map_err(|e| robocal_robot::toml_error(path, &text, &e))?;
+        raw.validate(None)
+            .map_err(|(key, message)| PipelineError::Key {
+                path: path.to_path_buf(),
+                key,
+                message,
+            })
+    }
+}
