@@ -20,13 +20,26 @@ bench:
 doc:
     cargo doc --workspace --no-deps
 
-# the paper's section V-A on the twin: Table 4, before/after, cross-validation, error vs load
-table4:
-    cargo run --release -p robocal-ident --example paper_v_a
+# the main job: the paper's sections V-A and V-B on the bundled twin, every table and figure,
+# report in reports/paper/ (the README's first command)
+reproduce:
+    cargo run --release -- run configs/experiments/paper.toml
 
-# the paper's section V-B on the twin: GA/GB splits, SOMM / MOSM / CA-SOMM, Tables 5 and 6
+# section V-A: Table 4, before/after kinematic calibration, cross-validation (reports/table4/)
+table4:
+    cargo run --release -- run configs/experiments/table4.toml
+
+# Table 5: BFGS + SOMM on training, validation and test (reports/table5/)
 table5:
-    cargo run --release -p robocal-residual --example paper_v_b
+    cargo run --release -- run configs/experiments/table5.toml
+
+# Table 6: before, BFGS, BFGS + SOMM, BFGS + CA-SOMM on the 840 GB10 + GB30 rows (reports/table6/)
+table6:
+    cargo run --release -- run configs/experiments/table6.toml
+
+# any experiment file, e.g. `just run configs/experiments/paper.toml`
+run experiment:
+    cargo run --release -- run {{experiment}}
 
 # the twin's error budget and how bimodal its residual is, beside the paper's (TWIN: a twin file)
 twin-budget twin="configs/twin/pmc6va030.toml":

@@ -522,3 +522,122 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let net = |act: &str| {
+        format!("{{ hidden = [6], activation = \"{act}\", learning_rate = 1e-2, max_epochs = 2 }}")
+    };
+    let exp = write(
+        dir.path(),
+        "small.toml",
+        &format!(
+            "name = \"small\"\nseed = 11\n\
+             [data]\ntwin = \"{twin}\"\nmeasurements = \"{data}\"\n\
+             [split]\ntrained_configurations = 100\nvalidation_loads = 3\n\
+             [[model]]\nname = \"LM\"\n\
+             [[model]]\nname = \"BFGS + CA-SOMM\"\nkinematic = {{ solver = \"bfgs\", max_iterations = 60 }}\n\
+             [model.residual]\nmodel = \"ca-somm\"\nx = {x}\ny = {y}\nz = {x}\n",
+            twin = root.join("configs/twin/pmc6va030.toml").display(),
+            data = root.join("datasets/pmc6va030/measurements.csv").display(),
+            x = net("tanh"),
+            y = net("relu"),
+        ),
+    );
+    let out = dir.path().join("reports");
+    let o = robocal(&["run", s(&exp), "--out", s(&out)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let report = out.join("small");
+    let mut files: Vec<String> = std::fs::read_dir(&report)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    files.sort();
+    let mut want: Vec<String> = ["report.md", "results.json", "experiment.toml"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    for stem in [
+        "fig11-12-configurations",
+        "fig13-load",
+        "fig26-stages",
+        "axes-lm",
+        "axes-bfgs-ca-somm",
+    ] {
+        want.push(format!("{stem}.png"));
+        want.push(format!("{stem}.svg"));
+    }
+    want.sort();
+    assert_eq!(files, want);
+    for f in &files {
+        let bytes = std::fs::read(report.join(f)).unwrap();
+        assert!(bytes.len() > 500, "{f} is {} bytes", bytes.len());
+        if f.ends_with(".png") {
+            assert_eq!(&bytes[1..4], b"PNG", "{f}");
+        }
+        if f.ends_with(".svg") {
+            assert!(String::from_utf8_lossy(&bytes).contains("<svg"), "{f}");
+        }
+    }
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report.join("results.json")).unwrap())
+            .unwrap();
+    // 168 configurations, 100 trained: the untrained 68 × (21 − 6 untrained − 3 validation) loads
+    // in GB10, × 6 in GB30.
+    assert_eq!(results["split"]["sizes"]["GB10"], 68 * 12);
+    assert_eq!(results["split"]["sizes"]["GB30"], 68 * 6);
+    assert_eq!(results["split"]["sizes"]["GA10"], 100 * 15);
+    assert_eq!(results["models"].as_array().unwrap().len(), 2);
+    assert_eq!(
+        results["models"][1]["networks"].as_array().unwrap().len(),
+        6
+    );
+    let lm_after = results["models"][0]["after"]["table6"]["mean"]
+        .as_f64()
+        .unwrap();
+    let before = results["before"]["table6"]["mean"].as_f64().unwrap();
+    assert!(lm_after < 0.3 * before, "{lm_after} vs {before}");
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    for needle in [
+        "digital twin, not from a real robot",
+        "Table 4",
+        "Table 6",
+        "fig26-stages.png",
+    ] {
+        assert!(md.contains(needle), "report.md lacks `{needle}`");
+    }
+    // The tables are printed too.
+    assert!(String::from_utf8_lossy(&o.stdout).contains("Table 6"));
+    // The resolved experiment is itself a valid experiment file, describing the same experiment.
+    let resolved = robocal_pipeline::Experiment::load(&report.join("experiment.toml")).unwrap();
+    let original = robocal_pipeline::Experiment::load(&exp).unwrap();
+    assert_eq!(resolved.seed, 11);
+    assert_eq!(resolved.models, original.models);
+    assert_eq!(resolved.split.validation_loads, 3);
+    assert_eq!(resolved.data.twin, original.data.twin);
+
+    // A bad experiment fails with its key and leaves the report as it was.
+    let before_md = md.clone();
+    let bad = write(
+        dir.path(),
+        "small.toml",
+        &std::fs::read_to_string(&exp)
+            .unwrap()
+            .replace("validation_loads = 3", "validation_loads = 15"),
+    );
+    let o = robocal(&["run", s(&bad), "--out", s(&out)]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("small.toml") && err.contains("split.validation_loads"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(report.join("report.md")).unwrap(),
+        before_md
+    );
+}

@@ -333,17 +333,18 @@ impl RawExperiment {
     }
 }
 
-/// The experiment as it ran, every default filled in: written beside the report.
+/// The experiment as it ran, every default filled in, paths made absolute: written beside the
+/// report as `experiment.toml`, itself a valid experiment file that runs the same experiment.
 #[derive(Debug, Serialize)]
 pub struct Resolved<'a> {
     /// Name.
     pub name: &'a str,
+    /// Description.
+    pub description: Option<&'a str>,
     /// Seed of the split.
     pub seed: u64,
-    /// The experiment file.
-    pub source: &'a Path,
     /// Data source.
-    pub data: &'a DataSource,
+    pub data: DataSource,
     /// Split design (untrained loads and kinematic load as used).
     pub split: ResolvedSplit,
     /// Every model's stages.
@@ -371,9 +372,7 @@ pub struct ResolvedModel<'a> {
     /// Kinematic stage.
     pub kinematic: ResolvedKinematic<'a>,
     /// Residual stage.
-    pub residual: Option<&'a robocal_residual::ResidualSettings>,
-    /// Residual hold-out share (unused by experiments, which validate on GB20).
-    pub residual_holdout: Option<f64>,
+    pub residual: Option<ResolvedResidual<'a>>,
 }
 
 /// A kinematic stage as used.
@@ -381,7 +380,7 @@ pub struct ResolvedModel<'a> {
 pub struct ResolvedKinematic<'a> {
     /// `lm` or `bfgs`.
     pub solver: &'static str,
-    /// Parameters identified (`None`: all identifiable).
+    /// Parameters identified (absent: all identifiable).
     pub parameters: Option<&'a [String]>,
     /// Iteration limit.
     pub max_iterations: u64,
@@ -389,14 +388,45 @@ pub struct ResolvedKinematic<'a> {
     pub rank_tolerance: f64,
 }
 
+/// A residual stage as used, in the shape of `[residual]`.
+#[derive(Debug, Serialize)]
+pub struct ResolvedResidual<'a> {
+    /// `somm`, `mosm` or `ca-somm`.
+    pub model: &'static str,
+    /// Seed.
+    pub seed: u64,
+    /// Hold-out share (used by `calibrate` without `--validate`; experiments validate on GB20).
+    pub holdout: f64,
+    /// X network.
+    pub x: &'a robocal_residual::NetSettings,
+    /// Y network.
+    pub y: &'a robocal_residual::NetSettings,
+    /// Z network.
+    pub z: &'a robocal_residual::NetSettings,
+    /// Multi-output network.
+    pub mosm: &'a robocal_residual::NetSettings,
+    /// Classifier.
+    pub classifier: &'a robocal_residual::ClassifierSettings,
+    /// Hyper-parameter search, if asked.
+    pub search: Option<&'a robocal_residual::SearchSettings>,
+}
+
 impl Experiment {
     /// The resolved form, given the untrained and kinematic loads the split settled on.
     pub fn resolved(&self, untrained_loads: Vec<f64>, kinematic_load: f64) -> Resolved<'_> {
+        let absolute = |p: &Option<PathBuf>| {
+            p.as_ref()
+                .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone()))
+        };
         Resolved {
             name: &self.name,
+            description: self.description.as_deref(),
             seed: self.seed,
-            source: &self.source,
-            data: &self.data,
+            data: DataSource {
+                twin: absolute(&self.data.twin),
+                robot: absolute(&self.data.robot),
+                measurements: absolute(&self.data.measurements),
+            },
             split: ResolvedSplit {
                 trained_configurations: self.split.trained_configurations,
                 untrained_loads,
@@ -414,8 +444,20 @@ impl Experiment {
                         max_iterations: m.stages.kinematic.max_iterations,
                         rank_tolerance: m.stages.kinematic.rank_tolerance,
                     },
-                    residual: m.stages.residual.as_ref().map(|r| &r.settings),
-                    residual_holdout: m.stages.residual.as_ref().map(|r| r.holdout),
+                    residual: m.stages.residual.as_ref().map(|r| {
+                        let s = &r.settings;
+                        ResolvedResidual {
+                            model: s.kind.name(),
+                            seed: s.seed,
+                            holdout: r.holdout,
+                            x: &s.axes[0],
+                            y: &s.axes[1],
+                            z: &s.axes[2],
+                            mosm: &s.mosm,
+                            classifier: &s.classifier,
+                            search: s.search.as_ref(),
+                        }
+                    }),
                 })
                 .collect(),
         }

@@ -1,0 +1,234 @@
+//! The pipeline crate: every config under `configs/` validates, the paper's split on the bundled
+//! data, experiment validation errors.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use robocal_data::MeasurementSet;
+use robocal_pipeline::{Experiment, PipelineError, RawExperiment, Set, Splits, Stages};
+use robocal_robot::Robot;
+use robocal_twin::TwinConfig;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn tomls(dir: &Path, found: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            tomls(&path, found);
+        } else if path.extension().is_some_and(|e| e == "toml") {
+            found.push(path);
+        }
+    }
+}
+
+#[test]
+fn every_toml_under_configs_parses_and_validates() {
+    let mut files = Vec::new();
+    tomls(&root().join("configs"), &mut files);
+    files.sort();
+    let mut kinds = HashSet::new();
+    for file in &files {
+        let kind = file
+            .parent()
+            .and_then(|p| p.file_name())
+            .and_then(|n| n.to_str())
+            .unwrap()
+            .to_string();
+        match kind.as_str() {
+            "robots" => drop(Robot::load(file).unwrap_or_else(|e| panic!("{e}"))),
+            "twin" => drop(TwinConfig::load(file).unwrap_or_else(|e| panic!("{e}"))),
+            "stages" => drop(Stages::load(file).unwrap_or_else(|e| panic!("{e}"))),
+            "experiments" => {
+                let e = Experiment::load(file).unwrap_or_else(|e| panic!("{e}"));
+                for p in [&e.data.twin, &e.data.robot, &e.data.measurements]
+                    .into_iter()
+                    .flatten()
+                {
+                    assert!(
+                        p.is_file(),
+                        "{}: {} does not exist",
+                        file.display(),
+                        p.display()
+                    );
+                }
+            }
+            other => panic!(
+                "{}: configs/{other}/ is not a known kind of config; teach this test to validate it",
+                file.display()
+            ),
+        }
+        kinds.insert(kind);
+    }
+    assert_eq!(
+        kinds.len(),
+        4,
+        "robots, twin, stages, experiments: {kinds:?}"
+    );
+    assert!(files.len() >= 12, "{files:?}");
+}
+
+fn paper() -> (Experiment, MeasurementSet, TwinConfig) {
+    let e = Experiment::load(&root().join("configs/experiments/paper.toml")).unwrap();
+    let twin = TwinConfig::load(e.data.twin.as_ref().unwrap()).unwrap();
+    let data = MeasurementSet::read(e.data.measurements.as_ref().unwrap(), 6).unwrap();
+    (e, data, twin)
+}
+
+#[test]
+fn the_paper_split_has_the_papers_sizes_and_keeps_untrained_things_out_of_training() {
+    let (e, data, twin) = paper();
+    let s = Splits::new(&data.rows, &e.split, Some(&twin.loads.untrained), e.seed).unwrap();
+    let sizes: Vec<usize> = s.sizes().iter().map(|(_, n)| *n).collect();
+    assert_eq!(sizes, [1680, 672, 336, 504, 336]);
+    assert_eq!(s.rows(&[Set::Gb10, Set::Gb30]).len(), 840);
+    assert_eq!(s.trained_configurations.len(), 112);
+    assert_eq!(s.untrained_configurations.len(), 56);
+    assert_eq!(s.trained_loads.len(), 15);
+    assert_eq!(s.untrained_loads, twin.loads.untrained);
+    assert_eq!(s.validation_loads.len(), 6);
+    assert_eq!(s.kinematic_rows.len(), 112);
+    assert_eq!(s.kinematic_held_out_rows.len(), 56);
+    let trained: HashSet<&str> = s
+        .trained_configurations
+        .iter()
+        .map(String::as_str)
+        .collect();
+    let untrained: HashSet<&str> = s
+        .untrained_configurations
+        .iter()
+        .map(String::as_str)
+        .collect();
+    assert!(trained.is_disjoint(&untrained));
+    for (row, set) in data.rows.iter().zip(&s.set_of_row) {
+        let cfg = trained.contains(row.sample.pose.as_str());
+        let load_trained = !s.untrained_loads.contains(&row.sample.load);
+        match set {
+            Set::Ga10 => assert!(cfg && load_trained, "{row:?} in GA10"),
+            Set::Ga20 => assert!(cfg && !load_trained),
+            Set::Gb20 => {
+                assert!(!cfg && load_trained && s.validation_loads.contains(&row.sample.load))
+            }
+            Set::Gb10 => {
+                assert!(!cfg && load_trained && !s.validation_loads.contains(&row.sample.load))
+            }
+            Set::Gb30 => assert!(!cfg && !load_trained),
+        }
+    }
+    for &i in &s.kinematic_rows {
+        assert_eq!(s.set_of_row[i], Set::Ga10);
+        assert_eq!(data.rows[i].sample.load, 0.0);
+    }
+    // Determinism: the same seed draws the same split, another seed another one.
+    let again = Splits::new(&data.rows, &e.split, Some(&twin.loads.untrained), e.seed).unwrap();
+    assert_eq!(again, s);
+    let other = Splits::new(
+        &data.rows,
+        &e.split,
+        Some(&twin.loads.untrained),
+        e.seed + 1,
+    )
+    .unwrap();
+    assert_ne!(other.trained_configurations, s.trained_configurations);
+    assert_eq!(other.sizes(), s.sizes());
+}
+
+#[test]
+fn split_designs_the_data_cannot_meet_are_refused_with_their_key() {
+    let (e, data, twin) = paper();
+    let untrained = Some(twin.loads.untrained.as_slice());
+    let mut d = e.split.clone();
+    d.trained_configurations = 168;
+    let (key, msg) = Splits::new(&data.rows, &d, untrained, 1).unwrap_err();
+    assert_eq!(key, "split.trained_configurations");
+    assert!(msg.contains("168"), "{msg}");
+    let mut d = e.split.clone();
+    d.untrained_loads = Some(vec![2.5]);
+    assert_eq!(
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().0,
+        "split.untrained_loads"
+    );
+    let mut d = e.split.clone();
+    d.validation_loads = 15;
+    assert_eq!(
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().0,
+        "split.validation_loads"
+    );
+    let mut d = e.split.clone();
+    d.kinematic_load = Some(2.0);
+    assert_eq!(
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().0,
+        "split.kinematic_load"
+    );
+}
+
+fn validate(text: &str) -> Result<Experiment, PipelineError> {
+    let raw: RawExperiment = toml::from_str(text).map_err(|e| {
+        PipelineError::from(robocal_robot::toml_error(Path::new("exp.toml"), text, &e))
+    })?;
+    raw.validate(Path::new("dir/exp.toml"))
+}
+
+fn key_of(r: Result<Experiment, PipelineError>) -> String {
+    match r {
+        Err(PipelineError::Key { key, .. }) => key,
+        other => panic!("expected a key error, got {other:?}"),
+    }
+}
+
+const HEAD: &str = "name = \"t\"\n[data]\ntwin = \"../configs/twin/x.toml\"\n";
+
+#[test]
+fn experiment_files_are_validated_with_the_key_named() {
+    let ok = validate(&format!(
+        "{HEAD}[[model]]\nname = \"LM + SOMM\"\nresidual = {{ model = \"somm\" }}\n"
+    ))
+    .unwrap();
+    assert_eq!(ok.seed, 2020);
+    assert_eq!(
+        ok.data.twin.as_deref(),
+        Some(Path::new("configs/twin/x.toml"))
+    );
+    assert_eq!(ok.table5, Some(0));
+    assert_eq!(
+        ok.models[0].stages.residual.as_ref().unwrap().settings.seed,
+        2020
+    );
+    assert_eq!(ok.output, Path::new("reports"));
+
+    let cases = [
+        (format!("{HEAD}"), "model"),
+        (format!("{HEAD}[[model]]\nname = \"a\"\n[[model]]\nname = \"a\"\n"), "model[2].name"),
+        (
+            format!("{HEAD}[[model]]\nname = \"a\"\nkinematic = {{ solver = \"gn\" }}\n"),
+            "model[1].kinematic.solver",
+        ),
+        (
+            format!(
+                "{HEAD}[[model]]\nname = \"a\"\n[[model]]\nname = \"b\"\n[model.residual]\nmodel = \"somm\"\n[model.residual.x]\nhidden = [4]\nactivation = \"tanh\"\nlearning_rate = 0.0\n"
+            ),
+            "model[2].residual.x.learning_rate",
+        ),
+        (format!("{HEAD}[tables]\ntable5 = \"z\"\n[[model]]\nname = \"a\"\n"), "tables.table5"),
+        (format!("{HEAD}[split]\ntrained_configurations = 0\n[[model]]\nname = \"a\"\n"), "split.trained_configurations"),
+        (format!("{HEAD}[split]\nuntrained_loads = [-1.0]\n[[model]]\nname = \"a\"\n"), "split.untrained_loads"),
+        ("name = \"t\"\n[data]\nrobot = \"r.toml\"\n[[model]]\nname = \"a\"\n".to_string(), "data"),
+        (
+            "name = \"t\"\n[data]\nrobot = \"r.toml\"\nmeasurements = \"m.csv\"\n[[model]]\nname = \"a\"\n".to_string(),
+            "split.untrained_loads",
+        ),
+        (format!("{}[[model]]\nname = \"a\"\n", HEAD.replace("\"t\"", "\"../up\"")), "name"),
+    ];
+    for (text, want) in cases {
+        assert_eq!(key_of(validate(&text)), want, "{text}");
+    }
+    // Unknown keys are refused by the parser, with the line.
+    let err = validate(&format!("{HEAD}[[model]]\nname = \"a\"\nsolver = \"lm\"\n")).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("exp.toml") && text.contains("solver"),
+        "{text}"
+    );
+}
