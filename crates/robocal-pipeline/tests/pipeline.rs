@@ -199,7 +199,7 @@ fn experiment_files_are_validated_with_the_key_named() {
     assert_eq!(ok.output, Path::new("reports"));
 
     let cases = [
-        (format!("{HEAD}"), "model"),
+        (HEAD.to_string(), "model"),
         (format!("{HEAD}[[model]]\nname = \"a\"\n[[model]]\nname = \"a\"\n"), "model[2].name"),
         (
             format!("{HEAD}[[model]]\nname = \"a\"\nkinematic = {{ solver = \"gn\" }}\n"),
