@@ -620,6 +620,43 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
     assert_eq!(resolved.split.validation_loads, 3);
     assert_eq!(resolved.data.twin, original.data.twin);
 
+    // The same experiment again: the same numbers and the same plots, byte for byte (only the
+    // wall-clock fields may differ).
+    let again = dir.path().join("again");
+    let o = robocal(&["run", s(&exp), "--out", s(&again)]);
+    assert!(o.status.success());
+    fn without_clock(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(map) => {
+                for k in ["timings", "seconds", "residual_seconds"] {
+                    map.remove(k);
+                }
+                map.values_mut().for_each(without_clock);
+            }
+            serde_json::Value::Array(items) => items.iter_mut().for_each(without_clock),
+            _ => {}
+        }
+    }
+    let json = |p: &Path| -> serde_json::Value {
+        let mut v = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        without_clock(&mut v);
+        v
+    };
+    assert_eq!(
+        json(&report.join("results.json")),
+        json(&again.join("small/results.json"))
+    );
+    for f in files
+        .iter()
+        .filter(|f| f.ends_with(".png") || f.ends_with(".svg"))
+    {
+        assert!(
+            std::fs::read(report.join(f)).unwrap()
+                == std::fs::read(again.join("small").join(f)).unwrap(),
+            "{f} differs between two runs"
+        );
+    }
+
     // A bad experiment fails with its key and leaves the report as it was.
     let before_md = md.clone();
     let bad = write(
