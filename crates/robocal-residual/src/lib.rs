@@ -16,8 +16,9 @@ pub mod stage;
 pub use error::{ResidualError, Result};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Split, TrainReport, train};
 pub use model::{
-    AxisNet, Classifier, ClassifierSettings, MANIFEST, RESIDUAL_FORMAT, ResidualKind,
-    ResidualModel, ResidualSettings, Samples, Standardizer, inputs_of, two_means_threshold,
+    AxisNet, Classifier, ClassifierSettings, Gate, MANIFEST, PerClass, RESIDUAL_FORMAT,
+    ResidualKind, ResidualModel, ResidualSettings, Samples, Standardizer, inputs_of,
+    two_means_threshold,
 };
 pub use search::{SearchLog, SearchSettings, Trial, search};
 pub use stage::{DEFAULT_SEED, RawResidualStage, ResidualStage};

@@ -2,6 +2,7 @@
 //! per axis), MOSM (one network, three outputs) and CA-SOMM (a decision tree picks one of two
 //! per-axis model sets), with standardisation, training, and the saved form.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use burn::module::Module;
@@ -271,6 +272,38 @@ pub struct ClassifierSettings {
     /// Fewest training samples in a leaf.
     #[serde(default = "default_leaf")]
     pub min_samples_leaf: usize,
+    /// How a prediction uses the class: `hard` (the paper: the set the tree picks) or `soft`
+    /// (both sets, weighted by the share of each class among the training rows in the row's
+    /// leaf, which costs less when the tree is unsure).
+    #[serde(default)]
+    pub gate: Gate,
+    /// Which axes get a network per class: `all` (the paper: two full SOMM sets) or `axis`
+    /// (only the classifier's axis; the other axes get one network trained on every row, which
+    /// both sets share).
+    #[serde(default)]
+    pub per_class: PerClass,
+}
+
+/// Which axes CA-SOMM models per class.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PerClass {
+    /// Every axis (the paper's CA-SOMM).
+    #[default]
+    All,
+    /// Only the classifier's axis.
+    Axis,
+}
+
+/// How CA-SOMM combines its two model sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Gate {
+    /// The set of the class the tree picks (the paper's CA-SOMM).
+    #[default]
+    Hard,
+    /// `(1 − p) A + p B`, `p` the share of class B among the training rows in the leaf.
+    Soft,
 }
 
 impl Default for ClassifierSettings {
@@ -279,6 +312,8 @@ impl Default for ClassifierSettings {
             axis: default_axis(),
             max_depth: default_depth(),
             min_samples_leaf: default_leaf(),
+            gate: Gate::Hard,
+            per_class: PerClass::All,
         }
     }
 }
@@ -362,6 +397,13 @@ pub struct Classifier {
     pub threshold: f64,
     /// The tree: inputs → 0 (A) or 1 (B).
     pub tree: DecisionTree<f64, usize>,
+    /// How predictions use the class.
+    #[serde(default)]
+    pub gate: Gate,
+    /// Share of class B among the training rows in each leaf, keyed by the leaf's path from
+    /// the root (`l`/`r` per split; the root alone is `""`).
+    #[serde(default)]
+    pub leaf_share_b: BTreeMap<String, f64>,
 }
 
 impl Classifier {
@@ -373,6 +415,48 @@ impl Classifier {
         let cols = inputs[0].len();
         let x = Array2::from_shape_fn((inputs.len(), cols), |(i, j)| inputs[i][j]);
         self.tree.predict(&x).to_vec()
+    }
+
+    /// The path from the root to the leaf `row` falls in: `l` or `r` per split (linfa's rule:
+    /// left when the feature is below the split value).
+    pub fn leaf_path(&self, row: &[f64]) -> String {
+        let mut path = String::new();
+        let mut node = self.tree.root_node();
+        while !node.is_leaf() {
+            let (feature, value, _) = node.split();
+            let children = node.children();
+            let (next, step) = if row[feature] < value {
+                (children[0], 'l')
+            } else {
+                (children[1], 'r')
+            };
+            match next {
+                Some(child) => {
+                    node = child;
+                    path.push(step);
+                }
+                None => break,
+            }
+        }
+        path
+    }
+
+    /// Probability of class B for each input row: the training share of its leaf (soft gate),
+    /// or 0/1 from the tree's class (hard gate, or a leaf without a recorded share).
+    pub fn share_b(&self, inputs: &[Vec<f64>]) -> Vec<f64> {
+        let classes = self.classify(inputs);
+        inputs
+            .iter()
+            .zip(classes)
+            .map(|(row, class)| match self.gate {
+                Gate::Soft => self
+                    .leaf_share_b
+                    .get(&self.leaf_path(row))
+                    .copied()
+                    .unwrap_or(class as f64),
+                Gate::Hard => class as f64,
+            })
+            .collect()
     }
 
     /// The true class of each sample, from its error.
@@ -551,11 +635,23 @@ impl ResidualModel {
                     .min_weight_leaf(c.min_samples_leaf as f32)
                     .fit(&data)
                     .map_err(|e| ResidualError::Data(format!("classifier: {e}")))?;
-                let classifier = Classifier {
+                let mut classifier = Classifier {
                     axis,
                     threshold,
                     tree,
+                    gate: c.gate,
+                    leaf_share_b: BTreeMap::new(),
                 };
+                let mut counts: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+                for (row, label) in train_set.inputs.iter().zip(&labels) {
+                    let n = counts.entry(classifier.leaf_path(row)).or_default();
+                    n.0 += 1;
+                    n.1 += label;
+                }
+                classifier.leaf_share_b = counts
+                    .into_iter()
+                    .map(|(leaf, (n, b))| (leaf, b as f64 / n as f64))
+                    .collect();
                 let in_b: Vec<bool> = labels.iter().map(|l| *l == 1).collect();
                 let in_a: Vec<bool> = in_b.iter().map(|b| !b).collect();
                 let val_b: Vec<bool> = classifier
@@ -571,12 +667,40 @@ impl ResidualModel {
                         )));
                     }
                 }
-                let mut nets = somm(&train_set.subset(&in_a), &validation.subset(&val_a), 0);
-                nets.extend(somm(
-                    &train_set.subset(&in_b),
-                    &validation.subset(&val_b),
-                    10,
-                ));
+                let (train_a, val_a) = (train_set.subset(&in_a), validation.subset(&val_a));
+                let (train_b, val_b) = (train_set.subset(&in_b), validation.subset(&val_b));
+                let nets = match c.per_class {
+                    PerClass::All => {
+                        let mut nets = somm(&train_a, &val_a, 0);
+                        nets.extend(somm(&train_b, &val_b, 10));
+                        nets
+                    }
+                    PerClass::Axis => {
+                        let fit = |a: usize, set: &Samples, val: &Samples, offset: u64| {
+                            AxisNet::fit(
+                                vec![a],
+                                &settings.axes[a],
+                                set,
+                                val,
+                                seed.wrapping_add(offset + a as u64),
+                                progress,
+                            )
+                        };
+                        let shared: Vec<Option<AxisNet>> = (0..3)
+                            .map(|a| (a != axis).then(|| fit(a, train_set, validation, 0)))
+                            .collect();
+                        let mut nets = Vec::with_capacity(6);
+                        for (set, val, offset) in [(&train_a, &val_a, 0), (&train_b, &val_b, 10)] {
+                            for (a, net) in shared.iter().enumerate() {
+                                nets.push(match net {
+                                    Some(n) => n.clone(),
+                                    None => fit(a, set, val, offset),
+                                });
+                            }
+                        }
+                        nets
+                    }
+                };
                 (nets, Some(classifier))
             }
         };
@@ -659,10 +783,10 @@ impl ResidualModel {
                 }
             }
             Some(c) => {
-                let classes = c.classify(inputs);
+                let share = c.share_b(inputs);
                 for (class, nets) in self.nets.chunks(3).enumerate() {
-                    let keep: Vec<usize> =
-                        (0..inputs.len()).filter(|&i| classes[i] == class).collect();
+                    let weight = |i: usize| if class == 1 { share[i] } else { 1.0 - share[i] };
+                    let keep: Vec<usize> = (0..inputs.len()).filter(|&i| weight(i) > 0.0).collect();
                     if keep.is_empty() {
                         continue;
                     }
@@ -672,7 +796,10 @@ impl ResidualModel {
                         net.predict_into(&rows, &mut part);
                     }
                     for (&i, p) in keep.iter().zip(part) {
-                        out[i] = p;
+                        let w = weight(i);
+                        for a in 0..3 {
+                            out[i][a] += w * p[a];
+                        }
                     }
                 }
             }

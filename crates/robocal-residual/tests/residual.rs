@@ -3,8 +3,8 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robocal_residual::{
-    Activation, NetSettings, ResidualKind, ResidualModel, ResidualSettings, Samples, Split,
-    two_means_threshold,
+    Activation, Gate, NetSettings, PerClass, ResidualKind, ResidualModel, ResidualSettings,
+    Samples, Split, two_means_threshold,
 };
 
 fn settings(hidden: Vec<usize>, lr: f64, epochs: usize) -> NetSettings {
@@ -176,6 +176,55 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     gated.save(dir.path()).unwrap();
     let loaded = ResidualModel::load(dir.path()).unwrap();
     assert_eq!(loaded.predict(&test.inputs), gated.predict(&test.inputs));
+
+    // The soft gate weights the sets by the class shares of the leaf: shares are those of the
+    // training rows (counted here independently), and where a leaf is pure it predicts exactly
+    // as the hard gate.
+    let mut soft = s.clone();
+    soft.classifier.gate = Gate::Soft;
+    let soft = ResidualModel::fit(&soft, &train, &val, None).unwrap();
+    let c = soft.classifier.as_ref().unwrap();
+    let labels: Vec<usize> = train
+        .errors
+        .iter()
+        .map(|e| usize::from(e[0] >= c.threshold))
+        .collect();
+    for (leaf, share) in &c.leaf_share_b {
+        let rows: Vec<usize> = (0..train.len())
+            .filter(|&i| &c.leaf_path(&train.inputs[i]) == leaf)
+            .collect();
+        let b = rows.iter().filter(|&&i| labels[i] == 1).count();
+        assert!(!rows.is_empty());
+        assert_eq!(*share, b as f64 / rows.len() as f64, "leaf {leaf}");
+    }
+    let (hard_p, soft_p) = (gated.predict(&test.inputs), soft.predict(&test.inputs));
+    let shares = c.share_b(&test.inputs);
+    let pure = shares.iter().filter(|p| **p == 0.0 || **p == 1.0).count();
+    assert!(pure > 0, "some leaf is pure on this separable set");
+    for (i, p) in shares.iter().enumerate() {
+        if *p == 0.0 || *p == 1.0 {
+            assert_eq!(soft_p[i], hard_p[i]);
+        }
+    }
+    soft.save(dir.path()).unwrap();
+    assert_eq!(
+        ResidualModel::load(dir.path())
+            .unwrap()
+            .predict(&test.inputs),
+        soft_p
+    );
+
+    // Per class on the classifier's axis only: Y and Z come from one network both sets share.
+    let mut axis_only = s.clone();
+    axis_only.classifier.per_class = PerClass::Axis;
+    let m = ResidualModel::fit(&axis_only, &train, &val, None).unwrap();
+    let plain_p = plain.predict(&test.inputs);
+    let m_p = m.predict(&test.inputs);
+    for (a, b) in m_p.iter().zip(&plain_p) {
+        assert_eq!(a[1], b[1], "Y is the SOMM network trained on every row");
+        assert_eq!(a[2], b[2]);
+    }
+    assert!(rms(&m, &test, 0) < 0.8 * e_plain);
 }
 
 #[test]
