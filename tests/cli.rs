@@ -212,6 +212,18 @@ fn bad_input_fails_cleanly_and_leaves_outputs_alone() {
     );
     let o = robocal(&["predict", "--data", s(&data), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "clap reports a usage error");
+    // A missing file is named, and the operating system's reason is said once.
+    let missing = dir.path().join("missing.csv");
+    for args in [
+        vec!["evaluate", "--robot", ROBOT, "--data", s(&missing)],
+        vec!["run", s(&missing)],
+    ] {
+        let o = robocal(&args);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("missing.csv"), "{stderr}");
+        assert_eq!(stderr.matches("os error").count(), 1, "{stderr}");
+    }
 }
 
 const TWIN_DATA: &str = "datasets/pmc6va030/measurements.csv";
