@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use robocal_ident::SolverKind;
-use robocal_residual::ResidualKind;
+use robocal_residual::{Gate, PerClass, ResidualKind};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{PipelineError, Result, read_text};
@@ -120,11 +120,16 @@ pub struct ModelPlan {
 
 impl ModelPlan {
     /// The paper's Table 6 row this model corresponds to, if any (mean, std, max in mm).
+    /// Only a model with the paper's CA-SOMM gate (hard, every axis per class) gets its row.
     pub fn paper_row(&self) -> Option<(&'static str, [f64; 3])> {
-        crate::paper::table6_row(
-            self.stages.kinematic.solver,
-            self.stages.residual.as_ref().map(|r| r.settings.kind),
-        )
+        let residual = self.stages.residual.as_ref().map(|r| &r.settings);
+        if let Some(s) = residual
+            && s.kind == ResidualKind::CaSomm
+            && (s.classifier.gate != Gate::Hard || s.classifier.per_class != PerClass::All)
+        {
+            return None;
+        }
+        crate::paper::table6_row(self.stages.kinematic.solver, residual.map(|s| s.kind))
     }
 }
 

@@ -136,6 +136,22 @@ fn the_paper_split_has_the_papers_sizes_and_keeps_untrained_things_out_of_traini
 }
 
 #[test]
+fn only_the_papers_own_models_get_its_table_6_row() {
+    let (e, _, _) = paper();
+    let rows: Vec<(&str, Option<[f64; 3]>)> = e
+        .models
+        .iter()
+        .map(|m| (m.name.as_str(), m.paper_row().map(|(_, v)| v)))
+        .collect();
+    let get = |name: &str| rows.iter().find(|r| r.0 == name).unwrap().1;
+    assert_eq!(get("BFGS"), Some([0.618, 0.275, 1.609]));
+    assert_eq!(get("BFGS + SOMM"), Some([0.389, 0.991, 0.991]));
+    assert_eq!(get("BFGS + CA-SOMM"), Some([0.310, 0.213, 1.255]));
+    assert_eq!(get("LM + SOMM"), None);
+    assert_eq!(get("BFGS + CA-SOMM (X per class, soft)"), None);
+}
+
+#[test]
 fn split_designs_the_data_cannot_meet_are_refused_with_their_key() {
     let (e, data, twin) = paper();
     let untrained = Some(twin.loads.untrained.as_slice());
