@@ -70,6 +70,18 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Joint commands that put the calibrated model's target point on each target.
+    Compensate {
+        /// Calibrated model directory written by `robocal calibrate`.
+        #[arg(long, value_name = "MODEL_DIR")]
+        model: PathBuf,
+        /// Targets CSV: id, q1..qN (seed command, deg), load, x, y, z (target, mm, world).
+        #[arg(long, value_name = "CSV")]
+        targets: PathBuf,
+        /// Output CSV: id, q1..qN (deg), targets that failed left out (and named on stderr).
+        #[arg(long, value_name = "CSV")]
+        out: PathBuf,
+    },
     /// Generate a digital twin's measurement files (every configuration at every load).
     Simulate {
         /// Twin description (TOML).

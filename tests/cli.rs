@@ -508,6 +508,93 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     let read = |p: &Path| std::fs::read_to_string(p).unwrap();
     assert_eq!(read(&a), read(&b));
     assert_ne!(read(&a), read(&k));
+
+    // Compensation through the whole model (kinematics + CA-SOMM): targets 1 mm off what the model
+    // predicts at the held-out rows; the commands, fed back through `predict --model`, land on
+    // the targets to 0.001 mm.
+    let predicted: Vec<Vec<f64>> = read(&a)
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(2).map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let held_rows: Vec<Vec<String>> = read(&held)
+        .lines()
+        .skip(1)
+        .take(12)
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let mut targets = String::from("id,q1,q2,q3,q4,q5,q6,load,x,y,z\n");
+    let mut aims = Vec::new();
+    for (i, (row, p)) in held_rows.iter().zip(&predicted).enumerate() {
+        let aim = [p[0] + 1.0, p[1] - 0.5, p[2] + 0.7];
+        targets += &format!(
+            "t{i},{},{},{},{}\n",
+            row[1..7].join(","),
+            row[7],
+            aim[0],
+            format_args!("{},{}", aim[1], aim[2])
+        );
+        aims.push((row[7].clone(), aim));
+    }
+    let targets = write(dir.path(), "targets.csv", &targets);
+    let commands = dir.path().join("commands.csv");
+    let o = robocal(&[
+        "compensate",
+        "--model",
+        s(&model),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut replay = String::from("pose,q1,q2,q3,q4,q5,q6,load\n");
+    for (line, (load, _)) in read(&commands).lines().skip(1).zip(&aims) {
+        replay += &format!("{line},{load}\n");
+    }
+    assert_eq!(read(&commands).lines().count(), aims.len() + 1);
+    let replay = write(dir.path(), "replay.csv", &replay);
+    let landed = dir.path().join("landed.csv");
+    let o = robocal(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--data",
+        s(&replay),
+        "--out",
+        s(&landed),
+    ]);
+    assert!(o.status.success());
+    for (line, (_, aim)) in read(&landed).lines().skip(1).zip(&aims) {
+        let p: Vec<f64> = line
+            .split(',')
+            .skip(2)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let miss =
+            ((p[0] - aim[0]).powi(2) + (p[1] - aim[1]).powi(2) + (p[2] - aim[2]).powi(2)).sqrt();
+        assert!(miss < 1.5e-3, "{line}: {miss} mm from {aim:?}");
+    }
+    // A target out of reach is named, the others are still written, and the exit is non-zero.
+    let mut text = read(&targets);
+    text += "far,0,10,10,0,30,0,0,100000,0,0\n";
+    let targets = write(dir.path(), "targets.csv", &text);
+    let o = robocal(&[
+        "compensate",
+        "--model",
+        s(&model),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("far") && err.contains("not reachable"),
+        "{err}"
+    );
+    assert_eq!(read(&commands).lines().count(), aims.len() + 1);
     // A bad residual setting is refused with its key, and nothing is written.
     let bad = write(
         dir.path(),

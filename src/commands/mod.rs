@@ -1,6 +1,7 @@
 //! The subcommands, each turning validated settings into library calls.
 
 mod calibrate;
+mod compensate;
 mod evaluate;
 mod model;
 mod predict;
@@ -23,6 +24,11 @@ pub fn run(cli: Cli) -> Result<()> {
         } => calibrate::run(&robot, &data, validate.as_deref(), &out, config.as_deref()),
         Command::Predict { source, data, out } => predict::run(&source, &data, &out),
         Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
+        Command::Compensate {
+            model,
+            targets,
+            out,
+        } => compensate::run(&model, &targets, &out),
         Command::Simulate { twin, out } => simulate::run(&twin, &out),
         Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
