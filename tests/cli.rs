@@ -538,15 +538,18 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     }
     let targets = write(dir.path(), "targets.csv", &targets);
     let commands = dir.path().join("commands.csv");
-    let o = robocal(&[
-        "compensate",
-        "--model",
-        s(&model),
-        "--targets",
-        s(&targets),
-        "--out",
-        s(&commands),
-    ]);
+    let compensate = |targets: &Path| {
+        robocal(&[
+            "compensate",
+            "--model",
+            s(&model),
+            "--targets",
+            s(targets),
+            "--out",
+            s(&commands),
+        ])
+    };
+    let o = compensate(&targets);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut replay = String::from("pose,q1,q2,q3,q4,q5,q6,load\n");
     for (line, (load, _)) in read(&commands).lines().skip(1).zip(&aims) {
@@ -579,15 +582,7 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     let mut text = read(&targets);
     text += "far,0,10,10,0,30,0,0,100000,0,0\n";
     let targets = write(dir.path(), "targets.csv", &text);
-    let o = robocal(&[
-        "compensate",
-        "--model",
-        s(&model),
-        "--targets",
-        s(&targets),
-        "--out",
-        s(&commands),
-    ]);
+    let o = compensate(&targets);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(

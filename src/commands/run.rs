@@ -3,17 +3,17 @@
 use std::path::Path;
 
 use anyhow::Result;
-use robocal_pipeline::{Experiment, run as run_experiment, tables, write_report};
+use robocal_pipeline::{Experiment, run as run_experiment, write_report};
 
 /// Runs the experiment, prints its tables on stdout and writes the report folder.
 pub fn run(experiment: &Path, out: Option<&Path>) -> Result<()> {
     let plan = Experiment::load(experiment)?;
     let mut outcome = run_experiment(&plan)?;
-    let dir = write_report(&mut outcome, out)?;
-    println!("{}", tables(&outcome));
+    let written = write_report(&mut outcome, out)?;
+    println!("{}", written.tables);
     eprintln!(
         "robocal: report written to {} ({:.1} s in all)",
-        dir.display(),
+        written.dir.display(),
         outcome.timings.total_s + outcome.timings.report_s
     );
     Ok(())

@@ -146,11 +146,17 @@ pub fn compensate(
         position_tolerance: options.tolerance * 1e-2,
         ..IkOptions::default()
     };
+    // The residual at the current command, evaluated once per iteration: it sets the next aim
+    // and, with the kinematics, the model's error there.
+    let at = |q: &[f64]| {
+        let deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+        residual_at(residual, &deg, load)
+    };
+    let mut r = at(&seed);
     let mut q = seed;
     let mut error = f64::INFINITY;
     for iteration in 1..=options.max_iterations {
-        let deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-        let aim = target - residual_at(residual, &deg, load);
+        let aim = target - r;
         let goal = if keep_orientation {
             IkTarget::Pose {
                 point: aim,
@@ -163,7 +169,7 @@ pub fn compensate(
             Ok(next) => next,
             Err(_) => {
                 return Err(Failure::Unreachable {
-                    model_error: (model_point(robot, residual, &q, load) - target).norm(),
+                    model_error: (robot.point(&q) + r - target).norm(),
                 });
             }
         };
@@ -173,7 +179,8 @@ pub fn compensate(
             });
         }
         q = next;
-        error = (model_point(robot, residual, &q, load) - target).norm();
+        r = at(&q);
+        error = (robot.point(&q) + r - target).norm();
         if error < options.tolerance {
             return Ok(Compensation {
                 joints_deg: q.iter().map(|v| v.to_degrees()).collect(),

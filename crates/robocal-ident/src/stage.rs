@@ -1,11 +1,11 @@
 //! The kinematic stage of a stage config (`robocal calibrate --config FILE`), raw and validated.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::calibrate::{KinematicSettings, SolverKind};
 
 /// `[kinematic]` as written.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawKinematicStage {
     /// `"lm"` (least squares, Levenberg–Marquardt) or `"bfgs"` (the paper's mean distance).

@@ -14,7 +14,7 @@ use crate::error::{PipelineError, Result, read_text};
 use crate::stages::{RawStages, Stages};
 
 /// An experiment file as written.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawExperiment {
     /// Name of the experiment and of its report folder (letters, digits, `-`, `_`, `.`).
@@ -37,7 +37,7 @@ pub struct RawExperiment {
 }
 
 /// `[data]` as written.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawData {
     /// A twin description: measurements are generated from it in memory (unless `measurements`
@@ -50,7 +50,7 @@ pub struct RawData {
 }
 
 /// `[split]` as written.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawSplit {
     /// Configurations drawn (by the seed) for training; the rest are untrained (paper: 112).
@@ -65,7 +65,7 @@ pub struct RawSplit {
 }
 
 /// `[[model]]` as written.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawModel {
     /// Name in tables and plots, unique in the experiment.
@@ -77,7 +77,7 @@ pub struct RawModel {
 }
 
 /// `[tables]` as written.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawTables {
     /// The model whose train/validation/test errors fill Table 5 (default: the first SOMM model
@@ -338,133 +338,65 @@ impl RawExperiment {
     }
 }
 
-/// The experiment as it ran, every default filled in, paths made absolute: written beside the
-/// report as `experiment.toml`, itself a valid experiment file that runs the same experiment.
-#[derive(Debug, Serialize)]
-pub struct Resolved<'a> {
-    /// Name.
-    pub name: &'a str,
-    /// Description.
-    pub description: Option<&'a str>,
-    /// Seed of the split.
-    pub seed: u64,
-    /// Data source.
-    pub data: DataSource,
-    /// Split design (untrained loads and kinematic load as used).
-    pub split: ResolvedSplit,
-    /// Every model's stages.
-    pub model: Vec<ResolvedModel<'a>>,
-}
-
-/// The split as used.
-#[derive(Debug, Serialize)]
-pub struct ResolvedSplit {
-    /// Trained configurations.
-    pub trained_configurations: usize,
-    /// Untrained loads, kg.
-    pub untrained_loads: Vec<f64>,
-    /// Validation loads drawn from the trained ones.
-    pub validation_loads: usize,
-    /// Load of the kinematic rows, kg.
-    pub kinematic_load: f64,
-}
-
-/// One model's stages as used.
-#[derive(Debug, Serialize)]
-pub struct ResolvedModel<'a> {
-    /// Name.
-    pub name: &'a str,
-    /// Kinematic stage.
-    pub kinematic: ResolvedKinematic<'a>,
-    /// Residual stage.
-    pub residual: Option<ResolvedResidual<'a>>,
-}
-
-/// A kinematic stage as used.
-#[derive(Debug, Serialize)]
-pub struct ResolvedKinematic<'a> {
-    /// `lm` or `bfgs`.
-    pub solver: &'static str,
-    /// Parameters identified (absent: all identifiable).
-    pub parameters: Option<&'a [String]>,
-    /// Iteration limit.
-    pub max_iterations: u64,
-    /// Rank tolerance of the identifiability analysis.
-    pub rank_tolerance: f64,
-}
-
-/// A residual stage as used, in the shape of `[residual]`.
-#[derive(Debug, Serialize)]
-pub struct ResolvedResidual<'a> {
-    /// `somm`, `mosm` or `ca-somm`.
-    pub model: &'static str,
-    /// Seed.
-    pub seed: u64,
-    /// Hold-out share (used by `calibrate` without `--validate`; experiments validate on GB20).
-    pub holdout: f64,
-    /// X network.
-    pub x: &'a robocal_residual::NetSettings,
-    /// Y network.
-    pub y: &'a robocal_residual::NetSettings,
-    /// Z network.
-    pub z: &'a robocal_residual::NetSettings,
-    /// Multi-output network.
-    pub mosm: &'a robocal_residual::NetSettings,
-    /// Classifier.
-    pub classifier: &'a robocal_residual::ClassifierSettings,
-    /// Hyper-parameter search, if asked.
-    pub search: Option<&'a robocal_residual::SearchSettings>,
-}
-
 impl Experiment {
-    /// The resolved form, given the untrained and kinematic loads the split settled on.
-    pub fn resolved(&self, untrained_loads: Vec<f64>, kinematic_load: f64) -> Resolved<'_> {
+    /// The experiment as it ran, every default filled in and paths made absolute, given the
+    /// untrained and kinematic loads the split settled on: an experiment file (written beside
+    /// the report as `experiment.toml`) that runs the same experiment from anywhere.
+    pub fn resolved(&self, untrained_loads: Vec<f64>, kinematic_load: f64) -> RawExperiment {
         let absolute = |p: &Option<PathBuf>| {
             p.as_ref()
                 .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone()))
         };
-        Resolved {
-            name: &self.name,
-            description: self.description.as_deref(),
-            seed: self.seed,
-            data: DataSource {
+        RawExperiment {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            seed: Some(self.seed),
+            // The report is where it is; a rerun chooses its own place.
+            output: None,
+            data: RawData {
                 twin: absolute(&self.data.twin),
                 robot: absolute(&self.data.robot),
                 measurements: absolute(&self.data.measurements),
             },
-            split: ResolvedSplit {
-                trained_configurations: self.split.trained_configurations,
-                untrained_loads,
-                validation_loads: self.split.validation_loads,
-                kinematic_load,
-            },
-            model: self
+            split: Some(RawSplit {
+                trained_configurations: Some(self.split.trained_configurations),
+                untrained_loads: Some(untrained_loads),
+                validation_loads: Some(self.split.validation_loads),
+                kinematic_load: Some(kinematic_load),
+            }),
+            models: self
                 .models
                 .iter()
-                .map(|m| ResolvedModel {
-                    name: &m.name,
-                    kinematic: ResolvedKinematic {
-                        solver: m.stages.kinematic.solver.name(),
-                        parameters: m.stages.kinematic.parameters.as_deref(),
-                        max_iterations: m.stages.kinematic.max_iterations,
-                        rank_tolerance: m.stages.kinematic.rank_tolerance,
-                    },
-                    residual: m.stages.residual.as_ref().map(|r| {
-                        let s = &r.settings;
-                        ResolvedResidual {
-                            model: s.kind.name(),
-                            seed: s.seed,
-                            holdout: r.holdout,
-                            x: &s.axes[0],
-                            y: &s.axes[1],
-                            z: &s.axes[2],
-                            mosm: &s.mosm,
-                            classifier: &s.classifier,
-                            search: s.search.as_ref(),
-                        }
-                    }),
+                .map(|m| {
+                    let k = &m.stages.kinematic;
+                    RawModel {
+                        name: m.name.clone(),
+                        kinematic: Some(robocal_ident::RawKinematicStage {
+                            solver: Some(k.solver.name().to_string()),
+                            parameters: k.parameters.clone(),
+                            max_iterations: Some(k.max_iterations),
+                            rank_tolerance: Some(k.rank_tolerance),
+                        }),
+                        residual: m.stages.residual.as_ref().map(|r| {
+                            let s = &r.settings;
+                            robocal_residual::RawResidualStage {
+                                model: s.kind.name().to_string(),
+                                seed: Some(s.seed),
+                                holdout: Some(r.holdout),
+                                x: Some(s.axes[0].clone()),
+                                y: Some(s.axes[1].clone()),
+                                z: Some(s.axes[2].clone()),
+                                mosm: Some(s.mosm.clone()),
+                                classifier: Some(s.classifier.clone()),
+                                search: s.search.clone(),
+                            }
+                        }),
+                    }
                 })
                 .collect(),
+            tables: Some(RawTables {
+                table5: self.table5.map(|i| self.models[i].name.clone()),
+            }),
         }
     }
 }

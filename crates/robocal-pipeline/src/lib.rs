@@ -7,9 +7,8 @@
 //!
 //! let experiment = Experiment::load("configs/experiments/paper.toml".as_ref())?;
 //! let mut outcome = run(&experiment)?;
-//! println!("{}", robocal_pipeline::tables(&outcome));
-//! let folder = write_report(&mut outcome, None)?;
-//! println!("report in {}", folder.display());
+//! let written = write_report(&mut outcome, None)?;
+//! println!("{}\nreport in {}", written.tables, written.dir.display());
 //! # Ok::<(), robocal_pipeline::PipelineError>(())
 //! ```
 
@@ -24,7 +23,7 @@ pub mod stages;
 
 pub use error::{PipelineError, Result};
 pub use experiment::{Experiment, ModelPlan, RawExperiment, SplitDesign};
-pub use report::{tables, write_report};
+pub use report::{Written, write_report};
 pub use run::{Outcome, Summary, run};
 pub use split::{Set, Splits};
 pub use stages::{RawStages, Stages};

@@ -11,7 +11,7 @@ use robocal_twin::{BacklashSide, TwinConfig};
 use crate::error::{PipelineError, Result};
 use crate::paper;
 use crate::plots::{draw_all, report_dir};
-use crate::run::{Outcome, stats};
+use crate::run::{Outcome, Summary, stats};
 
 fn ours(s: &ErrorStats) -> String {
     format!("{:.3} | {:.3} | {:.3}", s.mean, s.std, s.max)
@@ -56,8 +56,8 @@ fn twin_contents(t: &TwinConfig) -> String {
     parts.join("; ")
 }
 
-/// The tables (printed on the terminal and in the report).
-pub fn tables(o: &Outcome) -> String {
+/// The tables (printed on the terminal and in the report), some read from `summary`.
+fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
     let mut t = String::new();
     let e = &o.experiment;
     let s = &o.splits;
@@ -122,48 +122,44 @@ pub fn tables(o: &Outcome) -> String {
     );
     let _ = writeln!(w, "| rows | model | mean | std | max | paper |");
     let _ = writeln!(w, "|---|---|---|---|---|---|");
-    let fit = &s.kinematic_rows;
-    let held = &s.kinematic_held_out_rows;
-    let _ = writeln!(
-        w,
-        "| fitted ({}) | before (nominal, base+tool fitted) | {} | {} |",
-        fit.len(),
-        ours(&stats(&o.before, fit)),
-        theirs(paper::V_A_BEFORE)
-    );
-    for k in &o.kinematics {
-        let p = if k.settings.solver == robocal_ident::SolverKind::Bfgs {
-            theirs(paper::V_A_AFTER)
-        } else {
-            "-".into()
-        };
+    // Fitted rows, then held-out rows: "before", then each solver; the paper's figure beside
+    // BFGS (its solver).
+    let sets = [
+        (
+            "fitted",
+            "before (nominal, base+tool fitted)",
+            &s.kinematic_rows,
+            theirs(paper::V_A_BEFORE),
+            theirs(paper::V_A_AFTER),
+        ),
+        (
+            "held out",
+            "before",
+            &s.kinematic_held_out_rows,
+            "-".to_string(),
+            format!("{:.3} mean", paper::V_A_HELD_OUT_MEAN),
+        ),
+    ];
+    for (label, before, rows, paper_before, paper_bfgs) in sets {
+        let n = rows.len();
         let _ = writeln!(
             w,
-            "| fitted ({}) | {} | {} | {p} |",
-            fit.len(),
-            k.label,
-            ours(&stats(&k.errors, fit))
+            "| {label} ({n}) | {before} | {} | {paper_before} |",
+            ours(&stats(&o.before, rows))
         );
-    }
-    let _ = writeln!(
-        w,
-        "| held out ({}) | before | {} | - |",
-        held.len(),
-        ours(&stats(&o.before, held))
-    );
-    for k in &o.kinematics {
-        let p = if k.settings.solver == robocal_ident::SolverKind::Bfgs {
-            format!("{:.3} mean", paper::V_A_HELD_OUT_MEAN)
-        } else {
-            "-".into()
-        };
-        let _ = writeln!(
-            w,
-            "| held out ({}) | {} | {} | {p} |",
-            held.len(),
-            k.label,
-            ours(&stats(&k.errors, held))
-        );
+        for k in &o.kinematics {
+            let p = if k.settings.solver == robocal_ident::SolverKind::Bfgs {
+                paper_bfgs.as_str()
+            } else {
+                "-"
+            };
+            let _ = writeln!(
+                w,
+                "| {label} ({n}) | {} | {} | {p} |",
+                k.label,
+                ours(&stats(&k.errors, rows))
+            );
+        }
     }
     let _ = writeln!(w);
     for k in &o.kinematics {
@@ -300,7 +296,6 @@ pub fn tables(o: &Outcome) -> String {
     }
     let _ = writeln!(w);
 
-    let summary = o.summary();
     let mut residual_lines = Vec::new();
     for m in &summary.models {
         if m.networks.is_empty() {
@@ -443,13 +438,21 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
     w
 }
 
-/// Writes the report folder `<output>/<name>/` atomically and returns its path. `out` replaces
-/// the experiment's output folder when given.
-pub fn write_report(o: &mut Outcome, out: Option<&Path>) -> Result<PathBuf> {
+/// What [`write_report`] wrote.
+#[derive(Debug, Clone)]
+pub struct Written {
+    /// The report folder, `<output>/<name>`.
+    pub dir: PathBuf,
+    /// The tables of `report.md`, for the terminal.
+    pub tables: String,
+}
+
+/// Writes the report folder `<output>/<name>/` atomically. `out` replaces the experiment's
+/// output folder when given.
+pub fn write_report(o: &mut Outcome, out: Option<&Path>) -> Result<Written> {
     let start = Instant::now();
     let output = out.map_or_else(|| o.experiment.output.clone(), Path::to_path_buf);
     let dir = report_dir(&output, &o.experiment.name);
-    let tables = tables(o);
     let resolved = o
         .experiment
         .resolved(o.splits.untrained_loads.clone(), o.splits.kinematic_load);
@@ -457,11 +460,13 @@ pub fn write_report(o: &mut Outcome, out: Option<&Path>) -> Result<PathBuf> {
         path: dir.join("experiment.toml"),
         message: e.to_string(),
     })?;
+    let mut tables_text = String::new();
     write_dir_atomically(&dir, |tmp| -> Result<()> {
         let figures = draw_all(o, tmp, &dir)?;
         o.timings.report_s = start.elapsed().as_secs_f64();
-        let json =
-            serde_json::to_string_pretty(&o.summary()).expect("plain data serialises") + "\n";
+        let summary = o.summary();
+        tables_text = tables(o, &summary);
+        let json = serde_json::to_string_pretty(&summary).expect("plain data serialises") + "\n";
         write_text_in(tmp, &dir, "results.json", &json)?;
         write_text_in(
             tmp,
@@ -473,8 +478,11 @@ pub fn write_report(o: &mut Outcome, out: Option<&Path>) -> Result<PathBuf> {
                 env!("CARGO_PKG_VERSION")
             ),
         )?;
-        write_text_in(tmp, &dir, "report.md", &markdown(o, &tables, &figures))?;
+        write_text_in(tmp, &dir, "report.md", &markdown(o, &tables_text, &figures))?;
         Ok(())
     })?;
-    Ok(dir)
+    Ok(Written {
+        dir,
+        tables: tables_text,
+    })
 }

@@ -11,7 +11,7 @@ use robocal_ident::{
     KinematicCalibration, KinematicReport, KinematicSettings, Observations, align,
     calibrate_kinematics,
 };
-use robocal_residual::{ResidualModel, Samples};
+use robocal_residual::{ResidualModel, Samples, inputs_of};
 use robocal_robot::{ParamId, Robot};
 use robocal_twin::TwinConfig;
 use serde::Serialize;
@@ -65,6 +65,15 @@ pub fn axis_rms(errors: &[Vector3<f64>], rows: &[usize]) -> [f64; 3] {
         }
     }
     s.map(|v| (v / rows.len().max(1) as f64).sqrt())
+}
+
+/// Residual samples of `rows`: their inputs, and the kinematic errors already computed for every
+/// row (no second pass through the kinematics).
+fn samples(data: &[Measurement], errors: &[Vector3<f64>], rows: &[usize]) -> Samples {
+    Samples {
+        inputs: rows.iter().map(|&i| inputs_of(&data[i].sample)).collect(),
+        errors: rows.iter().map(|&i| errors[i].into()).collect(),
+    }
 }
 
 /// Measured − predicted position of every row, mm, world frame.
@@ -258,7 +267,6 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
     let t = Instant::now();
     let train_rows = group_rows(&splits, "GA10");
     let val_rows = group_rows(&splits, "GB20");
-    let pick = |rows: &[usize]| rows.iter().map(|&i| &data.rows[i]).collect::<Vec<_>>();
     let mut models = Vec::new();
     for (i, (m, &k)) in experiment.models.iter().zip(&model_kin).enumerate() {
         let kin = &kinematics[k];
@@ -272,9 +280,8 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
             });
             continue;
         };
-        let robot = &kin.calibration.robot;
-        let train = Samples::from_measurements(robot, pick(&train_rows));
-        let val = Samples::from_measurements(robot, pick(&val_rows));
+        let train = samples(&data.rows, &kin.errors, &train_rows);
+        let val = samples(&data.rows, &kin.errors, &val_rows);
         if train.is_empty() || val.is_empty() {
             return Err(key_error(
                 experiment,
@@ -306,8 +313,8 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
         let model = ResidualModel::fit(&stage.settings, &train, &val, Some(&bar))?;
         bar.finish_and_clear();
         let residual_seconds = r0.elapsed().as_secs_f64();
-        let all = Samples::from_measurements(robot, &data.rows);
-        let predicted = model.predict(&all.inputs);
+        let inputs: Vec<Vec<f64>> = data.rows.iter().map(|m| inputs_of(&m.sample)).collect();
+        let predicted = model.predict(&inputs);
         let errors: Vec<Vector3<f64>> = kin
             .errors
             .iter()
@@ -353,7 +360,7 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
 
 /// `results.json`: what ran and every figure, machine-readable.
 #[derive(Debug, Serialize)]
-pub struct Summary {
+pub struct Summary<'a> {
     /// Experiment name.
     pub experiment: String,
     /// Its description.
@@ -365,7 +372,7 @@ pub struct Summary {
     /// Where the data came from.
     pub data: DataSummary,
     /// The split.
-    pub split: SplitSummary,
+    pub split: SplitSummary<'a>,
     /// Nominal table (base and tool fitted) per group of rows.
     pub before: BTreeMap<String, ErrorStats>,
     /// Each kinematic identification.
@@ -397,27 +404,18 @@ pub struct DataSummary {
     pub loads: Vec<f64>,
 }
 
-/// The split in `results.json`.
+/// The split in `results.json`: the split's members and loads, with the size of each set.
 #[derive(Debug, Serialize)]
-pub struct SplitSummary {
+pub struct SplitSummary<'a> {
     /// Rows per set.
     pub sizes: BTreeMap<String, usize>,
-    /// Kinematic rows fitted / held out.
+    /// Kinematic rows fitted (trained configurations at the kinematic load).
     pub kinematic_fit_rows: usize,
     /// Kinematic rows held out (untrained configurations at the kinematic load).
     pub kinematic_held_out_rows: usize,
-    /// Trained configurations, kg loads etc.
-    pub trained_configurations: Vec<String>,
-    /// Untrained configurations.
-    pub untrained_configurations: Vec<String>,
-    /// Trained loads, kg.
-    pub trained_loads: Vec<f64>,
-    /// Untrained loads, kg.
-    pub untrained_loads: Vec<f64>,
-    /// Validation loads (GB20), kg.
-    pub validation_loads: Vec<f64>,
-    /// Load of the kinematic rows, kg.
-    pub kinematic_load: f64,
+    /// Configurations and loads of the split.
+    #[serde(flatten)]
+    pub split: &'a Splits,
 }
 
 /// One kinematic identification in `results.json`.
@@ -519,10 +517,7 @@ impl Outcome {
     pub fn mean_by_load(&self, errors: &[Vector3<f64>]) -> Vec<(f64, f64)> {
         let mut loads: Vec<f64> = self.data.loads();
         loads.sort_by(f64::total_cmp);
-        let untrained: Vec<usize> = self.rows("GB20");
-        let mut untrained_rows = untrained;
-        untrained_rows.extend(self.rows("GB10"));
-        untrained_rows.extend(self.rows("GB30"));
+        let untrained_rows = self.splits.rows(&[Set::Gb20, Set::Gb10, Set::Gb30]);
         loads
             .iter()
             .map(|&l| {
@@ -539,13 +534,8 @@ impl Outcome {
     /// Classifier accuracy of a model on a group.
     fn accuracy(&self, model: &ModelRun, group: &str) -> Option<f64> {
         let c = model.residual.as_ref()?.classifier.as_ref()?;
-        let robot = &self.kinematics[model.kinematic].calibration.robot;
-        let rows: Vec<&Measurement> = self
-            .rows(group)
-            .iter()
-            .map(|&i| &self.data.rows[i])
-            .collect();
-        Some(c.accuracy(&Samples::from_measurements(robot, rows)))
+        let errors = &self.kinematics[model.kinematic].errors;
+        Some(c.accuracy(&samples(&self.data.rows, errors, &self.rows(group))))
     }
 
     /// Table 4 rows: every joint parameter (base and tool frames are left to `results.json`'s
@@ -592,7 +582,7 @@ impl Outcome {
     }
 
     /// The machine-readable summary.
-    pub fn summary(&self) -> Summary {
+    pub fn summary(&self) -> Summary<'_> {
         let e = &self.experiment;
         let s = &self.splits;
         let mut loads = self.data.loads();
@@ -621,12 +611,7 @@ impl Outcome {
                     .collect(),
                 kinematic_fit_rows: s.kinematic_rows.len(),
                 kinematic_held_out_rows: s.kinematic_held_out_rows.len(),
-                trained_configurations: s.trained_configurations.clone(),
-                untrained_configurations: s.untrained_configurations.clone(),
-                trained_loads: s.trained_loads.clone(),
-                untrained_loads: s.untrained_loads.clone(),
-                validation_loads: s.validation_loads.clone(),
-                kinematic_load: s.kinematic_load,
+                split: s,
             },
             before: self.by_group(&self.before),
             kinematic: self

@@ -42,7 +42,7 @@ impl Set {
     }
 }
 
-/// A split of a measurement set's rows.
+/// A split of a measurement set's rows (serialised without the per-row lists).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Splits {
     /// Trained configurations (pose ids), in the order the seed drew them.
@@ -58,10 +58,13 @@ pub struct Splits {
     /// Load of the kinematic rows, kg.
     pub kinematic_load: f64,
     /// The set of every row, in row order.
+    #[serde(skip)]
     pub set_of_row: Vec<Set>,
     /// Rows (indices) the kinematic stage fits: trained configurations at the kinematic load.
+    #[serde(skip)]
     pub kinematic_rows: Vec<usize>,
     /// Untrained configurations at the kinematic load: the kinematic cross-validation.
+    #[serde(skip)]
     pub kinematic_held_out_rows: Vec<usize>,
 }
 

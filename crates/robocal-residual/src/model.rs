@@ -581,19 +581,19 @@ impl ResidualModel {
         let seed = settings.seed;
         let (settings, search_logs) = Self::searched(settings, train_set, validation);
         let settings = &settings;
+        // One axis's network; a SOMM set is the three of them.
+        let fit = |a: usize, set: &Samples, val: &Samples, offset: u64| {
+            AxisNet::fit(
+                vec![a],
+                &settings.axes[a],
+                set,
+                val,
+                seed.wrapping_add(offset + a as u64),
+                progress,
+            )
+        };
         let somm = |set: &Samples, val: &Samples, offset: u64| -> Vec<AxisNet> {
-            (0..3)
-                .map(|a| {
-                    AxisNet::fit(
-                        vec![a],
-                        &settings.axes[a],
-                        set,
-                        val,
-                        seed.wrapping_add(offset + a as u64),
-                        progress,
-                    )
-                })
-                .collect()
+            (0..3).map(|a| fit(a, set, val, offset)).collect()
         };
         let (nets, classifier) = match settings.kind {
             ResidualKind::Somm => (somm(train_set, validation, 0), None),
@@ -676,16 +676,6 @@ impl ResidualModel {
                         nets
                     }
                     PerClass::Axis => {
-                        let fit = |a: usize, set: &Samples, val: &Samples, offset: u64| {
-                            AxisNet::fit(
-                                vec![a],
-                                &settings.axes[a],
-                                set,
-                                val,
-                                seed.wrapping_add(offset + a as u64),
-                                progress,
-                            )
-                        };
                         let shared: Vec<Option<AxisNet>> = (0..3)
                             .map(|a| (a != axis).then(|| fit(a, train_set, validation, 0)))
                             .collect();

@@ -1,13 +1,13 @@
 //! The residual stage of a stage config (`[residual]`), raw and validated.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::mlp::NetSettings;
 use crate::model::{ClassifierSettings, ResidualKind, ResidualSettings};
 use crate::search::SearchSettings;
 
 /// `[residual]` as written. Absent networks get the paper's settings (Tables 2 and 3).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawResidualStage {
     /// `"somm"`, `"mosm"` or `"ca-somm"`.
