@@ -1,142 +1,21 @@
 //! `robocal calibrate`: identify a model from measurements and write the model directory.
+//!
+//! With `--config`, the stages the file asks for; without, the default calibration, which
+//! chooses its stages from the data by their error on held-out poses (see
+//! `robocal_pipeline::calibration`).
 
 use std::path::{Path, PathBuf};
 
-use std::collections::HashSet;
-
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use rand::SeedableRng;
-use rand::seq::SliceRandom;
-use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, write_dir_atomically, write_text_in};
-use robocal_ident::{KinematicReport, Observations, calibrate_kinematics};
-use robocal_pipeline::Stages;
-use robocal_residual::{ResidualModel, ResidualStage, Samples, SearchLog};
+use robocal_ident::{KinematicReport, Observations};
+use robocal_pipeline::calibration::{ResidualReport, Selection};
+use robocal_pipeline::{AutoSettings, Stages, automatic, configured};
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::model::{MODEL_FORMAT, Model};
-
-/// Reads and validates a stage config (absent: the defaults).
-fn load_stages(path: Option<&Path>) -> Result<Stages> {
-    Ok(path.map(Stages::load).transpose()?.unwrap_or_default())
-}
-
-/// One network's training, in the report.
-#[derive(Debug, Clone, Serialize)]
-struct NetTraining {
-    axes: String,
-    epochs: usize,
-    best_epoch: usize,
-    stopped_early: bool,
-}
-
-/// The residual stage in `report.json`.
-#[derive(Debug, Clone, Serialize)]
-struct ResidualReport {
-    model: &'static str,
-    seed: u64,
-    /// Where the early-stopping data came from.
-    validation_source: String,
-    training_rows: usize,
-    validation_rows: usize,
-    networks: Vec<NetTraining>,
-    /// Training rows: error after kinematics, and after kinematics + residual.
-    training_before: ErrorStats,
-    training_after: ErrorStats,
-    validation_before: ErrorStats,
-    validation_after: ErrorStats,
-    /// CA-SOMM: share of rows the classifier puts in their true class.
-    classifier_accuracy_training: Option<f64>,
-    classifier_accuracy_validation: Option<f64>,
-    /// TPE searches that chose the settings (when the stage asked for one).
-    search: Vec<SearchLog>,
-}
-
-/// Trains the residual stage on every row of `set` (less a hold-out of whole configurations when
-/// no validation file is given).
-fn train_residual(
-    stage: &ResidualStage,
-    robot: &Robot,
-    set: &MeasurementSet,
-    validation: Option<&MeasurementSet>,
-) -> Result<(ResidualModel, ResidualReport)> {
-    let seed = stage.settings.seed;
-    let (train, val, source) = match validation {
-        Some(v) => (
-            Samples::from_measurements(robot, &set.rows),
-            Samples::from_measurements(robot, &v.rows),
-            format!("{}", v.source.display()),
-        ),
-        None => {
-            let mut poses: Vec<&str> = set.rows.iter().map(|r| r.sample.pose.as_str()).collect();
-            poses.sort_unstable();
-            poses.dedup();
-            if poses.len() < 2 {
-                bail!(
-                    "{}: the residual stage needs a --validate file or at least two configurations to hold one out",
-                    set.source.display()
-                );
-            }
-            poses.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-            let n =
-                ((poses.len() as f64 * stage.holdout).round() as usize).clamp(1, poses.len() - 1);
-            let held: HashSet<&str> = poses[..n].iter().copied().collect();
-            let (v, t): (Vec<&Measurement>, Vec<&Measurement>) = set
-                .rows
-                .iter()
-                .partition(|r| held.contains(r.sample.pose.as_str()));
-            (
-                Samples::from_measurements(robot, t),
-                Samples::from_measurements(robot, v),
-                format!(
-                    "{n} of {} configurations held out (seed {seed})",
-                    poses.len()
-                ),
-            )
-        }
-    };
-    let bar = ProgressBar::new(ResidualModel::max_epochs(&stage.settings));
-    bar.set_style(
-        ProgressStyle::with_template(
-            "robocal: residual {msg} [{bar:30}] {pos}/{len} epochs (at most) {elapsed}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message(stage.settings.kind.name());
-    let model = ResidualModel::fit(&stage.settings, &train, &val, Some(&bar))?;
-    bar.finish_and_clear();
-    let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
-        ErrorStats::from_errors(&s.remaining(predicted))
-    };
-    let axes = |a: &[usize]| a.iter().map(|&i| ["x", "y", "z"][i]).collect::<String>();
-    let report = ResidualReport {
-        model: stage.settings.kind.name(),
-        seed,
-        validation_source: source,
-        training_rows: train.len(),
-        validation_rows: val.len(),
-        networks: model
-            .nets
-            .iter()
-            .map(|n| NetTraining {
-                axes: axes(&n.axes),
-                epochs: n.report.epochs,
-                best_epoch: n.report.best_epoch,
-                stopped_early: n.report.stopped_early,
-            })
-            .collect(),
-        training_before: left(&train, None),
-        training_after: left(&train, Some(&model.predict(&train.inputs))),
-        validation_before: left(&val, None),
-        validation_after: left(&val, Some(&model.predict(&val.inputs))),
-        classifier_accuracy_training: model.classifier.as_ref().map(|c| c.accuracy(&train)),
-        classifier_accuracy_validation: model.classifier.as_ref().map(|c| c.accuracy(&val)),
-        search: model.search.clone(),
-    };
-    Ok((model, report))
-}
+use super::model::{COMPLIANCE_FILE, MODEL_FORMAT};
 
 /// Before/after statistics on the validation file.
 #[derive(Debug, Serialize)]
@@ -144,9 +23,9 @@ struct Validation {
     file: PathBuf,
     /// Nominal table, base and tool fitted.
     before: ErrorStats,
-    /// Calibrated kinematics alone.
+    /// Calibrated kinematics (and compliance) alone.
     after_kinematic: ErrorStats,
-    /// The whole model (kinematics + residual, if any).
+    /// The whole model (kinematics + compliance + residual, if any).
     after: ErrorStats,
 }
 
@@ -157,11 +36,29 @@ struct Report {
     robocal_version: &'static str,
     robot_file: PathBuf,
     data_file: PathBuf,
-    /// Rows used by the kinematic stage: those at the lightest load in the data.
+    /// `config FILE`, or the default calibration.
+    stages_from: String,
+    /// How the default calibration chose its stages.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    selection: Option<Selection>,
+    /// Lightest load in the data: a rigid kinematic stage uses the rows at this load; an
+    /// elasto-geometric one uses every row.
     kinematic_load: f64,
     kinematic: KinematicReport,
     residual: Option<ResidualReport>,
     validation: Option<Validation>,
+}
+
+/// A progress bar for residual training.
+fn bar(len: u64) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "robocal: residual [{bar:30}] {pos}/{len} epochs (at most) {elapsed}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
 }
 
 /// Runs the calibration and writes `out` atomically.
@@ -172,26 +69,45 @@ pub fn run(
     out: &Path,
     config: Option<&Path>,
 ) -> Result<()> {
-    let stages = load_stages(config)?;
+    let stages = config.map(Stages::load).transpose()?;
     let nominal = Robot::load(robot)?;
     let set = MeasurementSet::read(data, nominal.dof())?;
     let validation = validate
         .map(|v| MeasurementSet::read(v, nominal.dof()))
         .transpose()?;
-    // Geometry is identified from the unloaded (lightest-load) rows, as in the paper.
+    let rows: Vec<&Measurement> = set.rows.iter().collect();
+    let val_rows: Option<Vec<&Measurement>> = validation.as_ref().map(|v| v.rows.iter().collect());
+    let val = val_rows
+        .as_deref()
+        .zip(validation.as_ref())
+        .map(|(r, v)| (r, v.source.display().to_string()));
+    let auto = AutoSettings::default();
+    let progress = bar(robocal_residual::ResidualModel::max_epochs(
+        &stages
+            .as_ref()
+            .and_then(|s| s.residual.as_ref())
+            .unwrap_or(&auto.residual)
+            .settings,
+    ));
+    let built = match &stages {
+        Some(stages) => configured(stages, &nominal, &rows, val, Some(&progress)),
+        None => automatic(&auto, &nominal, &rows, val, Some(&progress), &mut |line| {
+            progress.suspend(|| eprintln!("robocal: {line}"))
+        }),
+    }
+    .with_context(|| format!("{}: calibration failed", data.display()))?;
+    progress.finish_and_clear();
     let lightest = set.loads().first().copied().unwrap_or(0.0);
-    let obs = Observations::from_rows(
-        nominal.dof(),
-        set.rows.iter().filter(|r| r.sample.load == lightest),
-    );
-    let cal = calibrate_kinematics(&nominal, &obs, &stages.kinematic)
-        .with_context(|| format!("{}: calibration failed", data.display()))?;
-    let r = &cal.report;
+    let r = &built.kinematic.report;
     eprintln!(
-        "robocal: kinematic ({}): {} points at {} kg, mean error {:.4} → {:.4} mm (max {:.4} → {:.4}), {} iterations",
+        "robocal: kinematic ({}{}): {} points, mean error {:.4} → {:.4} mm (max {:.4} → {:.4}), {} iterations",
         r.solver,
+        if r.compliance.is_some() {
+            " with joint compliance"
+        } else {
+            ""
+        },
         r.points,
-        lightest,
         r.before.mean,
         r.after.mean,
         r.before.max,
@@ -205,12 +121,7 @@ pub fn run(
             names.join(", ")
         );
     }
-    let residual = stages
-        .residual
-        .as_ref()
-        .map(|stage| train_residual(stage, &cal.robot, &set, validation.as_ref()))
-        .transpose()?;
-    if let Some((_, r)) = &residual {
+    if let Some((_, r)) = &built.residual {
         eprintln!(
             "robocal: residual ({}): training mean {:.4} → {:.4} mm, validation ({}) {:.4} → {:.4} mm{}",
             r.model,
@@ -226,23 +137,17 @@ pub fn run(
                 ))
         );
     }
-    let model = Model {
-        robot: cal.robot.clone(),
-        residual: residual.as_ref().map(|(m, _)| m.clone()),
-    };
+    let model = built.predictor();
     let validation = validation.map(|v| {
         let obs = Observations::from_set(&v);
-        let full: Vec<f64> = model
-            .predict_all(v.rows.iter().map(|m| &m.sample))
-            .iter()
-            .zip(&v.rows)
-            .map(|(p, m)| (p - m.position).norm())
-            .collect();
+        let rows: Vec<&Measurement> = v.rows.iter().collect();
         Validation {
             file: v.source.clone(),
-            before: ErrorStats::from_errors(&obs.errors(&cal.aligned)),
-            after_kinematic: ErrorStats::from_errors(&obs.errors(&cal.robot)),
-            after: ErrorStats::from_errors(&full),
+            before: ErrorStats::from_errors(&obs.errors(&built.kinematic.aligned)),
+            after_kinematic: ErrorStats::from_errors(
+                &obs.errors_with(&model.robot, model.compliance.as_ref()),
+            ),
+            after: model.stats(&rows),
         }
     });
     if let Some(v) = &validation {
@@ -259,18 +164,26 @@ pub fn run(
         robocal_version: env!("CARGO_PKG_VERSION"),
         robot_file: robot.to_path_buf(),
         data_file: data.to_path_buf(),
+        stages_from: match config {
+            Some(c) => format!("config {}", c.display()),
+            None => "default: each stage kept only if it lowers the held-out error".into(),
+        },
+        selection: built.selection.clone(),
         kinematic_load: lightest,
-        kinematic: cal.report.clone(),
-        residual: residual.as_ref().map(|(_, r)| r.clone()),
+        kinematic: built.kinematic.report.clone(),
+        residual: built.residual.as_ref().map(|(_, r)| r.clone()),
         validation,
     };
-    let mut calibrated = cal.robot.clone();
+    let mut calibrated = model.robot.clone();
     calibrated.name = format!("{} (calibrated by robocal)", nominal.name);
     let json = serde_json::to_string_pretty(&report)? + "\n";
     write_dir_atomically(out, |dir| -> Result<()> {
         write_text_in(dir, out, "kinematics.toml", &calibrated.to_toml_string())?;
-        if let Some((model, _)) = &residual {
-            model.save(dir)?;
+        if let Some(c) = &model.compliance {
+            write_text_in(dir, out, COMPLIANCE_FILE, &c.to_toml_string())?;
+        }
+        if let Some(residual) = &model.residual {
+            residual.save(dir)?;
         }
         write_text_in(dir, out, "report.json", &json)?;
         Ok(())

@@ -6,10 +6,13 @@ use anyhow::{Context, Result, bail};
 use nalgebra::Vector3;
 use robocal_data::Sample;
 use robocal_residual::{MANIFEST, ResidualModel, inputs_of};
-use robocal_robot::Robot;
+use robocal_robot::{Compliance, Robot};
 use serde::Deserialize;
 
 use crate::cli::ModelSource;
+
+/// The compliance model's file in a model directory.
+pub const COMPLIANCE_FILE: &str = "compliance.toml";
 
 /// Version of the model-directory layout this build writes and reads.
 pub const MODEL_FORMAT: u32 = 1;
@@ -19,6 +22,8 @@ pub const MODEL_FORMAT: u32 = 1;
 pub struct Model {
     /// Kinematic table (nominal or identified).
     pub robot: Robot,
+    /// Joint compliance under the payload (if an elasto-geometric stage ran).
+    pub compliance: Option<Compliance>,
     /// What the kinematics leave, learned (if a residual stage ran).
     pub residual: Option<ResidualModel>,
 }
@@ -35,6 +40,7 @@ impl Model {
         match (&source.robot, &source.model) {
             (Some(robot), _) => Ok(Self {
                 robot: Robot::load(robot)?,
+                compliance: None,
                 residual: None,
             }),
             (None, Some(dir)) => Self::load_dir(dir),
@@ -66,6 +72,11 @@ impl Model {
             None => bail!("{}: key `model_format` missing", report.display()),
         }
         let robot = Robot::load(dir.join("kinematics.toml"))?;
+        let compliance_file = dir.join(COMPLIANCE_FILE);
+        let compliance = compliance_file
+            .exists()
+            .then(|| Compliance::load(&compliance_file, robot.dof()))
+            .transpose()?;
         let residual = if dir.join(MANIFEST).exists() {
             let model = ResidualModel::load(dir)?;
             if model.inputs != robot.dof() + 1 {
@@ -80,19 +91,30 @@ impl Model {
         } else {
             None
         };
-        Ok(Self { robot, residual })
+        Ok(Self {
+            robot,
+            compliance,
+            residual,
+        })
     }
 
-    /// Predicted target points, mm, world frame: kinematics, plus the residual model's error.
+    /// The geometric (and elastic) part of the prediction for a sample, mm, world frame.
+    pub fn base_point(&self, s: &Sample) -> Vector3<f64> {
+        let q = s.joints_rad();
+        match &self.compliance {
+            Some(c) => c.point(&self.robot, &q, s.load),
+            None => self.robot.point(&q),
+        }
+    }
+
+    /// Predicted target points, mm, world frame: kinematics (deflected by the compliance model
+    /// under the sample's load), plus the residual model's error.
     pub fn predict_all<'a>(
         &self,
         samples: impl IntoIterator<Item = &'a Sample>,
     ) -> Vec<Vector3<f64>> {
         let samples: Vec<&Sample> = samples.into_iter().collect();
-        let mut points: Vec<Vector3<f64>> = samples
-            .iter()
-            .map(|s| self.robot.point(&s.joints_rad()))
-            .collect();
+        let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
         if let Some(residual) = &self.residual {
             let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
             for (p, e) in points.iter_mut().zip(residual.predict(&inputs)) {

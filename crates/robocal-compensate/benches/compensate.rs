@@ -5,9 +5,9 @@ use divan::{Bencher, black_box};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robocal_compensate::{CompensationOptions, compensate};
+use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
 use robocal_residual::{ResidualKind, ResidualModel, ResidualSettings, Samples};
-use robocal_robot::Robot;
+use robocal_robot::{Compliance, Robot};
 
 fn main() {
     divan::main();
@@ -56,7 +56,16 @@ fn one_target_kinematics(b: Bencher) {
     let robot = robot();
     let t = target(&robot);
     let o = CompensationOptions::default();
-    b.bench_local(|| compensate(black_box(&robot), None, &t, 5.0, &SEED, &o).expect("converges"));
+    b.bench_local(|| {
+        compensate(
+            &CalibratedModel::kinematic(black_box(&robot)),
+            &t,
+            5.0,
+            &SEED,
+            &o,
+        )
+        .expect("converges")
+    });
 }
 
 #[divan::bench]
@@ -66,6 +75,36 @@ fn one_target_kinematics_plus_somm(b: Bencher) {
     let t = target(&robot);
     let o = CompensationOptions::default();
     b.bench_local(|| {
-        compensate(black_box(&robot), Some(&model), &t, 5.0, &SEED, &o).expect("converges")
+        let m = CalibratedModel {
+            robot: black_box(&robot),
+            compliance: None,
+            residual: Some(&model),
+        };
+        compensate(&m, &t, 5.0, &SEED, &o).expect("converges")
+    });
+}
+
+#[divan::bench]
+fn one_target_kinematics_plus_compliance(b: Bencher) {
+    let robot = robot();
+    // Compliances of the size the twin's joints have, deg per kN·m.
+    let values = [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
+        .iter()
+        .map(|c| c * robocal_robot::DEG_PER_KNM)
+        .collect();
+    let compliance = Compliance::new(
+        values,
+        Vector3::new(0.0, 0.0, -9.80665),
+        Vector3::new(100.0, 0.0, 60.0),
+    );
+    let t = target(&robot);
+    let o = CompensationOptions::default();
+    b.bench_local(|| {
+        let m = CalibratedModel {
+            robot: black_box(&robot),
+            compliance: Some(&compliance),
+            residual: None,
+        };
+        compensate(&m, &t, 15.0, &SEED, &o).expect("converges")
     });
 }

@@ -1,18 +1,19 @@
 //! Compensation: for a target position, a seed command and a load, the joint command for which
-//! the calibrated model (identified kinematics plus the residual model, under that load) puts
-//! the target point on the target.
+//! the calibrated model (identified kinematics, joint compliance under that load and the
+//! residual model) puts the target point on the target.
 //!
-//! The residual model depends on the command, so the command is found by a fixed-point
-//! iteration: solve the kinematics for `target − residual(q_k)` by damped least squares from
-//! `q_k` (the seed first), then re-evaluate the residual at the new command, until the whole
-//! model's error is below the tolerance. With six or more joints the flange orientation the
+//! The residual model and the deflection depend on the command, so the command is found by a
+//! fixed-point iteration: solve the kinematics for the arm's real angles that put the point at
+//! `target − residual(q_k)` by damped least squares (from `q_k` deflected; the seed first), take
+//! off the deflection at `q_k`, then re-evaluate residual and deflection at the new command,
+//! until the whole model's error is below the tolerance. With six or more joints the flange orientation the
 //! calibrated kinematics give at the seed is kept (the program's tool orientation stays as it
 //! was; only the position is corrected), so the answer is the command nearest the seed with
 //! that orientation; with fewer joints the orientation is left free.
 //!
 //! ```
 //! use nalgebra::Vector3;
-//! use robocal_compensate::{CompensationOptions, compensate};
+//! use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
 //! use robocal_robot::Robot;
 //!
 //! let robot = Robot::from_toml_str(
@@ -22,7 +23,8 @@
 //! )?;
 //! let seed = [10.0, 20.0];
 //! let target = Vector3::new(350.0, 120.0, 0.0);
-//! let c = compensate(&robot, None, &target, 0.0, &seed, &CompensationOptions::default()).unwrap();
+//! let model = CalibratedModel::kinematic(&robot);
+//! let c = compensate(&model, &target, 0.0, &seed, &CompensationOptions::default()).unwrap();
 //! let q: Vec<f64> = c.joints_deg.iter().map(|d| d.to_radians()).collect();
 //! assert!((robot.point(&q) - target).norm() < 1e-3);
 //! # Ok::<(), robocal_robot::RobotError>(())
@@ -30,7 +32,7 @@
 
 use nalgebra::Vector3;
 use robocal_residual::ResidualModel;
-use robocal_robot::{IkOptions, IkTarget, Robot};
+use robocal_robot::{Compliance, IkOptions, IkTarget, Robot};
 use serde::Serialize;
 
 /// Settings of [`compensate`].
@@ -95,39 +97,72 @@ impl std::fmt::Display for Failure {
     }
 }
 
-/// The residual model's predicted error at a command (deg) and load, mm (zero without one).
-fn residual_at(residual: Option<&ResidualModel>, q_deg: &[f64], load: f64) -> Vector3<f64> {
-    match residual {
-        Some(r) => {
-            let mut row = q_deg.to_vec();
-            row.push(load);
-            Vector3::from(r.predict(&[row])[0])
+/// A calibrated model as compensation sees it: the identified table, the joint compliances
+/// under the payload (if identified) and the residual model (if learned).
+#[derive(Debug, Clone, Copy)]
+pub struct CalibratedModel<'a> {
+    /// Identified kinematic table.
+    pub robot: &'a Robot,
+    /// Joint compliance under the payload.
+    pub compliance: Option<&'a Compliance>,
+    /// What geometry and compliance leave, learned.
+    pub residual: Option<&'a ResidualModel>,
+}
+
+impl<'a> CalibratedModel<'a> {
+    /// The kinematic table alone.
+    pub fn kinematic(robot: &'a Robot) -> Self {
+        Self {
+            robot,
+            compliance: None,
+            residual: None,
         }
-        None => Vector3::zeros(),
+    }
+
+    /// The joint deflection under `load` at command `q` (rad), rad.
+    fn deflection(&self, q: &[f64], load: f64) -> Vec<f64> {
+        match self.compliance {
+            Some(c) => {
+                let d = c.deflected(self.robot, q, load);
+                d.iter().zip(q).map(|(d, q)| d - q).collect()
+            }
+            None => vec![0.0; q.len()],
+        }
+    }
+
+    /// The residual model's predicted error at command `q` (rad) and `load`, mm (zero without
+    /// one).
+    fn residual_at(&self, q: &[f64], load: f64) -> Vector3<f64> {
+        match self.residual {
+            Some(r) => {
+                let mut row: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+                row.push(load);
+                Vector3::from(r.predict(&[row])[0])
+            }
+            None => Vector3::zeros(),
+        }
+    }
+
+    /// The whole model's predicted point at command `q` (rad) and `load`, mm, world frame.
+    pub fn point(&self, q: &[f64], load: f64) -> Vector3<f64> {
+        let geometric = match self.compliance {
+            Some(c) => c.point(self.robot, q, load),
+            None => self.robot.point(q),
+        };
+        geometric + self.residual_at(q, load)
     }
 }
 
-/// The whole model's predicted point at a command (rad) and load, mm, world frame.
-pub fn model_point(
-    robot: &Robot,
-    residual: Option<&ResidualModel>,
-    q: &[f64],
-    load: f64,
-) -> Vector3<f64> {
-    let deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-    robot.point(q) + residual_at(residual, &deg, load)
-}
-
-/// The joint command (deg) near `seed_deg` for which `robot` plus `residual` put the target
-/// point at `target` (mm, world frame) under `load` (kg).
+/// The joint command (deg) near `seed_deg` for which `model` puts the target point at `target`
+/// (mm, world frame) under `load` (kg).
 pub fn compensate(
-    robot: &Robot,
-    residual: Option<&ResidualModel>,
+    model: &CalibratedModel<'_>,
     target: &Vector3<f64>,
     load: f64,
     seed_deg: &[f64],
     options: &CompensationOptions,
 ) -> Result<Compensation, Failure> {
+    let robot = model.robot;
     if seed_deg.len() != robot.dof() {
         return Err(Failure::BadSeed(format!(
             "{} joint values for a robot with {} joints",
@@ -138,22 +173,26 @@ pub fn compensate(
     if seed_deg.iter().any(|v| !v.is_finite()) || !load.is_finite() {
         return Err(Failure::BadSeed("a value is not finite".into()));
     }
+    if !target.iter().all(|v| v.is_finite()) {
+        return Err(Failure::BadSeed("the target is not finite".into()));
+    }
     let seed: Vec<f64> = seed_deg.iter().map(|d| d.to_radians()).collect();
     let keep_orientation = robot.dof() >= 6;
-    let rotation = robot.flange_frame(&seed).0;
+    let add = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(a, b)| a + b).collect() };
+    // The orientation the model gives the flange at the seed, under the load.
+    let rotation = robot
+        .flange_frame(&add(&seed, &model.deflection(&seed, load)))
+        .0;
     let ik = IkOptions {
         // The kinematic solve only needs to be well inside the model tolerance.
         position_tolerance: options.tolerance * 1e-2,
         ..IkOptions::default()
     };
-    // The residual at the current command, evaluated once per iteration: it sets the next aim
-    // and, with the kinematics, the model's error there.
-    let at = |q: &[f64]| {
-        let deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-        residual_at(residual, &deg, load)
-    };
-    let mut r = at(&seed);
+    // The residual and the deflection at the current command, evaluated once per iteration:
+    // they set the next aim and, with the kinematics, the model's error there.
     let mut q = seed;
+    let mut r = model.residual_at(&q, load);
+    let mut bend = model.deflection(&q, load);
     let mut error = f64::INFINITY;
     for iteration in 1..=options.max_iterations {
         let aim = target - r;
@@ -165,22 +204,26 @@ pub fn compensate(
         } else {
             IkTarget::Point(aim)
         };
-        let next = match robot.inverse_kinematics(&goal, &q, &ik) {
-            Ok(next) => next,
+        // Solve for the angles the arm must really take, then take off the deflection the
+        // load gives at the command.
+        let actual = match robot.inverse_kinematics(&goal, &add(&q, &bend), &ik) {
+            Ok(actual) => actual,
             Err(_) => {
                 return Err(Failure::Unreachable {
-                    model_error: (robot.point(&q) + r - target).norm(),
+                    model_error: (model.point(&q, load) - target).norm(),
                 });
             }
         };
+        let next: Vec<f64> = actual.iter().zip(&bend).map(|(a, b)| a - b).collect();
         if !robot.within_limits(&next) {
             return Err(Failure::Unreachable {
-                model_error: (model_point(robot, residual, &next, load) - target).norm(),
+                model_error: (model.point(&next, load) - target).norm(),
             });
         }
         q = next;
-        r = at(&q);
-        error = (robot.point(&q) + r - target).norm();
+        r = model.residual_at(&q, load);
+        bend = model.deflection(&q, load);
+        error = (robot.point(&add(&q, &bend)) + r - target).norm();
         if error < options.tolerance {
             return Ok(Compensation {
                 joints_deg: q.iter().map(|v| v.to_degrees()).collect(),

@@ -1,13 +1,14 @@
 //! Kinematic calibration end to end: registration, best-fit alignment ("before"),
 //! identifiability, the chosen solver, statistics and parameter uncertainties.
 
+use nalgebra::Vector3;
 use robocal_data::ErrorStats;
-use robocal_robot::{ParamId, Robot};
+use robocal_robot::{Compliance, DEG_PER_KNM, ParamId, Robot};
 use serde::Serialize;
 
 use crate::bfgs::run_bfgs;
 use crate::error::{IdentError, Result};
-use crate::identifiability::{analyse, standard_deviations};
+use crate::identifiability::{Column, analyse, standard_deviations};
 use crate::lm::run_lm;
 use crate::problem::{CalibrationProblem, LeastSquares, Observations, select};
 use crate::registration::register_base;
@@ -43,6 +44,8 @@ pub struct KinematicSettings {
     pub max_iterations: u64,
     /// Relative column norm below which a parameter counts as unidentifiable.
     pub rank_tolerance: f64,
+    /// Joint compliances identified with the geometry (elasto-geometric calibration).
+    pub compliance: Option<ComplianceSettings>,
 }
 
 impl Default for KinematicSettings {
@@ -52,8 +55,99 @@ impl Default for KinematicSettings {
             parameters: None,
             max_iterations: 200,
             rank_tolerance: 1e-6,
+            compliance: None,
         }
     }
+}
+
+/// Settings of the compliance part of an elasto-geometric identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComplianceSettings {
+    /// Joints (0-based) whose compliance is identified; `None`: the joints that carry the
+    /// payload's gravity torque in these data ([`default_compliance_joints`]).
+    pub joints: Option<Vec<usize>>,
+    /// Gravity in the robot base frame {0}, m/s².
+    pub gravity: Vector3<f64>,
+    /// The payload's centre of mass in the flange frame, mm; `None`: the measured point.
+    pub payload_com: Option<Vector3<f64>>,
+}
+
+impl Default for ComplianceSettings {
+    fn default() -> Self {
+        Self {
+            joints: None,
+            gravity: Vector3::new(0.0, 0.0, -9.80665),
+            payload_com: None,
+        }
+    }
+}
+
+/// Share of the largest joint's payload torque (RMS over the loaded points) below which a joint
+/// counts as carrying none, for the default choice of compliant joints.
+pub const TORQUE_SHARE: f64 = 0.05;
+
+/// The joints that carry the payload's gravity torque at the loaded points of `obs`: those whose
+/// RMS torque is at least [`TORQUE_SHARE`] of the largest joint's (a vertical first axis, or a
+/// flange roll with the payload on its axis, carries none). Returns the joints and each joint's
+/// RMS torque per kg (N·m/kg).
+pub fn default_compliance_joints(
+    robot: &Robot,
+    obs: &Observations,
+    gravity: &Vector3<f64>,
+    payload_com: &Vector3<f64>,
+) -> (Vec<usize>, Vec<f64>) {
+    let unit = Compliance::new(vec![0.0; robot.dof()], *gravity, *payload_com);
+    let mut sums = vec![0.0; robot.dof()];
+    let mut loaded = 0usize;
+    for i in (0..obs.len()).filter(|&i| obs.loads[i] > 0.0) {
+        loaded += 1;
+        for (s, t) in sums.iter_mut().zip(unit.torques(robot, obs.joints(i), 1.0)) {
+            *s += t * t;
+        }
+    }
+    let rms: Vec<f64> = sums
+        .iter()
+        .map(|s| (s / loaded.max(1) as f64).sqrt())
+        .collect();
+    let largest = rms.iter().copied().fold(0.0, f64::max);
+    let joints = (0..robot.dof())
+        .filter(|&j| largest > 0.0 && rms[j] >= TORQUE_SHARE * largest)
+        .collect();
+    (joints, rms)
+}
+
+/// One joint's compliance in the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointCompliance {
+    /// Joint, counted from 1.
+    pub joint: usize,
+    /// Identified compliance, deg per kN·m (0 when not identified).
+    pub compliance: f64,
+    /// Its standard deviation, deg per kN·m.
+    pub std: Option<f64>,
+    /// RMS payload torque on the joint over the loaded points, N·m per kg.
+    pub torque_per_kg: f64,
+    /// Whether it was identified.
+    pub identified: bool,
+    /// Why it was or was not.
+    pub reason: String,
+}
+
+/// The compliance part of a kinematic report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ComplianceReport {
+    /// Gravity in the base frame, m/s².
+    pub gravity: [f64; 3],
+    /// Payload centre of mass in the flange frame, mm.
+    pub payload_com: [f64; 3],
+    /// Where the payload centre of mass came from.
+    pub payload_com_source: String,
+    /// How the joints were chosen.
+    pub joints_source: String,
+    /// Every joint.
+    pub joints: Vec<JointCompliance>,
+    /// Distinct loads in the data, kg.
+    pub loads: Vec<f64>,
 }
 
 /// One parameter in the report (file units: mm or deg).
@@ -111,6 +205,9 @@ pub struct KinematicReport {
     pub condition_number: f64,
     /// Observability index O1 (Borm & Menq) of the scaled Jacobian.
     pub observability_index: f64,
+    /// Joint compliances, when identified with the geometry.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compliance: Option<ComplianceReport>,
 }
 
 /// A calibrated kinematic model and its report.
@@ -118,6 +215,8 @@ pub struct KinematicReport {
 pub struct KinematicCalibration {
     /// The identified table (a valid robot file when written out).
     pub robot: Robot,
+    /// The identified joint compliances, when the settings asked for them.
+    pub compliance: Option<Compliance>,
     /// The nominal table with only base and tool fitted.
     pub aligned: Robot,
     /// Report.
@@ -144,14 +243,82 @@ pub fn align(robot: &Robot, obs: &Observations) -> Result<Robot> {
     let mut current = registered;
     for sel in [tool, frame] {
         let problem = CalibrationProblem::new(&current, sel, obs);
-        let k = problem.selected().len();
+        let k = problem.unknowns();
         let (u, _, _) = run_lm(LeastSquares(&problem), vec![0.0; k], 100)?;
         current = problem.robot_at(&u);
     }
     Ok(current)
 }
 
-/// Identifies the kinematic parameters of `nominal` from `obs`.
+/// The compliance part of a problem: the start model, the joints to identify and what the
+/// report says of how they were chosen.
+struct ComplianceChoice {
+    start: Compliance,
+    joints: Vec<usize>,
+    torque_per_kg: Vec<f64>,
+    joints_source: String,
+    payload_com_source: String,
+}
+
+fn choose_compliance(
+    settings: &ComplianceSettings,
+    robot: &Robot,
+    obs: &Observations,
+) -> Result<ComplianceChoice> {
+    let loads = obs.distinct_loads();
+    if loads.len() < 2 {
+        return Err(IdentError::Compliance(format!(
+            "needs points at two or more loads to separate joint deflection from geometry; these data hold {}",
+            match loads.first() {
+                Some(l) => format!("only {l} kg"),
+                None => "none".into(),
+            }
+        )));
+    }
+    let (payload_com, payload_com_source) = match settings.payload_com {
+        Some(c) => (c, "settings".to_string()),
+        None => (
+            robot.tool,
+            "the measured point (tool), as no payload_com was given".to_string(),
+        ),
+    };
+    let (default, torque_per_kg) =
+        default_compliance_joints(robot, obs, &settings.gravity, &payload_com);
+    let (joints, joints_source) = match &settings.joints {
+        Some(j) => {
+            if let Some(&bad) = j.iter().find(|&&j| j >= robot.dof()) {
+                return Err(IdentError::Compliance(format!(
+                    "joint {} does not exist: the robot has {} joints",
+                    bad + 1,
+                    robot.dof()
+                )));
+            }
+            (j.clone(), "settings".to_string())
+        }
+        None => (
+            default,
+            format!(
+                "default: the joints whose RMS payload torque is at least {:.0} % of the largest joint's",
+                100.0 * TORQUE_SHARE
+            ),
+        ),
+    };
+    if joints.is_empty() {
+        return Err(IdentError::Compliance(
+            "no joint carries the payload's gravity torque in these data (check gravity)".into(),
+        ));
+    }
+    Ok(ComplianceChoice {
+        start: Compliance::new(vec![0.0; robot.dof()], settings.gravity, payload_com),
+        joints,
+        torque_per_kg,
+        joints_source,
+        payload_com_source,
+    })
+}
+
+/// Identifies the kinematic parameters of `nominal` from `obs` (and, when the settings ask for
+/// it, the joint compliances with them: then the points of every load take part).
 pub fn calibrate_kinematics(
     nominal: &Robot,
     obs: &Observations,
@@ -173,20 +340,29 @@ pub fn calibrate_kinematics(
     }
     let aligned = align(nominal, obs)?;
     let before = ErrorStats::from_errors(&obs.errors(&aligned));
+    let choice = settings
+        .compliance
+        .as_ref()
+        .map(|c| choose_compliance(c, &aligned, obs))
+        .transpose()?;
 
     // Identifiability at the aligned model (the neighbourhood of the solution).
     let ids = aligned.param_ids();
-    let problem = CalibrationProblem::new(&aligned, selected.clone(), obs);
-    let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; selected.len()]);
-    let sel_ids: Vec<ParamId> = selected.iter().map(|&i| ids[i]).collect();
-    let ident = analyse(&jac, &sel_ids, settings.rank_tolerance);
+    let mut problem = CalibrationProblem::new(&aligned, selected.clone(), obs);
+    let mut columns: Vec<Column> = selected.iter().map(|&i| ids[i].into()).collect();
+    if let Some(c) = &choice {
+        problem = problem.with_compliance(c.start.clone(), c.joints.clone());
+        columns.extend(c.joints.iter().map(|&j| Column::Compliance(j)));
+    }
+    let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
+    let ident = analyse(&jac, &columns, settings.rank_tolerance);
     let problem = problem.restricted(&ident.identifiable);
-    let kept = problem.selected().to_vec();
+    let kept: Vec<Column> = ident.identifiable.iter().map(|&p| columns[p]).collect();
     let fixed: Vec<FixedParameter> = ident
         .unidentifiable
         .iter()
         .map(|&(p, fraction)| FixedParameter {
-            name: sel_ids[p].to_string(),
+            name: columns[p].to_string(),
             independent_fraction: fraction,
             reason: if fraction == 0.0 {
                 "no effect on the measured points with these poses".into()
@@ -196,7 +372,7 @@ pub fn calibrate_kinematics(
         })
         .collect();
 
-    let u0 = vec![0.0; kept.len()];
+    let u0 = vec![0.0; problem.unknowns()];
     let (u, iterations, termination) = if kept.is_empty() {
         (u0, 0, "nothing to identify".to_string())
     } else {
@@ -206,9 +382,15 @@ pub fn calibrate_kinematics(
         }
     };
     let robot = problem.robot_at(&u);
-    let after = ErrorStats::from_errors(&obs.errors(&robot));
+    let compliance = problem.compliance_at(&u);
+    let after = ErrorStats::from_errors(&obs.errors_with(&robot, compliance.as_ref()));
     let (r, jac) = problem.residuals_and_jacobian(&u);
     let std_u = standard_deviations(&jac, &r);
+    // Standard deviation of the unknown for `column`, internal units.
+    let std_of = |column: Column| {
+        let p = kept.iter().position(|&k| k == column)?;
+        std_u.as_ref().map(|s| (s[p] * problem.scale()[p]).abs())
+    };
 
     let nominal_values = nominal.params();
     let identified_values = robot.params();
@@ -216,11 +398,7 @@ pub fn calibrate_kinematics(
         .iter()
         .enumerate()
         .map(|(i, id)| {
-            let pos = kept.iter().position(|&k| k == i);
-            let std = match (pos, &std_u) {
-                (Some(p), Some(s)) => Some(id.to_file_units(s[p] * problem.scale()[p]).abs()),
-                _ => None,
-            };
+            let flag = kept.contains(&Column::Param(*id));
             let nominal = id.to_file_units(nominal_values[i]);
             let identified = id.to_file_units(identified_values[i]);
             ParameterReport {
@@ -229,13 +407,45 @@ pub fn calibrate_kinematics(
                 nominal,
                 identified,
                 delta: identified - nominal,
-                std,
-                identified_flag: pos.is_some(),
+                std: std_of(Column::Param(*id)).map(|s| id.to_file_units(s).abs()),
+                identified_flag: flag,
             }
         })
         .collect();
+    let compliance_report = match (&choice, &compliance) {
+        (Some(choice), Some(model)) => Some(ComplianceReport {
+            gravity: model.gravity.into(),
+            payload_com: model.payload_com.into(),
+            payload_com_source: choice.payload_com_source.clone(),
+            joints_source: choice.joints_source.clone(),
+            loads: obs.distinct_loads(),
+            joints: (0..robot.dof())
+                .map(|j| {
+                    let column = Column::Compliance(j);
+                    let identified = kept.contains(&column);
+                    let reason = if identified {
+                        "identified".to_string()
+                    } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
+                        format!("held rigid: {}", f.reason)
+                    } else {
+                        "held rigid: not selected".to_string()
+                    };
+                    JointCompliance {
+                        joint: j + 1,
+                        compliance: model.values[j] / DEG_PER_KNM,
+                        std: std_of(column).map(|s| s / DEG_PER_KNM),
+                        torque_per_kg: choice.torque_per_kg[j],
+                        identified,
+                        reason,
+                    }
+                })
+                .collect(),
+        }),
+        _ => None,
+    };
     Ok(KinematicCalibration {
         robot,
+        compliance,
         aligned,
         report: KinematicReport {
             solver: settings.solver.name(),
@@ -252,6 +462,7 @@ pub fn calibrate_kinematics(
             fixed,
             condition_number: ident.condition_number,
             observability_index: ident.observability_index,
+            compliance: compliance_report,
         },
     })
 }

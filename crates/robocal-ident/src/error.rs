@@ -34,6 +34,9 @@ pub enum IdentError {
         /// What it said.
         message: String,
     },
+    /// The compliance stage cannot run on these data or settings.
+    #[error("compliance: {0}")]
+    Compliance(String),
     /// Registration could not place the robot (e.g. all points coincide).
     #[error("registration failed: {0}")]
     Registration(String),

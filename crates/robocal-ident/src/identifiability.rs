@@ -20,9 +20,38 @@ pub struct Identifiability {
     pub observability_index: f64,
 }
 
+/// One column of an identification Jacobian: a parameter of the table, or a joint's compliance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// A geometric parameter.
+    Param(ParamId),
+    /// The compliance of a joint (0-based).
+    Compliance(usize),
+}
+
+impl From<ParamId> for Column {
+    fn from(id: ParamId) -> Self {
+        Self::Param(id)
+    }
+}
+
+impl std::fmt::Display for Column {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Param(id) => id.fmt(f),
+            Self::Compliance(j) => write!(f, "j{}.compliance", j + 1),
+        }
+    }
+}
+
 /// Which parameters of a redundant group to keep: the base and tool frames first (they are
-/// what the tracker set-up changes), then joint parameters from the base outwards.
-fn priority(id: ParamId) -> (usize, usize, usize) {
+/// what the tracker set-up changes), then joint parameters from the base outwards, then joint
+/// compliances (a compliance the geometry already explains is the one named).
+fn priority(column: Column) -> (usize, usize, usize) {
+    let id = match column {
+        Column::Param(id) => id,
+        Column::Compliance(j) => return (3, j, 0),
+    };
     match id {
         ParamId::Base(a) => (0, 0, a),
         ParamId::Tool(a) => (1, 0, a),
@@ -46,10 +75,14 @@ fn priority(id: ParamId) -> (usize, usize, usize) {
 /// remaining norm is below `tolerance` times its own is redundant. This is a QR factorisation with
 /// the pivot order set by the physics rather than by column norms, so that of a redundant pair
 /// (e.g. `j1.d` and `base.z`) the joint parameter is the one named.
-pub fn analyse(jac: &Mat<f64>, ids: &[ParamId], tolerance: f64) -> Identifiability {
+pub fn analyse<C: Copy + Into<Column>>(
+    jac: &Mat<f64>,
+    ids: &[C],
+    tolerance: f64,
+) -> Identifiability {
     let (rows, k) = (jac.nrows(), jac.ncols());
     let mut order: Vec<usize> = (0..k).collect();
-    order.sort_by_key(|&j| priority(ids[j]));
+    order.sort_by_key(|&j| priority(ids[j].into()));
     let column_norm = |j: usize| (0..rows).map(|i| jac[(i, j)].powi(2)).sum::<f64>().sqrt();
     let largest = (0..k).map(column_norm).fold(0.0, f64::max);
     let mut basis: Vec<Vec<f64>> = Vec::new();

@@ -22,14 +22,15 @@ pub mod registration;
 pub mod stage;
 
 pub use calibrate::{
-    FixedParameter, KinematicCalibration, KinematicReport, KinematicSettings, ParameterReport,
-    SolverKind, align, calibrate_kinematics,
+    ComplianceReport, ComplianceSettings, FixedParameter, JointCompliance, KinematicCalibration,
+    KinematicReport, KinematicSettings, ParameterReport, SolverKind, TORQUE_SHARE, align,
+    calibrate_kinematics, default_compliance_joints,
 };
 pub use error::{IdentError, Result};
-pub use identifiability::{Identifiability, analyse, standard_deviations};
+pub use identifiability::{Column, Identifiability, analyse, standard_deviations};
 pub use lm::{LevenbergMarquardt, run_lm};
 pub use problem::{
     BestPoint, CalibrationProblem, LeastSquares, MeanDistance, Observations, select,
 };
 pub use registration::{kabsch, register_base};
-pub use stage::RawKinematicStage;
+pub use stage::{RawComplianceStage, RawKinematicStage};

@@ -11,15 +11,17 @@ use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Opera
 use faer::Mat;
 use nalgebra::{DMatrix, Vector3};
 use robocal_data::MeasurementSet;
-use robocal_robot::{ParamId, Robot};
+use robocal_robot::{Compliance, ParamId, Robot};
 
-/// Measured points with their joint readings.
+/// Measured points with their joint readings and loads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observations {
     /// Joints per configuration.
     pub dof: usize,
     /// Joint readings, rad, row-major `m × dof`.
     pub q: Vec<f64>,
+    /// Payload of each point, kg.
+    pub loads: Vec<f64>,
     /// Measured target points, mm, world frame.
     pub points: Vec<Vector3<f64>>,
 }
@@ -35,13 +37,19 @@ impl Observations {
         dof: usize,
         rows: impl Iterator<Item = &'a robocal_data::Measurement>,
     ) -> Self {
-        let mut q = Vec::new();
-        let mut points = Vec::new();
+        let mut obs = Self {
+            dof,
+            q: Vec::new(),
+            loads: Vec::new(),
+            points: Vec::new(),
+        };
         for row in rows {
-            q.extend(row.sample.joints.iter().map(|d| d.to_radians()));
-            points.push(row.position);
+            obs.q
+                .extend(row.sample.joints.iter().map(|d| d.to_radians()));
+            obs.loads.push(row.sample.load);
+            obs.points.push(row.position);
         }
-        Self { dof, q, points }
+        obs
     }
 
     /// Number of measured points.
@@ -59,28 +67,87 @@ impl Observations {
         &self.q[i * self.dof..(i + 1) * self.dof]
     }
 
-    /// Euclidean errors of `robot`'s predictions, mm.
+    /// The distinct loads, ascending, kg.
+    pub fn distinct_loads(&self) -> Vec<f64> {
+        let mut loads = self.loads.clone();
+        loads.sort_by(f64::total_cmp);
+        loads.dedup();
+        loads
+    }
+
+    /// The model's point for observation `i`: `robot`, deflected by `compliance` under the
+    /// observation's load when there is one.
+    pub fn predict(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+        i: usize,
+    ) -> Vector3<f64> {
+        match compliance {
+            Some(c) => c.point(robot, self.joints(i), self.loads[i]),
+            None => robot.point(self.joints(i)),
+        }
+    }
+
+    /// Euclidean errors of `robot`'s predictions (rigid), mm.
     pub fn errors(&self, robot: &Robot) -> Vec<f64> {
+        self.errors_with(robot, None)
+    }
+
+    /// Euclidean errors of the predictions of `robot` with `compliance`, mm.
+    pub fn errors_with(&self, robot: &Robot, compliance: Option<&Compliance>) -> Vec<f64> {
         (0..self.len())
-            .map(|i| (robot.point(self.joints(i)) - self.points[i]).norm())
+            .map(|i| (self.predict(robot, compliance, i) - self.points[i]).norm())
             .collect()
     }
 }
 
 /// A robot, a parameter selection and observations: residuals, Jacobians and costs in scaled
 /// coordinates `u` (see the module documentation).
+///
+/// With a compliance model ([`Self::with_compliance`]) the unknowns are the selected geometric
+/// parameters followed by the compliances of the selected joints, and every point is predicted
+/// at the joint angles its load deflects the arm to.
 #[derive(Debug, Clone)]
 pub struct CalibrationProblem<'a> {
     robot: Robot,
     x0: Vec<f64>,
     selected: Vec<usize>,
+    /// One per unknown: geometric parameters first, then compliances.
     scale: Vec<f64>,
+    compliance: Option<ComplianceFit>,
     obs: &'a Observations,
+}
+
+/// The compliance part of a problem.
+#[derive(Debug, Clone)]
+struct ComplianceFit {
+    /// Values at `u = 0` (and gravity and payload), rad/(N·m).
+    start: Compliance,
+    /// Joints (0-based) whose compliance is identified.
+    joints: Vec<usize>,
+}
+
+/// Scale of each column from its RMS length per point: `1 / norm`, or 1 for a column that is
+/// round-off next to the largest (so that the identifiability analysis sees it as having no
+/// effect).
+fn column_scales(norms: &[f64]) -> Vec<f64> {
+    let largest = norms.iter().copied().fold(0.0, f64::max);
+    norms
+        .iter()
+        .map(|&norm| {
+            if norm > 1e-9 * largest {
+                1.0 / norm
+            } else {
+                1.0
+            }
+        })
+        .collect()
 }
 
 impl<'a> CalibrationProblem<'a> {
     /// A problem that identifies `selected` (indices into `robot.param_ids()`) starting from
-    /// `robot`'s values.
+    /// `robot`'s values, rigid (no compliance).
     pub fn new(robot: &Robot, selected: Vec<usize>, obs: &'a Observations) -> Self {
         let x0 = robot.params();
         let (_, full) = robot.param_jacobian_batch(&obs.q);
@@ -89,46 +156,77 @@ impl<'a> CalibrationProblem<'a> {
             .iter()
             .map(|&j| full.column(j).norm() / m.sqrt())
             .collect();
-        let largest = norms.iter().copied().fold(0.0, f64::max);
-        // Columns that are round-off next to the largest keep their size, so that the
-        // identifiability analysis sees them as having no effect.
-        let scale = norms
-            .iter()
-            .map(|&norm| {
-                if norm > 1e-9 * largest {
-                    1.0 / norm
-                } else {
-                    1.0
-                }
-            })
-            .collect();
         Self {
             robot: robot.clone(),
             x0,
             selected,
-            scale,
+            scale: column_scales(&norms),
+            compliance: None,
             obs,
         }
     }
 
-    /// The same problem with only some of its parameters (`positions` in [`Self::selected`]),
-    /// keeping their scales: no new Jacobian is computed.
+    /// The same problem with the compliances of `joints` (0-based) identified too, starting
+    /// from `start`; their columns are scaled like the geometric ones (unit RMS per point),
+    /// independently of the geometric scales.
+    pub fn with_compliance(mut self, start: Compliance, joints: Vec<usize>) -> Self {
+        let m = self.obs.len().max(1) as f64;
+        let mut sums = vec![0.0; joints.len()];
+        for i in 0..self.obs.len() {
+            let (_, jac) = start.jacobian(&self.robot, self.obs.joints(i), self.obs.loads[i]);
+            for (sum, &j) in sums.iter_mut().zip(&joints) {
+                *sum += jac.column(j).norm_squared();
+            }
+        }
+        let norms: Vec<f64> = sums.iter().map(|s| (s / m).sqrt()).collect();
+        self.scale.truncate(self.selected.len());
+        self.scale.extend(column_scales(&norms));
+        self.compliance = Some(ComplianceFit { start, joints });
+        self
+    }
+
+    /// The same problem with only some of its unknowns (`positions` among the geometric
+    /// parameters, then the compliances), keeping their scales: no new Jacobian is computed.
     pub fn restricted(&self, positions: &[usize]) -> Self {
+        let ng = self.selected.len();
+        let compliance = self.compliance.as_ref().map(|c| ComplianceFit {
+            start: c.start.clone(),
+            joints: (positions.iter())
+                .filter(|&&p| p >= ng)
+                .map(|&p| c.joints[p - ng])
+                .collect(),
+        });
+        let mut order: Vec<usize> = positions.iter().copied().filter(|&p| p < ng).collect();
+        order.extend(positions.iter().copied().filter(|&p| p >= ng));
         Self {
             robot: self.robot.clone(),
             x0: self.x0.clone(),
-            selected: positions.iter().map(|&p| self.selected[p]).collect(),
-            scale: positions.iter().map(|&p| self.scale[p]).collect(),
+            selected: (order.iter())
+                .filter(|&&p| p < ng)
+                .map(|&p| self.selected[p])
+                .collect(),
+            scale: order.iter().map(|&p| self.scale[p]).collect(),
+            compliance,
             obs: self.obs,
         }
     }
 
-    /// Indices (into `param_ids()`) of the parameters being identified.
+    /// Indices (into `param_ids()`) of the geometric parameters being identified.
     pub fn selected(&self) -> &[usize] {
         &self.selected
     }
 
-    /// Scale of each selected parameter (internal units per unit of `u`).
+    /// Joints (0-based) whose compliance is identified (empty for a rigid problem).
+    pub fn compliance_joints(&self) -> &[usize] {
+        self.compliance.as_ref().map_or(&[], |c| &c.joints)
+    }
+
+    /// Number of unknowns: geometric parameters, then compliances.
+    pub fn unknowns(&self) -> usize {
+        self.scale.len()
+    }
+
+    /// Scale of each unknown (internal units per unit of `u`).
     pub fn scale(&self) -> &[f64] {
         &self.scale
     }
@@ -138,7 +236,7 @@ impl<'a> CalibrationProblem<'a> {
         self.obs
     }
 
-    /// Every parameter of the model at `u`, internal units.
+    /// Every geometric parameter of the model at `u`, internal units.
     pub fn full_params(&self, u: &[f64]) -> Vec<f64> {
         let mut x = self.x0.clone();
         for ((&j, &s), &v) in self.selected.iter().zip(&self.scale).zip(u) {
@@ -155,29 +253,65 @@ impl<'a> CalibrationProblem<'a> {
             .unwrap_or_else(|_| self.robot.clone())
     }
 
+    /// The compliance model at `u` (none for a rigid problem).
+    pub fn compliance_at(&self, u: &[f64]) -> Option<Compliance> {
+        let ng = self.selected.len();
+        self.compliance.as_ref().map(|c| {
+            let mut model = c.start.clone();
+            for (k, &j) in c.joints.iter().enumerate() {
+                model.values[j] += self.scale[ng + k] * u[ng + k];
+            }
+            model
+        })
+    }
+
     /// Predicted minus measured coordinates, mm, `3m` entries.
     pub fn residuals(&self, u: &[f64]) -> Vec<f64> {
         let robot = self.robot_at(u);
+        let compliance = self.compliance_at(u);
         let mut r = Vec::with_capacity(3 * self.obs.len());
         for i in 0..self.obs.len() {
-            let d = robot.point(self.obs.joints(i)) - self.obs.points[i];
+            let d = self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i];
             r.extend_from_slice(d.as_slice());
         }
         r
     }
 
     /// Residuals and the `3m × k` Jacobian with respect to `u`.
+    ///
+    /// With compliance, the geometric columns are taken at the deflected joint angles, leaving
+    /// out the torques' own (second-order) dependence on the geometry; the compliance columns
+    /// are exact.
     pub fn residuals_and_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
         let robot = self.robot_at(u);
+        let compliance = self.compliance_at(u);
         let m = self.obs.len();
+        let ng = self.selected.len();
+        let joints = self.compliance_joints();
         let mut full = DMatrix::zeros(3 * m, robot.param_count());
+        let mut cjac = DMatrix::zeros(3 * m, joints.len());
         let mut r = Vec::with_capacity(3 * m);
         for i in 0..m {
-            let p = robot.write_param_jacobian(self.obs.joints(i), &mut full, 3 * i);
+            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
+            let p = match &compliance {
+                Some(c) => {
+                    let (_, jac) = c.jacobian(&robot, q, load);
+                    for (k, &j) in joints.iter().enumerate() {
+                        cjac.view_mut((3 * i, k), (3, 1)).copy_from(&jac.column(j));
+                    }
+                    robot.write_param_jacobian(&c.deflected(&robot, q, load), &mut full, 3 * i)
+                }
+                None => robot.write_param_jacobian(q, &mut full, 3 * i),
+            };
             r.extend_from_slice((p - self.obs.points[i]).as_slice());
         }
-        let jac = Mat::from_fn(3 * m, self.selected.len(), |row, col| {
-            full[(row, self.selected[col])] * self.scale[col]
+        let jac = Mat::from_fn(3 * m, self.unknowns(), |row, col| {
+            let v = if col < ng {
+                full[(row, self.selected[col])]
+            } else {
+                cjac[(row, col - ng)]
+            };
+            v * self.scale[col]
         });
         (r, jac)
     }
@@ -192,11 +326,14 @@ impl<'a> CalibrationProblem<'a> {
             / m
     }
 
-    /// [`Self::mean_distance`] and its gradient `(1/m) Σ J_iᵀ r_i / |r_i|` in one pass over the
-    /// poses, each pose's 3 × P Jacobian block written into one small buffer (no `3m × k` matrix
-    /// is formed); a point with a zero residual (where the cost is not differentiable)
-    /// contributes nothing to the gradient.
+    /// [`Self::mean_distance`] and its gradient `(1/m) Σ J_iᵀ r_i / |r_i|`. Rigid problems go
+    /// through the poses one at a time, each pose's 3 × P Jacobian block written into one small
+    /// buffer (no `3m × k` matrix is formed); a point with a zero residual (where the cost is
+    /// not differentiable) contributes nothing to the gradient.
     pub fn mean_distance_and_gradient(&self, u: &[f64]) -> (f64, Vec<f64>) {
+        if self.compliance.is_some() {
+            return self.mean_distance_and_gradient_from_jacobian(u);
+        }
         let robot = self.robot_at(u);
         let m = self.obs.len();
         let mut block = DMatrix::zeros(3, robot.param_count());
@@ -217,6 +354,26 @@ impl<'a> CalibrationProblem<'a> {
             }
         }
         let m = m.max(1) as f64;
+        g.iter_mut().for_each(|gk| *gk /= m);
+        (cost / m, g)
+    }
+
+    /// The mean distance and its gradient through the full residual Jacobian.
+    fn mean_distance_and_gradient_from_jacobian(&self, u: &[f64]) -> (f64, Vec<f64>) {
+        let (r, jac) = self.residuals_and_jacobian(u);
+        let m = self.obs.len().max(1) as f64;
+        let mut cost = 0.0;
+        let mut g = vec![0.0; self.unknowns()];
+        for (i, d) in r.chunks_exact(3).enumerate() {
+            let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            cost += norm;
+            if norm == 0.0 {
+                continue;
+            }
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk += (0..3).map(|a| jac[(3 * i + a, k)] * d[a]).sum::<f64>() / norm;
+            }
+        }
         g.iter_mut().for_each(|gk| *gk /= m);
         (cost / m, g)
     }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::{KinematicSettings, SolverKind};
+use crate::calibrate::{ComplianceSettings, KinematicSettings, SolverKind};
 
 /// `[kinematic]` as written.
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
@@ -59,5 +59,76 @@ impl RawKinematicStage {
             s.rank_tolerance = t;
         }
         Ok(s)
+    }
+}
+
+/// `[compliance]` as written: joint compliances identified with the geometry (LM or BFGS, the
+/// kinematic stage's solver), on the points of every load.
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawComplianceStage {
+    /// Joints (counted from 1) whose compliance is identified; absent: the joints that carry
+    /// the payload's gravity torque in the data.
+    pub joints: Option<Vec<usize>>,
+    /// Gravity in the robot base frame {0}, m/s² (default `[0, 0, -9.80665]`).
+    pub gravity: Option<[f64; 3]>,
+    /// The payload's centre of mass in the flange frame, mm (default: the measured point).
+    pub payload_com: Option<[f64; 3]>,
+}
+
+impl RawComplianceStage {
+    /// Validates into settings; errors name the key.
+    pub fn validate(&self) -> Result<ComplianceSettings, (String, String)> {
+        let mut s = ComplianceSettings::default();
+        if let Some(joints) = &self.joints {
+            if joints.is_empty() {
+                return Err(("compliance.joints".into(), "lists no joint".into()));
+            }
+            if joints.contains(&0) {
+                return Err((
+                    "compliance.joints".into(),
+                    "joints are counted from 1".into(),
+                ));
+            }
+            let mut sorted = joints.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            if sorted.len() != joints.len() {
+                return Err(("compliance.joints".into(), "names a joint twice".into()));
+            }
+            s.joints = Some(sorted.iter().map(|j| j - 1).collect());
+        }
+        if let Some(g) = self.gravity {
+            if g.iter().any(|v| !v.is_finite()) || g.iter().all(|v| *v == 0.0) {
+                return Err((
+                    "compliance.gravity".into(),
+                    "must be a finite, non-zero vector (m/s², robot base frame)".into(),
+                ));
+            }
+            s.gravity = g.into();
+        }
+        if let Some(c) = self.payload_com {
+            if c.iter().any(|v| !v.is_finite()) {
+                return Err((
+                    "compliance.payload_com".into(),
+                    "must be finite (mm, flange frame)".into(),
+                ));
+            }
+            s.payload_com = Some(c.into());
+        }
+        Ok(s)
+    }
+
+    /// The table that gives `settings` back, every default written out (`payload_com` stays
+    /// absent when it is the measured point's default).
+    pub fn from_settings(settings: &ComplianceSettings) -> Self {
+        Self {
+            joints: settings
+                .joints
+                .as_ref()
+                .map(|j| j.iter().map(|j| j + 1).collect()),
+            gravity: Some(settings.gravity.into()),
+            payload_com: settings.payload_com.map(Into::into),
+        }
     }
 }

@@ -32,6 +32,9 @@ pub enum PipelineError {
         /// What the plotting library said.
         message: String,
     },
+    /// A stage cannot run on these data.
+    #[error("{0}")]
+    Stage(String),
     /// A robot table is bad (or a TOML file does not parse).
     #[error(transparent)]
     Robot(#[from] robocal_robot::RobotError),

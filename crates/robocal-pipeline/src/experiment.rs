@@ -72,6 +72,8 @@ pub struct RawModel {
     pub name: String,
     /// `[model.kinematic]`, as in a stage config (absent: LM, every parameter).
     pub kinematic: Option<robocal_ident::RawKinematicStage>,
+    /// `[model.compliance]`, as in a stage config (absent: a rigid arm).
+    pub compliance: Option<robocal_ident::RawComplianceStage>,
     /// `[model.residual]`, as in a stage config (absent: none).
     pub residual: Option<robocal_residual::RawResidualStage>,
 }
@@ -296,6 +298,7 @@ impl RawExperiment {
             }
             let stages = RawStages {
                 kinematic: m.kinematic.clone(),
+                compliance: m.compliance.clone(),
                 residual: m.residual.clone(),
             }
             .validate(Some(seed))
@@ -377,6 +380,10 @@ impl Experiment {
                             max_iterations: Some(k.max_iterations),
                             rank_tolerance: Some(k.rank_tolerance),
                         }),
+                        compliance: k
+                            .compliance
+                            .as_ref()
+                            .map(robocal_ident::RawComplianceStage::from_settings),
                         residual: m.stages.residual.as_ref().map(|r| {
                             let s = &r.settings;
                             robocal_residual::RawResidualStage {

@@ -12,6 +12,7 @@
 //! # Ok::<(), robocal_pipeline::PipelineError>(())
 //! ```
 
+pub mod calibration;
 pub mod error;
 pub mod experiment;
 pub mod paper;
@@ -21,6 +22,7 @@ pub mod run;
 pub mod split;
 pub mod stages;
 
+pub use calibration::{AutoSettings, Built, Predictor, automatic, configured};
 pub use error::{PipelineError, Result};
 pub use experiment::{Experiment, ModelPlan, RawExperiment, SplitDesign};
 pub use report::{Written, write_report};

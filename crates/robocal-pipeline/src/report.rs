@@ -221,6 +221,101 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         "\n(Base and tool frames are in `results.json`. \"fixed\": not identifiable with these poses, held at nominal; the base/tool carry its effect.)\n"
     );
 
+    let elastic: Vec<&crate::run::KinematicRun> = (o.kinematics.iter())
+        .filter(|k| k.calibration.report.compliance.is_some())
+        .collect();
+    if !elastic.is_empty() {
+        let _ = writeln!(
+            w,
+            "## Joint compliance (elasto-geometric stages), deg per kN·m\n"
+        );
+        let truth = o.twin.as_ref().and_then(|t| t.compliance.as_ref());
+        let _ = write!(w, "| joint | payload torque (N·m/kg, RMS) |");
+        if truth.is_some() {
+            let _ = write!(w, " twin truth |");
+        }
+        for k in &elastic {
+            let _ = write!(w, " {} (± σ) |", k.label);
+        }
+        let _ = writeln!(
+            w,
+            "\n|---|---|{}{}",
+            if truth.is_some() { "---|" } else { "" },
+            "---|".repeat(elastic.len())
+        );
+        for j in 0..o.nominal.dof() {
+            let first = elastic[0].calibration.report.compliance.as_ref();
+            let torque = first.map_or(0.0, |c| c.joints[j].torque_per_kg);
+            let _ = write!(w, "| {} | {torque:.3} |", j + 1);
+            if let Some(t) = truth {
+                let _ = write!(
+                    w,
+                    " {:.4} |",
+                    1.0 / t.stiffness[j] / robocal_robot::DEG_PER_KNM
+                );
+            }
+            for k in &elastic {
+                let c = k
+                    .calibration
+                    .report
+                    .compliance
+                    .as_ref()
+                    .map(|c| &c.joints[j]);
+                let cell = match c {
+                    Some(c) if c.identified => format!(
+                        "{:.4}{}",
+                        c.compliance,
+                        c.std.map_or(String::new(), |s| format!(" ± {s:.4}"))
+                    ),
+                    _ => "rigid".into(),
+                };
+                let _ = write!(w, " {cell} |");
+            }
+            let _ = writeln!(w);
+        }
+        for k in &elastic {
+            if let Some(c) = &k.calibration.report.compliance {
+                let _ = writeln!(
+                    w,
+                    "\n- {}: {} points at loads {:?} kg; joints: {}; payload centre of mass {:?} mm (flange frame) from {}.",
+                    k.label,
+                    k.calibration.report.points,
+                    c.loads,
+                    c.joints_source,
+                    c.payload_com,
+                    c.payload_com_source
+                );
+            }
+        }
+        let _ = writeln!(
+            w,
+            "\nThe twin's links also deflect under their own weight; that part does not change with the load and the geometry absorbs it, so the twin truth is the comparison for the load-dependent part only.\n"
+        );
+    }
+
+    let _ = writeln!(
+        w,
+        "## Every model on every group: mean / max (mm)\n\nGA10 trained configurations and loads (training), GB20 trained configurations at the validation loads, GA20 untrained configurations at trained loads, GB10 trained configurations at untrained loads, GB30 untrained configurations at untrained loads.\n"
+    );
+    let groups = ["GA10", "GB20", "GA20", "GB10", "GB30"];
+    let _ = writeln!(w, "| model | {} |", groups.join(" | "));
+    let _ = writeln!(w, "|---|{}", "---|".repeat(groups.len()));
+    let mut line = |name: &str, errors: &[nalgebra::Vector3<f64>]| {
+        let cells: Vec<String> = groups
+            .iter()
+            .map(|g| {
+                let s = stats(errors, &o.rows(g));
+                format!("{:.3} / {:.3}", s.mean, s.max)
+            })
+            .collect();
+        let _ = writeln!(w, "| {name} | {} |", cells.join(" | "));
+    };
+    line("before calibration", &o.before);
+    for m in &o.models {
+        line(&m.name, &m.errors);
+    }
+    let _ = writeln!(w);
+
     if let Some(i) = e.table5 {
         let m = &o.models[i];
         let _ = writeln!(

@@ -12,7 +12,7 @@ use robocal_ident::{
     calibrate_kinematics,
 };
 use robocal_residual::{ResidualModel, Samples, inputs_of};
-use robocal_robot::{ParamId, Robot};
+use robocal_robot::{Compliance, ParamId, Robot};
 use robocal_twin::TwinConfig;
 use serde::Serialize;
 
@@ -76,10 +76,22 @@ fn samples(data: &[Measurement], errors: &[Vector3<f64>], rows: &[usize]) -> Sam
     }
 }
 
-/// Measured − predicted position of every row, mm, world frame.
-fn errors_of(robot: &Robot, rows: &[Measurement]) -> Vec<Vector3<f64>> {
+/// Measured − predicted position of every row, mm, world frame: `robot`, deflected by
+/// `compliance` under each row's load when there is one.
+fn errors_of(
+    robot: &Robot,
+    compliance: Option<&Compliance>,
+    rows: &[Measurement],
+) -> Vec<Vector3<f64>> {
     rows.iter()
-        .map(|m| m.position - robot.point(&m.sample.joints_rad()))
+        .map(|m| {
+            let q = m.sample.joints_rad();
+            let p = match compliance {
+                Some(c) => c.point(robot, &q, m.sample.load),
+                None => robot.point(&q),
+            };
+            m.position - p
+        })
         .collect()
 }
 
@@ -217,8 +229,12 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
         .collect();
     let obs = Observations::from_rows(nominal.dof(), kin_rows.iter().copied());
     let aligned = align(&nominal, &obs)?;
-    let before = errors_of(&aligned, &data.rows);
+    let before = errors_of(&aligned, None, &data.rows);
 
+    // Elasto-geometric identifications see every load of the trained configurations (GA10).
+    let train_rows = group_rows(&splits, "GA10");
+    let loaded_obs =
+        Observations::from_rows(nominal.dof(), train_rows.iter().map(|&i| &data.rows[i]));
     let t = Instant::now();
     let mut kinematics: Vec<KinematicRun> = Vec::new();
     let mut model_kin = Vec::new();
@@ -231,10 +247,16 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
             continue;
         }
         let settings = m.stages.kinematic.clone();
-        let solver = settings.solver.name().to_uppercase();
+        let mut solver = settings.solver.name().to_uppercase();
+        if settings.compliance.is_some() {
+            solver += "+C";
+        }
         let same = kinematics
             .iter()
-            .filter(|k| k.settings.solver == settings.solver)
+            .filter(|k| {
+                k.settings.solver == settings.solver
+                    && k.settings.compliance.is_some() == settings.compliance.is_some()
+            })
             .count();
         let label = if same == 0 {
             solver
@@ -242,7 +264,12 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
             format!("{solver} {}", same + 1)
         };
         let k0 = Instant::now();
-        let calibration = calibrate_kinematics(&nominal, &obs, &settings)?;
+        let rows = if settings.compliance.is_some() {
+            &loaded_obs
+        } else {
+            &obs
+        };
+        let calibration = calibrate_kinematics(&nominal, rows, &settings)?;
         let seconds = k0.elapsed().as_secs_f64();
         say(&format!(
             "kinematic {label}: {} points, mean {:.3} → {:.3} mm, {} iterations, {:.2} s",
@@ -252,7 +279,11 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
             calibration.report.iterations,
             seconds
         ));
-        let errors = errors_of(&calibration.robot, &data.rows);
+        let errors = errors_of(
+            &calibration.robot,
+            calibration.compliance.as_ref(),
+            &data.rows,
+        );
         model_kin.push(kinematics.len());
         kinematics.push(KinematicRun {
             label,
@@ -265,7 +296,6 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
     let kinematic_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let train_rows = group_rows(&splits, "GA10");
     let val_rows = group_rows(&splits, "GB20");
     let mut models = Vec::new();
     for (i, (m, &k)) in experiment.models.iter().zip(&model_kin).enumerate() {

@@ -1,9 +1,10 @@
 //! Stage configs (`robocal calibrate --config FILE`, and each `[[model]]` of an experiment): the
-//! kinematic stage, then an optional residual stage, raw and validated.
+//! kinematic stage (with joint compliances when `[compliance]` is present), then an optional
+//! residual stage, raw and validated.
 
 use std::path::Path;
 
-use robocal_ident::{KinematicSettings, RawKinematicStage};
+use robocal_ident::{KinematicSettings, RawComplianceStage, RawKinematicStage};
 use robocal_residual::{RawResidualStage, ResidualStage};
 use serde::Deserialize;
 
@@ -15,6 +16,9 @@ use crate::error::{PipelineError, Result, read_text};
 pub struct RawStages {
     /// `[kinematic]`; absent: the defaults (LM, every parameter).
     pub kinematic: Option<RawKinematicStage>,
+    /// `[compliance]`; absent: a rigid arm. Present: joint compliances are identified with the
+    /// geometry, on the points of every load.
+    pub compliance: Option<RawComplianceStage>,
     /// `[residual]`; absent: no residual model.
     pub residual: Option<RawResidualStage>,
 }
@@ -32,7 +36,12 @@ impl RawStages {
     /// Validates; errors give the key relative to the stage table (`kinematic.solver`,
     /// `residual.x.learning_rate`). `seed` is the residual seed when the stage gives none.
     pub fn validate(&self, seed: Option<u64>) -> std::result::Result<Stages, (String, String)> {
-        let kinematic = self.kinematic.clone().unwrap_or_default().validate()?;
+        let mut kinematic = self.kinematic.clone().unwrap_or_default().validate()?;
+        kinematic.compliance = self
+            .compliance
+            .as_ref()
+            .map(RawComplianceStage::validate)
+            .transpose()?;
         let residual = match &self.residual {
             None => None,
             Some(raw) => {

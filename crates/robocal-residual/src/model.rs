@@ -10,6 +10,7 @@ use burn::prelude::Device;
 use indicatif::ProgressBar;
 use linfa::prelude::*;
 use linfa_trees::DecisionTree;
+use nalgebra::Vector3;
 use ndarray::{Array1, Array2};
 use robocal_data::{Measurement, Sample};
 use robocal_robot::Robot;
@@ -45,10 +46,19 @@ impl Samples {
         robot: &Robot,
         rows: impl IntoIterator<Item = &'a Measurement>,
     ) -> Self {
+        Self::from_model(|s| robot.point(&s.joints_rad()), rows)
+    }
+
+    /// Residual samples of measured rows: inputs, and measured − `model`'s predicted point
+    /// (e.g. an elasto-geometric model's, which depends on the load).
+    pub fn from_model<'a>(
+        model: impl Fn(&Sample) -> Vector3<f64>,
+        rows: impl IntoIterator<Item = &'a Measurement>,
+    ) -> Self {
         let mut samples = Self::default();
         for m in rows {
             samples.inputs.push(inputs_of(&m.sample));
-            let e = m.position - robot.point(&m.sample.joints_rad());
+            let e = m.position - model(&m.sample);
             samples.errors.push([e.x, e.y, e.z]);
         }
         samples

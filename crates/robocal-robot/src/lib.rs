@@ -26,12 +26,14 @@
 //! # Ok::<(), robocal_robot::RobotError>(())
 //! ```
 
+pub mod compliance;
 pub mod error;
 pub mod ik;
 pub mod kinematics;
 pub mod params;
 pub mod table;
 
+pub use compliance::{Compliance, DEG_PER_KNM, RawCompliance};
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
 pub use kinematics::JointAxes;
