@@ -13,16 +13,18 @@
 //! ```
 //! use robocal_robot::{Compliance, Robot};
 //! let robot = Robot::from_toml_str(
-//!     "name = \"arm\"\n[base]\nxyz = [0, 0, 0]\nrpy = [0, 0, 0]\n[tool]\nxyz = [0, 0, 0]\n\
-//!      [[joint]]\na = 0\nalpha = 90\nd = 0\ntheta = 0\n[[joint]]\na = 1000\nalpha = 0\nd = 0\ntheta = 0\n",
+//!     "name = \"arm\"\n[base]\nxyz = [0, 0, 0]\nrpy = [0, 0, 0]\n[tool]\nxyz = [1000, 0, 0]\n\
+//!      [[joint]]\na = 0\nalpha = 90\nd = 0\ntheta = 0\n",
 //!     "arm.toml",
 //! )?;
-//! // Joint 2 is horizontal; 10 kg one metre out pull it down by 98 N·m × 1e-5 rad/(N·m).
-//! let c = Compliance::new(vec![0.0, 1e-5], [0.0, 0.0, -9.80665].into(), [0.0; 3].into());
-//! let q = [0.0, 0.0];
-//! let t = c.torques(&robot, &q, 10.0);
-//! assert!(t[0].abs() < 1e-9 && (t[1].abs() - 98.0665).abs() < 1e-6);
-//! assert!((robot.point(&q) - c.point(&robot, &q, 10.0)).norm() > 0.9);
+//! // A horizontal joint holding 10 kg one metre out: 98 N·m, turning it by 98 × 1e-5 rad, so
+//! // the point sinks by about 0.98 mm.
+//! let payload = [1000.0, 0.0, 0.0].into(); // centre of mass at the point, flange frame
+//! let c = Compliance::new(vec![1e-5], [0.0, 0.0, -9.80665].into(), payload);
+//! let t = c.torques(&robot, &[0.0], 10.0);
+//! assert!((t[0].abs() - 98.0665).abs() < 1e-9);
+//! let sag = robot.point(&[0.0]).z - c.point(&robot, &[0.0], 10.0).z;
+//! assert!((sag - 0.980665).abs() < 1e-3);
 //! # Ok::<(), robocal_robot::RobotError>(())
 //! ```
 

@@ -371,3 +371,81 @@ fn ik_respects_joint_limits() {
         .unwrap();
     assert!((q[0] - 20f64.to_radians()).abs() < 1e-9);
 }
+
+/// The payload's gravity torque about each joint axis, computed here from the definition with
+/// the joint axes and the flange frame; and the compliance model's file round trip.
+#[test]
+fn compliance_torques_jacobian_and_file_round_trip() {
+    use robocal_robot::{Compliance, DEG_PER_KNM};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let robot = Robot::load(root.join("configs/robots/pmc6va030.toml")).unwrap();
+    let c = Compliance::new(
+        [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
+            .iter()
+            .map(|v| v * DEG_PER_KNM)
+            .collect(),
+        Vector3::new(0.1, -0.2, -9.8),
+        Vector3::new(100.0, -20.0, 60.0),
+    );
+    let q: Vec<f64> = [10.0f64, -40.0, 25.0, 30.0, 50.0, -15.0]
+        .iter()
+        .map(|d| d.to_radians())
+        .collect();
+    let load = 12.0;
+    let torques = c.torques(&robot, &q, load);
+    // Independently: the moment of the payload's weight about each axis, by finite rotation of
+    // the joint (work done by gravity per radian).
+    let (r, o) = robot.flange_frame(&q);
+    let com = o + r * c.payload_com;
+    let g = robot.base_rotation() * c.gravity * load;
+    for j in 0..6 {
+        let h = 1e-6;
+        let mut qp = q.clone();
+        qp[j] += h;
+        let (rp, op) = robot.flange_frame(&qp);
+        let moved = (op + rp * c.payload_com - com) / h;
+        // τ = dW/dθ: gravity's work on the payload when the joint turns, N·mm → N·m.
+        let expected = g.dot(&moved) * 1e-3;
+        assert!(
+            (torques[j] - expected).abs() < 1e-5 * (1.0 + expected.abs()),
+            "joint {}: {} vs {expected}",
+            j + 1,
+            torques[j]
+        );
+    }
+    // No load, no deflection.
+    assert_eq!(c.deflected(&robot, &q, 0.0), q);
+    // Jacobian column = d point / d compliance, against central differences.
+    let (p, jac) = c.jacobian(&robot, &q, load);
+    assert!((p - c.point(&robot, &q, load)).norm() < 1e-12);
+    for j in 1..6 {
+        let h = 1e-9;
+        let (mut up, mut down) = (c.clone(), c.clone());
+        up.values[j] += h;
+        down.values[j] -= h;
+        let fd = (up.point(&robot, &q, load) - down.point(&robot, &q, load)) / (2.0 * h);
+        assert!(
+            (fd - jac.column(j)).norm() < 1e-5 * fd.norm().max(1.0),
+            "joint {}",
+            j + 1
+        );
+    }
+    let text = c.to_toml_string();
+    let back = Compliance::from_toml_str(&text, "compliance.toml", 6).unwrap();
+    assert_eq!(back.gravity, c.gravity);
+    assert_eq!(back.payload_com, c.payload_com);
+    for (a, b) in back.values.iter().zip(&c.values) {
+        assert!((a - b).abs() <= 1e-15 * b.abs(), "{a} vs {b}");
+    }
+    let err = Compliance::from_toml_str(&text, "m/compliance.toml", 5)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("m/compliance.toml") && err.contains("compliance"),
+        "{err}"
+    );
+    let err = Compliance::from_toml_str("gravity = [0, 0, -9.8]\n", "c.toml", 6)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("c.toml") && err.contains("line"), "{err}");
+}

@@ -133,9 +133,15 @@ impl TwinConfig {
                             * home_rotation
                             * *Rotation3::from_axis_angle(&Vector3::z_axis(), spin).matrix();
                     let position = Vector3::new(x, y, z);
-                    let target = IkTarget::Pose {
-                        point: position,
-                        rotation,
+                    // An arm with fewer than six joints cannot take an orientation of its
+                    // choosing: it is asked for the position alone.
+                    let target = if robot.dof() >= 6 {
+                        IkTarget::Pose {
+                            point: position,
+                            rotation,
+                        }
+                    } else {
+                        IkTarget::Point(position)
                     };
                     let id = format!("g{:03}", points.len() + 1);
                     // The home seed turned towards the point first, then a few elbow and wrist
