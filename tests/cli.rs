@@ -269,6 +269,8 @@ fn calibrate_writes_a_model_that_predicts_like_its_kinematics_file() {
         s(&test),
         "--out",
         s(&model),
+        "--config",
+        "configs/stages/kinematic-lm.toml",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report: serde_json::Value =
@@ -771,4 +773,244 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
         std::fs::read_to_string(report.join("report.md")).unwrap(),
         before_md
     );
+}
+
+/// Simulates a twin into `dir` and returns its measurement file.
+fn simulate(twin: &str, dir: &Path) -> PathBuf {
+    let o = robocal(&["simulate", "--twin", twin, "--out", s(dir)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    dir.join("measurements.csv")
+}
+
+/// The rows of `csv` whose configuration (in order of appearance) and load `keep` accepts.
+fn subset(csv: &Path, name: &str, keep: impl Fn(usize, f64) -> bool) -> PathBuf {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let load_col = header.split(',').position(|c| c == "load").unwrap();
+    let mut out = format!("{header}\n");
+    let mut poses: Vec<String> = Vec::new();
+    for line in lines {
+        let pose = line.split(',').next().unwrap().to_string();
+        if !poses.contains(&pose) {
+            poses.push(pose);
+        }
+        let load: f64 = line.split(',').nth(load_col).unwrap().parse().unwrap();
+        if keep(poses.len() - 1, load) {
+            out += line;
+            out += "\n";
+        }
+    }
+    write(csv.parent().unwrap(), name, &out)
+}
+
+fn report(model: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap()
+}
+
+/// Decision `stage` of a default calibration's report: (kept, reason).
+fn decision(report: &serde_json::Value, stage: &str) -> (bool, String) {
+    let d = report["selection"]["decisions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["stage"] == stage)
+        .unwrap_or_else(|| panic!("no decision on {stage}: {report}"));
+    (
+        d["kept"].as_bool().unwrap(),
+        d["reason"].as_str().unwrap().to_string(),
+    )
+}
+
+#[test]
+fn default_calibrate_on_a_seven_axis_twin_keeps_compliance_and_compensates_through_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = simulate("configs/twin/arm7.toml", &dir.path().join("sim"));
+    let train = subset(&data, "train.csv", |pose, _| pose < 30);
+    let val = subset(&data, "val.csv", |pose, _| (30..40).contains(&pose));
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/arm7.toml",
+        "--data",
+        s(&train),
+        "--validate",
+        s(&val),
+        "--out",
+        s(&model),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let r = report(&model);
+    assert!(r["stages_from"].as_str().unwrap().starts_with("default"));
+    assert_eq!(r["selection"]["refitted_on_every_row"], false);
+    assert!(
+        r["selection"]["held_out"]
+            .as_str()
+            .unwrap()
+            .ends_with("val.csv")
+    );
+    let (kin, why) = decision(&r, "kinematic");
+    assert!(kin, "{why}");
+    let (compliance, why) = decision(&r, "compliance");
+    assert!(compliance && why.contains("held-out mean"), "{why}");
+    let (residual, why) = decision(&r, "residual");
+    assert!(!residual && why.contains("at least 40"), "{why}");
+    assert!(stderr.contains("stage compliance: kept"), "{stderr}");
+    // Joint 1 stands vertical: no payload torque, held rigid by default.
+    let joints = r["kinematic"]["compliance"]["joints"].as_array().unwrap();
+    assert_eq!(joints.len(), 7);
+    assert_eq!(joints[0]["identified"], false);
+    assert!(joints[1]["identified"].as_bool().unwrap());
+    assert!(!model.join("residual.json").exists());
+
+    // predict --model is the calibrated table deflected by the compliance file, computed here.
+    let robot = Robot::load(model.join("kinematics.toml")).unwrap();
+    let compliance = robocal_robot::Compliance::load(model.join("compliance.toml"), 7).unwrap();
+    let pred = dir.path().join("pred.csv");
+    let o = robocal(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--data",
+        s(&val),
+        "--out",
+        s(&pred),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let input = std::fs::read_to_string(&val).unwrap();
+    let output = std::fs::read_to_string(&pred).unwrap();
+    let mut errors = Vec::new();
+    for (i, o) in input.lines().skip(1).zip(output.lines().skip(1)) {
+        let v: Vec<f64> = i.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
+        let q: Vec<f64> = v[..7].iter().map(|d| d.to_radians()).collect();
+        let p = compliance.point(&robot, &q, v[7]);
+        let w: Vec<f64> = o.split(',').skip(2).map(|x| x.parse().unwrap()).collect();
+        assert!((p - nalgebra::Vector3::new(w[0], w[1], w[2])).norm() < 2e-6);
+        errors.push((p - nalgebra::Vector3::new(v[8], v[9], v[10])).norm());
+    }
+    let held = r["validation"]["after"]["mean"].as_f64().unwrap();
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    assert!((mean - held).abs() < 1e-6, "{mean} vs {held}");
+    assert!(held < 0.5 * r["validation"]["before"]["mean"].as_f64().unwrap());
+
+    // Compensate targets under load through the elastic model, back through predict.
+    let mut targets = String::from("id,q1,q2,q3,q4,q5,q6,q7,load,x,y,z\n");
+    for (k, line) in input.lines().skip(1).step_by(7).take(8).enumerate() {
+        let v: Vec<f64> = line
+            .split(',')
+            .skip(1)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        let seed: Vec<String> = v[..7].iter().map(|x| x.to_string()).collect();
+        let load = [0.0, 6.0, 14.0][k % 3];
+        // The measured point, nudged: a target near where the arm went.
+        targets += &format!(
+            "t{k},{},{load},{},{},{}\n",
+            seed.join(","),
+            v[8] + 0.5,
+            v[9] - 0.3,
+            v[10] + 0.2
+        );
+    }
+    let targets = write(dir.path(), "targets.csv", &targets);
+    let commands = dir.path().join("commands.csv");
+    let o = robocal(&[
+        "compensate",
+        "--model",
+        s(&model),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let wanted = std::fs::read_to_string(&targets).unwrap();
+    let got = std::fs::read_to_string(&commands).unwrap();
+    for (t, c) in wanted.lines().skip(1).zip(got.lines().skip(1)) {
+        let t: Vec<f64> = t.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
+        let q: Vec<f64> = (c.split(',').skip(1))
+            .map(|x| x.parse::<f64>().unwrap().to_radians())
+            .collect();
+        let p = compliance.point(&robot, &q, t[7]);
+        let aim = nalgebra::Vector3::new(t[8], t[9], t[10]);
+        assert!((p - aim).norm() < 2e-3, "{}", (p - aim).norm());
+    }
+}
+
+#[test]
+fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = simulate("configs/twin/arm5.toml", &dir.path().join("sim"));
+    let unloaded = subset(&data, "unloaded.csv", |pose, load| pose < 36 && load == 0.0);
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/arm5.toml",
+        "--data",
+        s(&unloaded),
+        "--out",
+        s(&model),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let r = report(&model);
+    assert_eq!(r["selection"]["refitted_on_every_row"], true);
+    assert!(
+        r["selection"]["held_out"]
+            .as_str()
+            .unwrap()
+            .contains("of 36 configurations held out (seed 2020)")
+    );
+    assert!(decision(&r, "kinematic").0);
+    let (kept, why) = decision(&r, "compliance");
+    assert!(!kept && why.contains("one load"), "{why}");
+    let (kept, why) = decision(&r, "residual");
+    assert!(!kept && why.starts_with("skipped"), "{why}");
+    // Refitted on every row; the β of the parallel joints are identified.
+    assert_eq!(r["kinematic"]["points"], 36);
+    let params = r["kinematic"]["parameters"].as_array().unwrap();
+    for name in ["j3.beta", "j4.beta"] {
+        let p = params.iter().find(|p| p["name"] == name).unwrap();
+        assert_eq!(p["identified_flag"], true, "{name}");
+    }
+    assert!(!model.join("compliance.toml").exists());
+    assert!(r["kinematic"]["after"]["mean"].as_f64().unwrap() < 0.2);
+}
+
+#[test]
+fn default_calibrate_works_for_a_single_joint_from_an_identity_base() {
+    let dir = tempfile::tempdir().unwrap();
+    let nominal = "name = \"turntable\"\n[base]\nxyz = [0, 0, 0]\nrpy = [0, 0, 0]\n[tool]\nxyz = [300, 0, 40]\n\
+                   [[joint]]\na = 0\nalpha = 0\nd = 100\ntheta = 0\n";
+    let robot_file = write(dir.path(), "turntable.toml", nominal);
+    let mut truth = Robot::from_toml_str(nominal, "truth").unwrap();
+    truth.tool = nalgebra::Vector3::new(301.2, 0.4, 39.1);
+    truth.joints[0].theta = 0.3f64.to_radians();
+    truth.base.xyz = nalgebra::Vector3::new(2000.0, 500.0, -300.0);
+    truth.base.rpy = nalgebra::Vector3::new(0.01, -0.02, 1.1);
+    let mut text = String::from("pose,q1,load,x,y,z\n");
+    for i in 0..24 {
+        let q = -170.0 + 15.0 * i as f64;
+        let p = truth.point(&[q.to_radians()]);
+        text += &format!("p{i},{q},0,{},{},{}\n", p.x, p.y, p.z);
+    }
+    let data = write(dir.path(), "turntable.csv", &text);
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        s(&robot_file),
+        "--data",
+        s(&data),
+        "--out",
+        s(&model),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&model);
+    assert!(decision(&r, "kinematic").0);
+    assert!(r["kinematic"]["after"]["max"].as_f64().unwrap() < 1e-3);
+    assert!(!r["kinematic"]["fixed"].as_array().unwrap().is_empty());
 }
