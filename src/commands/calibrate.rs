@@ -114,6 +114,21 @@ pub fn run(
         r.after.max,
         r.iterations
     );
+    if let Some(c) = &r.compliance {
+        for j in c.joints.iter().filter(|j| j.identified) {
+            eprintln!(
+                "robocal: joint {} compliance {:.4} deg/kN·m{}{}",
+                j.joint,
+                j.compliance,
+                j.std.map_or(String::new(), |s| format!(" ± {s:.4}")),
+                if j.compliance < 0.0 {
+                    " (warning: negative; see report.json)"
+                } else {
+                    ""
+                }
+            );
+        }
+    }
     if !r.fixed.is_empty() {
         let names: Vec<&str> = r.fixed.iter().map(|f| f.name.as_str()).collect();
         eprintln!(

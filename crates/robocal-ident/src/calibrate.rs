@@ -423,7 +423,9 @@ pub fn calibrate_kinematics(
                 .map(|j| {
                     let column = Column::Compliance(j);
                     let identified = kept.contains(&column);
-                    let reason = if identified {
+                    let reason = if identified && model.values[j] < 0.0 {
+                        "identified, NEGATIVE: no joint stiffens under load; the stage is absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection); consider leaving this joint out".to_string()
+                    } else if identified {
                         "identified".to_string()
                     } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
                         format!("held rigid: {}", f.reason)

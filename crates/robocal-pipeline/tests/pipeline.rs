@@ -248,3 +248,62 @@ fn experiment_files_are_validated_with_the_key_named() {
         "{text}"
     );
 }
+
+/// The default calibration on the five-axis twin, with small networks and a low residual
+/// threshold so that every stage is tried: each decision follows its held-out numbers, the kept
+/// stages are in the model, and the model is refitted on every row.
+#[test]
+fn the_default_calibration_keeps_a_stage_only_when_the_held_out_error_falls() {
+    use robocal_pipeline::calibration::hold_out;
+    use robocal_pipeline::{AutoSettings, automatic};
+    let twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    let data = twin.generate().unwrap().measurements;
+    let rows: Vec<&robocal_data::Measurement> = data.rows.iter().collect();
+    let mut settings = AutoSettings {
+        min_residual_configurations: 10,
+        ..AutoSettings::default()
+    };
+    for net in &mut settings.residual.settings.axes {
+        net.hidden = vec![8];
+        net.max_epochs = 30;
+    }
+    let mut said = Vec::new();
+    let built = automatic(&settings, &twin.nominal, &rows, None, None, &mut |l| {
+        said.push(l.to_string())
+    })
+    .unwrap();
+    let selection = built.selection.as_ref().unwrap();
+    assert!(selection.refitted_on_every_row);
+    assert_eq!(selection.fitted_rows + selection.held_out_rows, rows.len());
+    let stages: Vec<&str> = selection.decisions.iter().map(|d| d.stage).collect();
+    assert_eq!(stages, ["kinematic", "compliance", "residual"]);
+    for d in &selection.decisions {
+        let (without, with) = (d.held_out_without.unwrap(), d.held_out_with.unwrap());
+        assert_eq!(d.kept, with < without, "{d:?}");
+        assert!(said.iter().any(|l| l.contains(&d.reason)), "{said:?}");
+    }
+    // The held-out numbers are the model's on the held-out rows, computed here again: the
+    // kinematic stage's "with" is the rigid identification's error on the same hold-out.
+    let (fit, held, _) = hold_out(&rows, settings.holdout, settings.seed).unwrap();
+    let kin = robocal_pipeline::calibration::fit_kinematic(
+        &twin.nominal,
+        &fit,
+        &robocal_ident::KinematicSettings::default(),
+    )
+    .unwrap();
+    let errors: Vec<f64> = held
+        .iter()
+        .map(|m| (kin.robot.point(&m.sample.joints_rad()) - m.position).norm())
+        .collect();
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let first = &selection.decisions[0];
+    assert!((first.held_out_with.unwrap() - mean).abs() < 1e-12);
+    // What the decisions kept is what the model holds, fitted on every row.
+    let compliance_kept = selection.decisions[1].kept;
+    assert_eq!(built.kinematic.compliance.is_some(), compliance_kept);
+    assert_eq!(built.residual.is_some(), selection.decisions[2].kept);
+    assert_eq!(built.stages.residual.is_some(), selection.decisions[2].kept);
+    if compliance_kept {
+        assert_eq!(built.kinematic.report.points, rows.len());
+    }
+}
