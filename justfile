@@ -48,3 +48,7 @@ twin-budget twin="configs/twin/pmc6va030.toml":
 # regenerate the bundled twin dataset (a test checks it matches byte for byte)
 twin:
     cargo run --release -- simulate --twin configs/twin/pmc6va030.toml --out datasets/pmc6va030
+
+# fuzz the CSV and TOML loaders (proptest): CASES generated inputs per target, release build
+fuzz cases="20000":
+    PROPTEST_CASES={{cases}} cargo test --release --test fuzz_loaders

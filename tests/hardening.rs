@@ -58,14 +58,17 @@ fn fails(label: &str, args: &[&str], needles: &[&str], outputs: &Path) {
     for n in needles {
         assert!(stderr.contains(n), "{label}: `{n}` not in\n{stderr}");
     }
-    assert!(stderr.lines().count() <= 12, "{label}: long error\n{stderr}");
+    assert!(
+        stderr.lines().count() <= 12,
+        "{label}: long error\n{stderr}"
+    );
     assert_eq!(snapshot(outputs), before, "{label}: outputs changed");
 }
 
 /// Rows from the nominal table at a few configurations (enough for `predict`).
 fn good_rows() -> String {
-    let robot = robocal_robot::Robot::load(Path::new(env!("CARGO_MANIFEST_DIR")).join(ROBOT))
-        .unwrap();
+    let robot =
+        robocal_robot::Robot::load(Path::new(env!("CARGO_MANIFEST_DIR")).join(ROBOT)).unwrap();
     let mut text = format!("{HEADER}\n");
     for (i, q) in [
         [0.0, -60.0, -20.0, 0.0, 60.0, 0.0],
@@ -116,7 +119,11 @@ fn every_command_refuses_bad_input_cleanly() {
     // --- Measurement CSV: predict, evaluate and calibrate read it the same way.
     let csv_cases: &[(&str, String, &[&str])] = &[
         ("empty.csv", String::new(), &["empty.csv", "empty"]),
-        ("header.csv", format!("{HEADER}\n"), &["header.csv", "no data"]),
+        (
+            "header.csv",
+            format!("{HEADER}\n"),
+            &["header.csv", "no data"],
+        ),
         (
             "missing-column.csv",
             "pose,q1,q2,q4,q5,q6,load,x,y,z\np,0,0,0,0,0,0,1,2,3\n".into(),
@@ -167,19 +174,45 @@ fn every_command_refuses_bad_input_cleanly() {
         let data = write(d, name, text);
         let m = s(&model_out);
         for args in [
-            vec!["predict", "--robot", ROBOT, "--data", s(&data), "--out", s(&pred)],
-            vec!["evaluate", "--model", s(&model), "--data", s(&data)],
-            vec!["calibrate", "--robot", ROBOT, "--data", s(&data), "--out", m],
             vec![
-                "calibrate", "--robot", ROBOT, "--data", s(&good), "--validate", s(&data),
-                "--out", m,
+                "predict",
+                "--robot",
+                ROBOT,
+                "--data",
+                s(&data),
+                "--out",
+                s(&pred),
+            ],
+            vec!["evaluate", "--model", s(&model), "--data", s(&data)],
+            vec![
+                "calibrate",
+                "--robot",
+                ROBOT,
+                "--data",
+                s(&data),
+                "--out",
+                m,
+            ],
+            vec![
+                "calibrate",
+                "--robot",
+                ROBOT,
+                "--data",
+                s(&good),
+                "--validate",
+                s(&data),
+                "--out",
+                m,
             ],
         ] {
             fails(name, &args, needles, &outs);
         }
     }
     // Unreadable: a directory where a file should be, and a missing file.
-    for (label, path) in [("directory", d.to_path_buf()), ("missing", d.join("nope.csv"))] {
+    for (label, path) in [
+        ("directory", d.to_path_buf()),
+        ("missing", d.join("nope.csv")),
+    ] {
         fails(
             label,
             &["evaluate", "--robot", ROBOT, "--data", s(&path)],
@@ -190,12 +223,19 @@ fn every_command_refuses_bad_input_cleanly() {
 
     // --- Robot TOML.
     let joint = "[[joint]]\na = 0.0\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n";
-    let frames = "[base]\nxyz = [0.0, 0.0, 0.0]\nrpy = [0.0, 0.0, 0.0]\n[tool]\nxyz = [0.0, 0.0, 0.0]\n";
+    let frames =
+        "[base]\nxyz = [0.0, 0.0, 0.0]\nrpy = [0.0, 0.0, 0.0]\n[tool]\nxyz = [0.0, 0.0, 0.0]\n";
     let robot_cases: &[(&str, String, &[&str])] = &[
-        ("empty.toml", String::new(), &["empty.toml", "line 1", "name"]),
+        (
+            "empty.toml",
+            String::new(),
+            &["empty.toml", "line 1", "name"],
+        ),
         (
             "wrong-type.toml",
-            format!("name = \"r\"\n{frames}[[joint]]\na = \"long\"\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n"),
+            format!(
+                "name = \"r\"\n{frames}[[joint]]\na = \"long\"\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n"
+            ),
             &["wrong-type.toml", "line 8"],
         ),
         (
@@ -210,32 +250,58 @@ fn every_command_refuses_bad_input_cleanly() {
         ),
         (
             "rpy.toml",
-            format!("name = \"r\"\n[base]\nxyz = [0.0, 0.0, 0.0]\nrpy = [0.0, 0.0]\n[tool]\nxyz = [0.0, 0.0, 0.0]\n{joint}"),
+            format!(
+                "name = \"r\"\n[base]\nxyz = [0.0, 0.0, 0.0]\nrpy = [0.0, 0.0]\n[tool]\nxyz = [0.0, 0.0, 0.0]\n{joint}"
+            ),
             &["rpy.toml", "line 4"],
         ),
         (
             "nan.toml",
-            format!("name = \"r\"\n{frames}[[joint]]\na = nan\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n"),
+            format!(
+                "name = \"r\"\n{frames}[[joint]]\na = nan\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n"
+            ),
             &["nan.toml", "joint[1].a"],
         ),
         (
             "huge.toml",
-            format!("name = \"r\"\n{frames}[[joint]]\na = 1e400\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n"),
+            format!(
+                "name = \"r\"\n{frames}[[joint]]\na = 1e400\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n"
+            ),
             &["huge.toml", "line 8"],
         ),
-        ("no-joint.toml", format!("name = \"r\"\n{frames}"), &["no-joint.toml", "[[joint]]"]),
+        (
+            "no-joint.toml",
+            format!("name = \"r\"\n{frames}"),
+            &["no-joint.toml", "[[joint]]"],
+        ),
     ];
     for (name, text, needles) in robot_cases {
         let robot = write(d, name, text);
         fails(
             name,
-            &["predict", "--robot", s(&robot), "--data", s(&good), "--out", s(&pred)],
+            &[
+                "predict",
+                "--robot",
+                s(&robot),
+                "--data",
+                s(&good),
+                "--out",
+                s(&pred),
+            ],
             needles,
             &outs,
         );
         fails(
             name,
-            &["calibrate", "--robot", s(&robot), "--data", s(&good), "--out", s(&model_out)],
+            &[
+                "calibrate",
+                "--robot",
+                s(&robot),
+                "--data",
+                s(&good),
+                "--out",
+                s(&model_out),
+            ],
             needles,
             &outs,
         );
@@ -243,20 +309,51 @@ fn every_command_refuses_bad_input_cleanly() {
 
     // --- Stage configs.
     let stage_cases: &[(&str, &str, &[&str])] = &[
-        ("stage-type.toml", "[kinematic]\nmax_iterations = \"many\"\n", &["stage-type.toml", "line 2"]),
-        ("stage-unknown.toml", "[kinematic]\nsolver = \"lm\"\nspeed = 3\n", &["stage-unknown.toml", "speed"]),
-        ("stage-missing.toml", "[residual]\nseed = 3\n", &["stage-missing.toml", "model"]),
-        ("stage-joint.toml", "[compliance]\njoints = [0, 2]\n", &["stage-joint.toml", "compliance.joints"]),
-        ("stage-gravity.toml", "[compliance]\ngravity = [0.0, 0.0, 0.0]\n", &["stage-gravity.toml", "compliance.gravity"]),
-        ("stage-rate.toml", "[residual]\nmodel = \"somm\"\n[residual.x]\nhidden = [3]\nactivation = \"tanh\"\nlearning_rate = -1.0\n", &["stage-rate.toml", "residual.x.learning_rate"]),
+        (
+            "stage-type.toml",
+            "[kinematic]\nmax_iterations = \"many\"\n",
+            &["stage-type.toml", "line 2"],
+        ),
+        (
+            "stage-unknown.toml",
+            "[kinematic]\nsolver = \"lm\"\nspeed = 3\n",
+            &["stage-unknown.toml", "speed"],
+        ),
+        (
+            "stage-missing.toml",
+            "[residual]\nseed = 3\n",
+            &["stage-missing.toml", "model"],
+        ),
+        (
+            "stage-joint.toml",
+            "[compliance]\njoints = [0, 2]\n",
+            &["stage-joint.toml", "compliance.joints"],
+        ),
+        (
+            "stage-gravity.toml",
+            "[compliance]\ngravity = [0.0, 0.0, 0.0]\n",
+            &["stage-gravity.toml", "compliance.gravity"],
+        ),
+        (
+            "stage-rate.toml",
+            "[residual]\nmodel = \"somm\"\n[residual.x]\nhidden = [3]\nactivation = \"tanh\"\nlearning_rate = -1.0\n",
+            &["stage-rate.toml", "residual.x.learning_rate"],
+        ),
     ];
     for (name, text, needles) in stage_cases {
         let config = write(d, name, text);
         fails(
             name,
             &[
-                "calibrate", "--robot", ROBOT, "--data", s(&good), "--out", s(&model_out),
-                "--config", s(&config),
+                "calibrate",
+                "--robot",
+                ROBOT,
+                "--data",
+                s(&good),
+                "--out",
+                s(&model_out),
+                "--config",
+                s(&config),
             ],
             needles,
             &outs,
@@ -267,16 +364,35 @@ fn every_command_refuses_bad_input_cleanly() {
     fails(
         "one load",
         &[
-            "calibrate", "--robot", ROBOT, "--data", s(&good), "--out", s(&model_out),
-            "--config", s(&compliance),
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(&good),
+            "--out",
+            s(&model_out),
+            "--config",
+            s(&compliance),
         ],
         &["good.csv", "two or more loads"],
         &outs,
     );
-    let two = write(d, "two.csv", &good_rows().lines().take(3).collect::<Vec<_>>().join("\n"));
+    let two = write(
+        d,
+        "two.csv",
+        &good_rows().lines().take(3).collect::<Vec<_>>().join("\n"),
+    );
     fails(
         "too few poses",
-        &["calibrate", "--robot", ROBOT, "--data", s(&two), "--out", s(&model_out)],
+        &[
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(&two),
+            "--out",
+            s(&model_out),
+        ],
         &["two.csv", "too few"],
         &outs,
     );
@@ -303,35 +419,84 @@ fn every_command_refuses_bad_input_cleanly() {
     let no_report = copy("no-report");
     std::fs::remove_file(no_report.join("report.json")).unwrap();
     let bad_compliance = copy("bad-compliance");
-    write(&bad_compliance, "compliance.toml", "gravity = [0.0, 0.0, -9.8]\npayload_com = [0.0, 0.0, 0.0]\ncompliance = [1.0, 2.0]\n");
+    write(
+        &bad_compliance,
+        "compliance.toml",
+        "gravity = [0.0, 0.0, -9.8]\npayload_com = [0.0, 0.0, 0.0]\ncompliance = [1.0, 2.0]\n",
+    );
     let bad_residual = copy("bad-residual");
     write(&bad_residual, "residual.json", "{\"residual_format\": 1}\n");
     let model_cases: &[(&PathBuf, &[&str])] = &[
         (&version, &["report.json", "model_format", "99"]),
         (&no_kinematics, &["kinematics.toml"]),
         (&no_report, &["report.json"]),
-        (&bad_compliance, &["compliance.toml", "compliance", "6 joints"]),
+        (
+            &bad_compliance,
+            &["compliance.toml", "compliance", "6 joints"],
+        ),
         (&bad_residual, &["residual.json"]),
     ];
     for (dir, needles) in model_cases {
         let label = s(dir);
-        fails(label, &["predict", "--model", s(dir), "--data", s(&good), "--out", s(&pred)], needles, &outs);
-        fails(label, &["evaluate", "--model", s(dir), "--data", s(&good)], needles, &outs);
+        fails(
+            label,
+            &[
+                "predict",
+                "--model",
+                s(dir),
+                "--data",
+                s(&good),
+                "--out",
+                s(&pred),
+            ],
+            needles,
+            &outs,
+        );
+        fails(
+            label,
+            &["evaluate", "--model", s(dir), "--data", s(&good)],
+            needles,
+            &outs,
+        );
     }
 
     // --- Targets CSV.
     let target_header = "id,q1,q2,q3,q4,q5,q6,load,x,y,z";
     let target_cases: &[(&str, String, &[&str])] = &[
-        ("targets-missing.csv", "id,q1,q2,q3,q4,q5,q6,load,x,y\nt,0,0,0,0,0,0,0,1,2\n".into(), &["targets-missing.csv", "`z`"]),
-        ("targets-text.csv", format!("{target_header}\nt,0,0,0,0,0,zero,0,1,2,3\n"), &["targets-text.csv", "line 2", "`q6`"]),
-        ("targets-nan.csv", format!("{target_header}\nt,0,0,0,0,0,0,nan,1,2,3\n"), &["targets-nan.csv", "line 2", "`load`"]),
-        ("targets-twice.csv", format!("{target_header}\nt,0,0,0,0,0,0,0,1,2,3\nt,0,0,0,0,0,0,0,1,2,3\n"), &["targets-twice.csv", "line 3", "`t`"]),
+        (
+            "targets-missing.csv",
+            "id,q1,q2,q3,q4,q5,q6,load,x,y\nt,0,0,0,0,0,0,0,1,2\n".into(),
+            &["targets-missing.csv", "`z`"],
+        ),
+        (
+            "targets-text.csv",
+            format!("{target_header}\nt,0,0,0,0,0,zero,0,1,2,3\n"),
+            &["targets-text.csv", "line 2", "`q6`"],
+        ),
+        (
+            "targets-nan.csv",
+            format!("{target_header}\nt,0,0,0,0,0,0,nan,1,2,3\n"),
+            &["targets-nan.csv", "line 2", "`load`"],
+        ),
+        (
+            "targets-twice.csv",
+            format!("{target_header}\nt,0,0,0,0,0,0,0,1,2,3\nt,0,0,0,0,0,0,0,1,2,3\n"),
+            &["targets-twice.csv", "line 3", "`t`"],
+        ),
     ];
     for (name, text, needles) in target_cases {
         let targets = write(d, name, text);
         fails(
             name,
-            &["compensate", "--model", s(&model), "--targets", s(&targets), "--out", s(&commands)],
+            &[
+                "compensate",
+                "--model",
+                s(&model),
+                "--targets",
+                s(&targets),
+                "--out",
+                s(&commands),
+            ],
             needles,
             &outs,
         );
@@ -340,15 +505,32 @@ fn every_command_refuses_bad_input_cleanly() {
     // --- Twin and experiment configs.
     let twin_cases: &[(&str, &str, &[&str])] = &[
         ("twin-empty.toml", "", &["twin-empty.toml", "line 1"]),
-        ("twin-type.toml", "name = 3\n", &["twin-type.toml", "line 1"]),
+        (
+            "twin-type.toml",
+            "name = 3\n",
+            &["twin-type.toml", "line 1"],
+        ),
     ];
     for (name, text, needles) in twin_cases {
         let twin = write(d, name, text);
-        fails(name, &["simulate", "--twin", s(&twin), "--out", s(&sim_out)], needles, &outs);
+        fails(
+            name,
+            &["simulate", "--twin", s(&twin), "--out", s(&sim_out)],
+            needles,
+            &outs,
+        );
     }
     let experiment_cases: &[(&str, &str, &[&str])] = &[
-        ("exp-unknown.toml", "name = \"e\"\ncolour = \"red\"\n", &["exp-unknown.toml", "colour"]),
-        ("exp-type.toml", "name = \"e\"\nseed = \"x\"\n", &["exp-type.toml", "line 2"]),
+        (
+            "exp-unknown.toml",
+            "name = \"e\"\ncolour = \"red\"\n",
+            &["exp-unknown.toml", "colour"],
+        ),
+        (
+            "exp-type.toml",
+            "name = \"e\"\nseed = \"x\"\n",
+            &["exp-type.toml", "line 2"],
+        ),
         (
             "exp-model.toml",
             "name = \"e\"\n[data]\ntwin = \"twin.toml\"\n[[model]]\nname = \"m\"\ncompliance = { joints = [0] }\n",
@@ -357,6 +539,135 @@ fn every_command_refuses_bad_input_cleanly() {
     ];
     for (name, text, needles) in experiment_cases {
         let experiment = write(d, name, text);
-        fails(name, &["run", s(&experiment), "--out", s(&outs.join("reports"))], needles, &outs);
+        fails(
+            name,
+            &["run", s(&experiment), "--out", s(&outs.join("reports"))],
+            needles,
+            &outs,
+        );
+    }
+}
+
+#[test]
+fn the_same_inputs_give_byte_identical_models_predictions_and_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 30 configurations at 0 and 20 kg of the bundled twin rows.
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/pmc6va030/measurements.csv"),
+    )
+    .unwrap();
+    let mut lines = text.lines();
+    let mut data = format!("{}\n", lines.next().unwrap());
+    let mut poses: Vec<&str> = Vec::new();
+    for line in lines {
+        let pose = line.split(',').next().unwrap();
+        if !poses.contains(&pose) {
+            poses.push(pose);
+        }
+        let load = line.split(',').nth(7).unwrap();
+        if poses.len() <= 30 && (load == "0" || load == "20") {
+            data += line;
+            data += "\n";
+        }
+    }
+    let data = write(d, "data.csv", &data);
+    let stage = write(
+        d,
+        "stage.toml",
+        "[kinematic]\nsolver = \"lm\"\n[compliance]\npayload_com = [100.0, 0.0, 60.0]\n\
+         [residual]\nmodel = \"ca-somm\"\nseed = 7\n\
+         [residual.x]\nhidden = [6]\nactivation = \"tanh\"\nlearning_rate = 1e-3\nmax_epochs = 4\n\
+         [residual.y]\nhidden = [6]\nactivation = \"tanh\"\nlearning_rate = 1e-3\nmax_epochs = 4\n\
+         [residual.z]\nhidden = [6]\nactivation = \"tanh\"\nlearning_rate = 1e-3\nmax_epochs = 4\n\
+         [residual.classifier]\nmin_samples_leaf = 5\n",
+    );
+    let targets = {
+        let mut t = String::from("id,q1,q2,q3,q4,q5,q6,load,x,y,z\n");
+        for (k, line) in std::fs::read_to_string(&data)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .step_by(9)
+            .enumerate()
+        {
+            let v: Vec<&str> = line.split(',').collect();
+            t += &format!(
+                "t{k},{},{},{},{},{}\n",
+                v[1..7].join(","),
+                v[7],
+                v[8],
+                v[9],
+                v[10]
+            );
+        }
+        write(d, "targets.csv", &t)
+    };
+    let run = |tag: &str| -> Vec<(String, Vec<u8>)> {
+        let model = d.join(format!("model-{tag}"));
+        let pred = d.join(format!("pred-{tag}.csv"));
+        let commands = d.join(format!("commands-{tag}.csv"));
+        for args in [
+            vec![
+                "calibrate",
+                "--robot",
+                ROBOT,
+                "--data",
+                s(&data),
+                "--out",
+                s(&model),
+                "--config",
+                s(&stage),
+            ],
+            vec![
+                "predict",
+                "--model",
+                s(&model),
+                "--data",
+                s(&data),
+                "--out",
+                s(&pred),
+            ],
+            vec![
+                "compensate",
+                "--model",
+                s(&model),
+                "--targets",
+                s(&targets),
+                "--out",
+                s(&commands),
+            ],
+        ] {
+            let o = robocal(&args);
+            assert!(
+                o.status.success(),
+                "{args:?}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        let mut files: Vec<(String, Vec<u8>)> = snapshot(&model)
+            .into_iter()
+            .map(|(p, b)| (p.file_name().unwrap().to_string_lossy().into_owned(), b))
+            .collect();
+        files.push(("pred".into(), std::fs::read(&pred).unwrap()));
+        files.push(("commands".into(), std::fs::read(&commands).unwrap()));
+        files
+    };
+    let (a, b) = (run("a"), run("b"));
+    let names: Vec<&str> = a.iter().map(|(n, _)| n.as_str()).collect();
+    for wanted in [
+        "kinematics.toml",
+        "compliance.toml",
+        "residual.json",
+        "report.json",
+        "pred",
+        "commands",
+    ] {
+        assert!(names.contains(&wanted), "{names:?}");
+    }
+    assert_eq!(a.len(), b.len());
+    for ((na, ba), (nb, bb)) in a.iter().zip(&b) {
+        assert_eq!(na, nb);
+        assert!(ba == bb, "{na} differs between two runs");
     }
 }

@@ -114,6 +114,9 @@ pub fn run(
         r.after.max,
         r.iterations
     );
+    for w in &r.warnings {
+        eprintln!("robocal: warning: {w}");
+    }
     if let Some(c) = &r.compliance {
         for j in c.joints.iter().filter(|j| j.identified) {
             eprintln!(

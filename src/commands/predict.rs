@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use robocal_data::{Prediction, SampleSet, write_predictions};
 
 use super::model::Model;
@@ -22,6 +22,18 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path) -> Result<()> {
             position,
         })
         .collect();
+    // Finite inputs through a finite model give finite points; a table with absurd values can
+    // still overflow, and a file must never hold NaN.
+    if let Some((s, _)) =
+        (samples.rows.iter().zip(&rows)).find(|(_, p)| !p.position.iter().all(|v| v.is_finite()))
+    {
+        bail!(
+            "{}: line {}: the model's prediction for pose `{}` is not a finite number (check the robot table's values); nothing written",
+            data.display(),
+            s.line,
+            s.pose
+        );
+    }
     write_predictions(out, &rows)?;
     Ok(())
 }

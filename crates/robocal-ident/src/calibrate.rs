@@ -208,7 +208,12 @@ pub struct KinematicReport {
     /// Joint compliances, when identified with the geometry.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub compliance: Option<ComplianceReport>,
+    /// What the user should know about the data's ability to determine the parameters.
+    pub warnings: Vec<String>,
 }
+
+/// Condition number of the scaled Jacobian above which the report warns.
+pub const ILL_CONDITIONED: f64 = 1e5;
 
 /// A calibrated kinematic model and its report.
 #[derive(Debug, Clone)]
@@ -383,7 +388,35 @@ pub fn calibrate_kinematics(
     };
     let robot = problem.robot_at(&u);
     let compliance = problem.compliance_at(&u);
+    let finite = robot.params().iter().all(|v| v.is_finite())
+        && compliance
+            .as_ref()
+            .is_none_or(|c| c.values.iter().all(|v| v.is_finite()));
+    if !finite {
+        return Err(IdentError::Solver {
+            solver: settings.solver.name(),
+            message: "the identification diverged to non-finite values (check the data's units and the robot table)".into(),
+        });
+    }
     let after = ErrorStats::from_errors(&obs.errors_with(&robot, compliance.as_ref()));
+    let mut warnings = Vec::new();
+    let mut distinct: Vec<&[f64]> = (0..obs.len()).map(|i| obs.joints(i)).collect();
+    distinct.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    distinct.dedup();
+    if 3 * distinct.len() < selected.len() {
+        warnings.push(format!(
+            "only {} distinct joint configurations ({} equations) for {} parameters: most cannot be determined; measure more, and more varied, poses",
+            distinct.len(),
+            3 * distinct.len(),
+            selected.len()
+        ));
+    }
+    if ident.condition_number > ILL_CONDITIONED {
+        warnings.push(format!(
+            "ill-conditioned: the scaled Jacobian's condition number is {:.1e}; the identified values are sensitive to noise (spread the poses over the joint ranges)",
+            ident.condition_number
+        ));
+    }
     let (r, jac) = problem.residuals_and_jacobian(&u);
     let std_u = standard_deviations(&jac, &r);
     // Standard deviation of the unknown for `column`, internal units.
@@ -465,6 +498,7 @@ pub fn calibrate_kinematics(
             condition_number: ident.condition_number,
             observability_index: ident.observability_index,
             compliance: compliance_report,
+            warnings,
         },
     })
 }

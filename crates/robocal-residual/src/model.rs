@@ -20,6 +20,20 @@ use crate::error::{ResidualError, Result};
 use crate::mlp::{Dense, Mlp, NetSettings, Split, TrainReport, train};
 use crate::search::{SearchLog, SearchSettings, search};
 
+/// Renumbers a module's parameters 0, 1, 2, … in visiting order.
+struct SequentialIds(u64);
+
+impl burn::module::ModuleMapper for SequentialIds {
+    fn map_float<const D: usize>(
+        &mut self,
+        mut param: burn::module::Param<burn::tensor::Tensor<D>>,
+    ) -> burn::module::Param<burn::tensor::Tensor<D>> {
+        param.id = burn::module::ParamId::from(self.0);
+        self.0 += 1;
+        param
+    }
+}
+
 /// Version of the saved residual model (`residual.json`).
 pub const RESIDUAL_FORMAT: u32 = 1;
 
@@ -826,8 +840,11 @@ impl ResidualModel {
         for (i, net) in self.nets.iter().enumerate() {
             let file = self.net_file(i);
             let path = dir.join(&file);
+            // Burn draws parameter ids at random; numbered in order, the same network is the
+            // same file.
             net.net
                 .clone()
+                .map(&mut SequentialIds(0))
                 .save_file(&path)
                 .map_err(|e| ResidualError::Format {
                     path: path.clone(),
