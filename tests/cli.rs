@@ -1,29 +1,14 @@
 //! End-to-end tests of the `robocal` binary on real files.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+use common::{robocal, s, select_rows, twin_rows, write};
 
 use robocal_robot::Robot;
 
 const ROBOT: &str = "configs/robots/pmc6va030.toml";
-
-fn robocal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_robocal"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the binary runs")
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Rows written by hand, positions from the nominal table plus known offsets.
 fn hand_file(dir: &Path, offsets: &[f64]) -> PathBuf {
@@ -226,29 +211,10 @@ fn bad_input_fails_cleanly_and_leaves_outputs_alone() {
     }
 }
 
-const TWIN_DATA: &str = "datasets/pmc6va030/measurements.csv";
-
-/// The bundled twin rows at loads 0 and 20 kg: small and fast to calibrate.
+/// Rows of the bundled twin data: small and fast to calibrate.
 fn twin_subset(dir: &Path, keep: impl Fn(usize, f64) -> bool) -> PathBuf {
-    let text =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(TWIN_DATA)).unwrap();
-    let mut lines = text.lines();
-    let mut out = format!("{}\n", lines.next().unwrap());
-    let mut poses: Vec<String> = Vec::new();
-    for line in lines {
-        let pose = line.split(',').next().unwrap().to_string();
-        if !poses.contains(&pose) {
-            poses.push(pose);
-        }
-        let load: f64 = line.split(',').nth(7).unwrap().parse().unwrap();
-        if keep(poses.len() - 1, load) {
-            out += line;
-            out += "\n";
-        }
-    }
-    let path = dir.join(format!("subset-{}.csv", out.len()));
-    std::fs::write(&path, out).unwrap();
-    path
+    let out = select_rows(&twin_rows(), keep);
+    write(dir, &format!("subset-{}.csv", out.len()), &out)
 }
 
 #[test]
@@ -785,23 +751,7 @@ fn simulate(twin: &str, dir: &Path) -> PathBuf {
 /// The rows of `csv` whose configuration (in order of appearance) and load `keep` accepts.
 fn subset(csv: &Path, name: &str, keep: impl Fn(usize, f64) -> bool) -> PathBuf {
     let text = std::fs::read_to_string(csv).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap();
-    let load_col = header.split(',').position(|c| c == "load").unwrap();
-    let mut out = format!("{header}\n");
-    let mut poses: Vec<String> = Vec::new();
-    for line in lines {
-        let pose = line.split(',').next().unwrap().to_string();
-        if !poses.contains(&pose) {
-            poses.push(pose);
-        }
-        let load: f64 = line.split(',').nth(load_col).unwrap().parse().unwrap();
-        if keep(poses.len() - 1, load) {
-            out += line;
-            out += "\n";
-        }
-    }
-    write(csv.parent().unwrap(), name, &out)
+    write(csv.parent().unwrap(), name, &select_rows(&text, keep))
 }
 
 fn report(model: &Path) -> serde_json::Value {

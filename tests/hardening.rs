@@ -2,32 +2,14 @@
 //! stderr naming the file and the line/column or key, no panic, and no output written or
 //! changed.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+use common::{robocal, s, select_rows, twin_rows, write};
 
 const ROBOT: &str = "configs/robots/pmc6va030.toml";
 const HEADER: &str = "pose,q1,q2,q3,q4,q5,q6,load,x,y,z";
-
-fn robocal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_robocal"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the binary runs")
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let path = dir.join(name);
-    if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).unwrap();
-    }
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Every file and directory under `dir` with its contents (directories as a marker).
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
@@ -553,24 +535,9 @@ fn the_same_inputs_give_byte_identical_models_predictions_and_commands() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // 30 configurations at 0 and 20 kg of the bundled twin rows.
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/pmc6va030/measurements.csv"),
-    )
-    .unwrap();
-    let mut lines = text.lines();
-    let mut data = format!("{}\n", lines.next().unwrap());
-    let mut poses: Vec<&str> = Vec::new();
-    for line in lines {
-        let pose = line.split(',').next().unwrap();
-        if !poses.contains(&pose) {
-            poses.push(pose);
-        }
-        let load = line.split(',').nth(7).unwrap();
-        if poses.len() <= 30 && (load == "0" || load == "20") {
-            data += line;
-            data += "\n";
-        }
-    }
+    let data = select_rows(&twin_rows(), |pose, load| {
+        pose < 30 && (load == 0.0 || load == 20.0)
+    });
     let data = write(d, "data.csv", &data);
     let stage = write(
         d,

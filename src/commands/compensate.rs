@@ -7,12 +7,12 @@ use anyhow::{Result, bail};
 use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
 use robocal_data::{csv_text, fixed6, read_targets, write_atomically};
 
-use super::model::Model;
+use super::model;
 
 /// Compensates every target, writes the commands of those that converged (atomically) and
 /// fails naming the others.
 pub fn run(model_dir: &Path, targets: &Path, out: &Path) -> Result<()> {
-    let model = Model::load_dir(model_dir)?;
+    let model = model::load_dir(model_dir)?;
     let targets = read_targets(targets, model.robot.dof())?;
     let options = CompensationOptions::default();
     let calibrated = CalibratedModel {

@@ -5,14 +5,14 @@ use std::path::Path;
 use anyhow::Result;
 use robocal_data::{ErrorStats, MeasurementSet};
 
-use super::model::Model;
+use super::model;
 use crate::cli::ModelSource;
 
 /// Prints the statistics of the Euclidean error between predicted and measured points.
 pub fn run(source: &ModelSource, data: &Path, json: bool) -> Result<()> {
-    let model = Model::load(source)?;
+    let model = model::load(source)?;
     let set = MeasurementSet::read(data, model.robot.dof())?;
-    let predicted = model.predict_all(set.rows.iter().map(|m| &m.sample));
+    let predicted = model.predict(set.rows.iter().map(|m| &m.sample));
     let errors: Vec<f64> = set
         .rows
         .iter()

@@ -122,10 +122,7 @@ impl<'a> CalibratedModel<'a> {
     /// The joint deflection under `load` at command `q` (rad), rad.
     fn deflection(&self, q: &[f64], load: f64) -> Vec<f64> {
         match self.compliance {
-            Some(c) => {
-                let d = c.deflected(self.robot, q, load);
-                d.iter().zip(q).map(|(d, q)| d - q).collect()
-            }
+            Some(c) => c.deflection(self.robot, q, load),
             None => vec![0.0; q.len()],
         }
     }
@@ -145,11 +142,7 @@ impl<'a> CalibratedModel<'a> {
 
     /// The whole model's predicted point at command `q` (rad) and `load`, mm, world frame.
     pub fn point(&self, q: &[f64], load: f64) -> Vector3<f64> {
-        let geometric = match self.compliance {
-            Some(c) => c.point(self.robot, q, load),
-            None => self.robot.point(q),
-        };
-        geometric + self.residual_at(q, load)
+        self.robot.point_under_load(self.compliance, q, load) + self.residual_at(q, load)
     }
 }
 

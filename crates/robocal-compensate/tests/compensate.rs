@@ -97,6 +97,7 @@ fn path(
     let mut seed = start.clone();
     for i in 0..=10 {
         let target = a + (b - a) * (i as f64 / 10.0);
+        // The program: nominal IK along the path, each point from the previous one.
         seed = nominal
             .inverse_kinematics(
                 &IkTarget::Pose {
@@ -163,39 +164,9 @@ fn the_compliance_model_takes_the_loads_deflection_out_of_a_compensated_path() {
 #[test]
 fn a_straight_path_at_several_loads_is_compensated_point_by_point() {
     let (twin, data, nominal, calibrated) = setup();
-    let start = rad(&data.rows[0].sample.joints);
-    let a = nominal.point(&start);
-    let b = a + Vector3::new(150.0, -100.0, 80.0);
-    let options = CompensationOptions::default();
+    let model = CalibratedModel::kinematic(&calibrated);
     for load in [0.0, 5.0, 15.0] {
-        let (mut before, mut after) = (Vec::new(), Vec::new());
-        let mut seed = start.clone();
-        for i in 0..=10 {
-            let target = a + (b - a) * (i as f64 / 10.0);
-            // The program: nominal IK along the path, each point from the previous one.
-            seed = nominal
-                .inverse_kinematics(
-                    &IkTarget::Pose {
-                        point: target,
-                        rotation: nominal.flange_frame(&start).0,
-                    },
-                    &seed,
-                    &IkOptions::default(),
-                )
-                .unwrap();
-            let seed_deg: Vec<f64> = seed.iter().map(|v| v.to_degrees()).collect();
-            let c = compensate(
-                &CalibratedModel::kinematic(&calibrated),
-                &target,
-                load,
-                &seed_deg,
-                &options,
-            )
-            .unwrap();
-            before.push((twin.true_point(&seed, load) - target).norm());
-            after.push((twin.true_point(&rad(&c.joints_deg), load) - target).norm());
-        }
-        let (mb, ma) = (mean(&before), mean(&after));
+        let (mb, ma) = path(&twin, &data, &nominal, &model, load);
         eprintln!("path at {load} kg: mean {mb:.3} → {ma:.3} mm");
         assert!(ma < 0.3 * mb, "{load} kg: {mb} → {ma}");
     }

@@ -83,10 +83,7 @@ impl Observations {
         compliance: Option<&Compliance>,
         i: usize,
     ) -> Vector3<f64> {
-        match compliance {
-            Some(c) => c.point(robot, self.joints(i), self.loads[i]),
-            None => robot.point(self.joints(i)),
-        }
+        robot.point_under_load(compliance, self.joints(i), self.loads[i])
     }
 
     /// Euclidean errors of `robot`'s predictions (rigid), mm.

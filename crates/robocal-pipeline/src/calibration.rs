@@ -41,13 +41,18 @@ pub struct Predictor {
 }
 
 impl Predictor {
+    /// The geometric (and elastic) model of an identification, without a residual model.
+    pub fn kinematic(calibration: &KinematicCalibration) -> Self {
+        Self {
+            robot: calibration.robot.clone(),
+            compliance: calibration.compliance.clone(),
+            residual: None,
+        }
+    }
+
     /// The table and compliance part of the prediction, mm, world frame.
     pub fn base_point(&self, s: &Sample) -> Vector3<f64> {
-        let q = s.joints_rad();
-        match &self.compliance {
-            Some(c) => c.point(&self.robot, &q, s.load),
-            None => self.robot.point(&q),
-        }
+        (self.robot).point_under_load(self.compliance.as_ref(), &s.joints_rad(), s.load)
     }
 
     /// Predicted points for `samples`, mm, world frame (the residual model in one batch).
@@ -205,7 +210,6 @@ pub fn train_residual(
     let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
         ErrorStats::from_errors(&s.remaining(predicted))
     };
-    let axes = |a: &[usize]| a.iter().map(|&i| ["x", "y", "z"][i]).collect::<String>();
     let report = ResidualReport {
         model: stage.settings.kind.name(),
         seed,
@@ -214,7 +218,7 @@ pub fn train_residual(
         validation_rows: val.len(),
         networks: (fitted.nets.iter())
             .map(|n| NetTraining {
-                axes: axes(&n.axes),
+                axes: n.axes_name(),
                 epochs: n.report.epochs,
                 best_epoch: n.report.best_epoch,
                 stopped_early: n.report.stopped_early,
@@ -309,9 +313,8 @@ impl Built {
     /// The model.
     pub fn predictor(&self) -> Predictor {
         Predictor {
-            robot: self.kinematic.robot.clone(),
-            compliance: self.kinematic.compliance.clone(),
             residual: self.residual.as_ref().map(|(m, _)| m.clone()),
+            ..Predictor::kinematic(&self.kinematic)
         }
     }
 }
@@ -325,11 +328,7 @@ pub fn configured(
     bar: Option<&ProgressBar>,
 ) -> Result<Built> {
     let kinematic = fit_kinematic(nominal, rows, &stages.kinematic)?;
-    let base = Predictor {
-        robot: kinematic.robot.clone(),
-        compliance: kinematic.compliance.clone(),
-        residual: None,
-    };
+    let base = Predictor::kinematic(&kinematic);
     let residual = stages
         .residual
         .as_ref()
@@ -352,14 +351,10 @@ pub fn automatic(
     bar: Option<&ProgressBar>,
     say: &mut dyn FnMut(&str),
 ) -> Result<Built> {
-    let carved;
     let (fit, held, held_out, refit) = match &validation {
         Some((v, source)) => (rows.to_vec(), v.to_vec(), source.clone(), false),
         None => match hold_out(rows, settings.holdout, settings.seed) {
-            Some((fit, held, how)) if configurations(&fit).len() >= 3 => {
-                carved = (fit, held);
-                (carved.0.clone(), carved.1.clone(), how, true)
-            }
+            Some((fit, held, how)) if configurations(&fit).len() >= 3 => (fit, held, how, true),
             _ => {
                 // Too few poses to hold any out: the kinematic stage alone, on everything.
                 say("too few configurations to hold any out: kinematic identification only");
@@ -413,11 +408,7 @@ pub fn automatic(
         compliance: None,
         residual: None,
     };
-    let identified = Predictor {
-        robot: kinematic.robot.clone(),
-        compliance: None,
-        residual: None,
-    };
+    let identified = Predictor::kinematic(&kinematic);
     let (mut best, mut best_mean) = (aligned.clone(), aligned.stats(&held).mean);
     let mut chosen = Stages::default();
     let with = identified.stats(&held).mean;
@@ -455,11 +446,7 @@ pub fn automatic(
     } else {
         match fit_kinematic(nominal, &fit, &elastic_settings) {
             Ok(elastic) => {
-                let candidate = Predictor {
-                    robot: elastic.robot.clone(),
-                    compliance: elastic.compliance.clone(),
-                    residual: None,
-                };
+                let candidate = Predictor::kinematic(&elastic);
                 let with = candidate.stats(&held).mean;
                 if decide(
                     &mut decisions,

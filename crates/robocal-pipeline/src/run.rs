@@ -85,12 +85,7 @@ fn errors_of(
 ) -> Vec<Vector3<f64>> {
     rows.iter()
         .map(|m| {
-            let q = m.sample.joints_rad();
-            let p = match compliance {
-                Some(c) => c.point(robot, &q, m.sample.load),
-                None => robot.point(&q),
-            };
-            m.position - p
+            m.position - robot.point_under_load(compliance, &m.sample.joints_rad(), m.sample.load)
         })
         .collect()
 }
@@ -683,7 +678,7 @@ impl Outcome {
                             .iter()
                             .flat_map(|r| &r.nets)
                             .map(|n| NetworkSummary {
-                                axes: n.axes.iter().map(|&a| ["x", "y", "z"][a]).collect(),
+                                axes: n.axes_name(),
                                 hidden: n.settings.hidden.clone(),
                                 epochs: n.report.epochs,
                                 best_epoch: n.report.best_epoch,

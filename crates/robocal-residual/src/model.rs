@@ -166,6 +166,11 @@ pub struct AxisNet {
 }
 
 impl AxisNet {
+    /// The axes it predicts as letters: `x`, `xyz`, …
+    pub fn axes_name(&self) -> String {
+        self.axes.iter().map(|&a| ["x", "y", "z"][a]).collect()
+    }
+
     fn inputs(&self) -> usize {
         self.input_scale.mean.len()
     }

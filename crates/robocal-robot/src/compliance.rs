@@ -50,6 +50,22 @@ pub struct Compliance {
     pub payload_com: Vector3<f64>,
 }
 
+impl Robot {
+    /// The target point for command `q` (rad) under `load` kg, mm, world frame: the table's
+    /// point, at the angles `compliance` deflects the arm to when there is a compliance model.
+    pub fn point_under_load(
+        &self,
+        compliance: Option<&Compliance>,
+        q: &[f64],
+        load: f64,
+    ) -> Vector3<f64> {
+        match compliance {
+            Some(c) => c.point(self, q, load),
+            None => self.point(q),
+        }
+    }
+}
+
 /// `compliance.toml` as written: compliances in deg/(kN·m).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -93,16 +109,19 @@ impl Compliance {
             .collect()
     }
 
+    /// How far each joint turns under `load` kg at command `q` (rad), rad: compliance × torque.
+    pub fn deflection(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
+        let t = self.torques(robot, q, load);
+        self.values.iter().zip(&t).map(|(c, t)| c * t).collect()
+    }
+
     /// The joint angles the arm really takes for command `q` (rad) under `load` kg, rad.
     pub fn deflected(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
         if load == 0.0 {
             return q.to_vec();
         }
-        let t = self.torques(robot, q, load);
-        q.iter()
-            .zip(&self.values)
-            .zip(&t)
-            .map(|((q, c), t)| q + c * t)
+        (q.iter().zip(self.deflection(robot, q, load)))
+            .map(|(q, d)| q + d)
             .collect()
     }
 
