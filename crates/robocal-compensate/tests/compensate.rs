@@ -227,3 +227,40 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
         assert!((a - b).abs() < 1e-6, "{a} vs {b}");
     }
 }
+
+#[test]
+fn a_seed_at_the_wrist_singularity_still_gets_a_command() {
+    // PMC6VA030 (nominal table): with q5 = 0 the axes of joints 4 and 6 are collinear, so the
+    // 6 × 6 pose Jacobian the solve starts from has rank 5. Check that first, independently.
+    let (twin, _, _, _) = setup();
+    let robot = &twin.nominal;
+    let seed = [10.0, 15.0, 5.0, 30.0, 0.0, -20.0];
+    let axes = robot.joint_axes(&rad(&seed));
+    assert!(axes.axes[3].0.cross(&axes.axes[5].0).norm() < 1e-12);
+    let model = CalibratedModel::kinematic(robot);
+    let options = CompensationOptions::default();
+    let start = robot.point(&rad(&seed));
+    // Small moves in every direction, one of them along the lost direction's neighbourhood:
+    // damped least squares must step off the singularity, never return NaN or a wrong command.
+    for offset in [
+        Vector3::new(1.0, 0.0, 0.0),
+        Vector3::new(0.0, 1.0, 0.0),
+        Vector3::new(0.0, 0.0, 1.0),
+        Vector3::new(-2.0, 3.0, -1.0),
+    ] {
+        let target = start + offset;
+        let c = compensate(&model, &target, 0.0, &seed, &options)
+            .unwrap_or_else(|why| panic!("{offset:?}: {why}"));
+        let q = rad(&c.joints_deg);
+        assert!(q.iter().all(|v| v.is_finite()));
+        assert!((robot.point(&q) - target).norm() < options.tolerance);
+        // The flange orientation of the seed is kept: the wrist turns about the collinear
+        // axes, the arm does not swing round.
+        let (r0, _) = robot.flange_frame(&rad(&seed));
+        let (r1, _) = robot.flange_frame(&q);
+        assert!((r0 - r1).norm() < 1e-6, "{offset:?}: orientation moved");
+        for (a, b) in c.joints_deg.iter().zip(seed).take(3) {
+            assert!((a - b).abs() < 5.0, "{offset:?}: {a} vs {b}");
+        }
+    }
+}

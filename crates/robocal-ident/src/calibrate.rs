@@ -215,6 +215,11 @@ pub struct KinematicReport {
 /// Condition number of the scaled Jacobian above which the report warns.
 pub const ILL_CONDITIONED: f64 = 1e5;
 
+/// Mean error (mm) the identified model may leave before the report warns that the data and
+/// the robot file do not describe the same arm: a kinematic calibration leaves well under a
+/// millimetre on a real arm, elastic and gear effects a few tenths.
+pub const POOR_FIT: f64 = 5.0;
+
 /// A calibrated kinematic model and its report.
 #[derive(Debug, Clone)]
 pub struct KinematicCalibration {
@@ -415,6 +420,12 @@ pub fn calibrate_kinematics(
         warnings.push(format!(
             "ill-conditioned: the scaled Jacobian's condition number is {:.1e}; the identified values are sensitive to noise (spread the poses over the joint ranges)",
             ident.condition_number
+        ));
+    }
+    if after.mean > POOR_FIT {
+        warnings.push(format!(
+            "the identified model still misses the measured points by {:.4} mm on average (more than {POOR_FIT} mm): the data and the robot file do not describe the same arm; check the units (mm, deg), the joint order and signs, the measured point (the robot file's tool point) and the tracker frame",
+            after.mean
         ));
     }
     let (r, jac) = problem.residuals_and_jacobian(&u);

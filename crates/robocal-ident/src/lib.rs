@@ -22,9 +22,9 @@ pub mod registration;
 pub mod stage;
 
 pub use calibrate::{
-    ComplianceReport, ComplianceSettings, FixedParameter, JointCompliance, KinematicCalibration,
-    KinematicReport, KinematicSettings, ParameterReport, SolverKind, TORQUE_SHARE, align,
-    calibrate_kinematics, default_compliance_joints,
+    ComplianceReport, ComplianceSettings, FixedParameter, ILL_CONDITIONED, JointCompliance,
+    KinematicCalibration, KinematicReport, KinematicSettings, POOR_FIT, ParameterReport,
+    SolverKind, TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};

@@ -537,3 +537,72 @@ fn elastic_jacobian_matches_central_differences() {
         );
     }
 }
+
+#[test]
+fn the_report_warns_when_the_data_cannot_determine_or_do_not_fit_the_model() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 9);
+    let settings = KinematicSettings::default();
+    // The whole design, tracker noise: nothing to warn about.
+    let good = observe(&truth, &configs, 0.02, 1);
+    let cal = calibrate_kinematics(&nominal, &good, &settings).unwrap();
+    assert!(cal.report.warnings.is_empty(), "{:?}", cal.report.warnings);
+    assert!(cal.report.condition_number < robocal_ident::ILL_CONDITIONED);
+
+    // Four configurations: 12 equations for the parameters the analysis keeps.
+    let few = observe(&truth, &configs[..4], 0.0, 0);
+    let cal = calibrate_kinematics(&nominal, &few, &settings).unwrap();
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("only 4 distinct joint configurations")),
+        "{:?}",
+        cal.report.warnings
+    );
+
+    // Every configuration within ±0.5° of one pose: what the analysis keeps is poorly seen.
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let huddled: Vec<Vec<f64>> = (0..60)
+        .map(|_| {
+            configs[10]
+                .iter()
+                .map(|q| q + rng.random_range(-0.5f64..0.5).to_radians())
+                .collect()
+        })
+        .collect();
+    let cal =
+        calibrate_kinematics(&nominal, &observe(&truth, &huddled, 0.0, 0), &settings).unwrap();
+    assert!(
+        cal.report.condition_number > robocal_ident::ILL_CONDITIONED,
+        "{}",
+        cal.report.condition_number
+    );
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("ill-conditioned")),
+        "{:?}",
+        cal.report.warnings
+    );
+
+    // Joints 2 and 3 swapped in the file: no table fits (a uniform change of units would, the
+    // lengths scale with it); the report says so, and the values stay finite.
+    let mut swapped = good.clone();
+    for q in swapped.q.chunks_mut(6) {
+        q.swap(1, 2);
+    }
+    let cal = calibrate_kinematics(&nominal, &swapped, &settings).unwrap();
+    assert!(cal.report.after.mean > robocal_ident::POOR_FIT);
+    assert!(cal.robot.params().iter().all(|v| v.is_finite()));
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("do not describe the same arm")),
+        "{:?}",
+        cal.report.warnings
+    );
+}

@@ -54,6 +54,12 @@ pub struct NetSettings {
     pub patience: usize,
 }
 
+/// Most hidden layers a network may have (the paper's deepest has six).
+pub const MAX_LAYERS: usize = 32;
+/// Most neurons in one hidden layer: a bound that keeps a mistyped size (or a tampered model
+/// file) from asking for gigabytes before anything is trained or read.
+pub const MAX_WIDTH: usize = 4096;
+
 impl NetSettings {
     /// The paper's X-axis network: 20-20-20-20-10-20 tanh, Adam 8e-4.
     pub fn paper_x() -> Self {
@@ -83,6 +89,12 @@ impl NetSettings {
     pub fn check(&self) -> Result<(), (&'static str, String)> {
         if self.hidden.contains(&0) {
             return Err(("hidden", "every layer needs at least one neuron".into()));
+        }
+        if self.hidden.len() > MAX_LAYERS || self.hidden.iter().any(|&n| n > MAX_WIDTH) {
+            return Err((
+                "hidden",
+                format!("at most {MAX_LAYERS} layers of at most {MAX_WIDTH} neurons"),
+            ));
         }
         if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
             return Err(("learning_rate", "must be a positive number".into()));

@@ -446,6 +446,31 @@ impl Classifier {
         self.tree.predict(&x).to_vec()
     }
 
+    /// Checks a classifier read from a file against the model's input count: every split on
+    /// an existing input with both branches present, every leaf a class (0 or 1), the axis and
+    /// threshold valid. linfa would panic on a tree that breaks these.
+    pub fn check(&self, inputs: usize) -> std::result::Result<(), String> {
+        if self.axis > 2 || !self.threshold.is_finite() {
+            return Err("classifier: axis must be 0..2 and threshold a finite number".into());
+        }
+        for node in self.tree.iter_nodes() {
+            if node.is_leaf() {
+                if !matches!(node.prediction(), Some(0 | 1)) {
+                    return Err("classifier: a leaf's class is not 0 or 1".into());
+                }
+            } else if node.split().0 >= inputs || node.children().iter().any(|c| c.is_none()) {
+                return Err(format!(
+                    "classifier: a split on input {} of {inputs}, or a missing branch",
+                    node.split().0
+                ));
+            }
+        }
+        if self.leaf_share_b.values().any(|v| !(0.0..=1.0).contains(v)) {
+            return Err("classifier: leaf_share_b values must lie in 0..1".into());
+        }
+        Ok(())
+    }
+
     /// The path from the root to the leaf `row` falls in: `l` or `r` per split (linfa's rule:
     /// left when the feature is below the split value).
     pub fn leaf_path(&self, row: &[f64]) -> String {
@@ -579,6 +604,9 @@ struct Manifest {
     #[serde(default)]
     search: Vec<SearchLog>,
 }
+
+/// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
+pub const MAX_INPUTS: usize = 64;
 
 /// Manifest file name inside a model directory.
 pub const MANIFEST: &str = "residual.json";
@@ -922,11 +950,37 @@ impl ResidualModel {
                 }
             )));
         }
+        if let Some(c) = &m.classifier {
+            c.check(m.inputs).map_err(format)?;
+        }
         let device = Device::flex();
         let mut nets = Vec::new();
-        for e in m.nets {
-            if e.input_scale.mean.len() != m.inputs
-                || e.output_scale.mean.len() != e.axes.len()
+        let fits = |s: &Standardizer, n: usize| {
+            s.mean.len() == n
+                && s.std.len() == n
+                && s.mean.iter().chain(&s.std).all(|v| v.is_finite())
+                && s.std.iter().all(|v| *v > 0.0)
+        };
+        if m.inputs == 0 || m.inputs > MAX_INPUTS {
+            return Err(format(format!(
+                "inputs {}: a residual model takes 1 to {MAX_INPUTS} inputs",
+                m.inputs
+            )));
+        }
+        for (i, e) in m.nets.into_iter().enumerate() {
+            if let Err((field, message)) = e.settings.check() {
+                return Err(format(format!("nets[{i}].settings.{field}: {message}")));
+            }
+            // The network file sits beside the manifest: a bare file name, nothing else.
+            if std::path::Path::new(&e.file).file_name() != Some(std::ffi::OsStr::new(&e.file)) {
+                return Err(format(format!(
+                    "nets[{i}].file {:?}: must be a file name in the model directory",
+                    e.file
+                )));
+            }
+            if !fits(&e.input_scale, m.inputs)
+                || !fits(&e.output_scale, e.axes.len())
+                || e.axes.is_empty()
                 || e.axes.iter().any(|a| *a > 2)
             {
                 return Err(format(format!(

@@ -213,6 +213,16 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
             .predict(&test.inputs),
         soft_p
     );
+    // A tampered tree (linfa would index out of bounds or unwrap a missing branch) is refused.
+    refused_after(dir.path(), "classifier", |m| {
+        m["classifier"]["tree"]["root_node"]["feature_idx"] = 99.into();
+    });
+    refused_after(dir.path(), "classifier", |m| {
+        m["classifier"]["tree"]["root_node"]["left_child"] = serde_json::Value::Null;
+    });
+    refused_after(dir.path(), "classifier", |m| {
+        m["classifier"]["axis"] = 7.into();
+    });
 
     // Per class on the classifier's axis only: Y and Z come from one network both sets share.
     let mut axis_only = s.clone();
@@ -225,6 +235,23 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
         assert_eq!(a[2], b[2]);
     }
     assert!(rms(&m, &test, 0) < 0.8 * e_plain);
+}
+
+/// Edits the saved manifest in `dir`, checks that loading fails naming the file and
+/// `needle`, and puts the manifest back.
+fn refused_after(dir: &std::path::Path, needle: &str, edit: impl Fn(&mut serde_json::Value)) {
+    let path = dir.join("residual.json");
+    let original = std::fs::read_to_string(&path).unwrap();
+    let mut m: serde_json::Value = serde_json::from_str(&original).unwrap();
+    edit(&mut m);
+    std::fs::write(&path, serde_json::to_string(&m).unwrap()).unwrap();
+    let err = ResidualModel::load(dir).unwrap_err().to_string();
+    assert!(
+        err.contains("residual.json") && err.contains(needle),
+        "{needle}: {err}"
+    );
+    std::fs::write(&path, original).unwrap();
+    ResidualModel::load(dir).unwrap();
 }
 
 #[test]
@@ -243,6 +270,28 @@ fn bad_settings_and_bad_files_are_refused() {
     let err = ResidualModel::load(dir.path()).unwrap_err();
     assert!(err.to_string().contains("residual_format 9"), "{err}");
     let _ = Split { x: &[], y: &[] };
+
+    // Fields of a written model that would allocate without bound, read outside the model
+    // directory, or divide by zero: each refused by the loader, naming the field.
+    let s = somm(settings(vec![4], 1e-3, 2), 1);
+    let model = ResidualModel::fit(&s, &train, &train, None).unwrap();
+    model.save(dir.path()).unwrap();
+    refused_after(dir.path(), "nets[0].settings.hidden", |m| {
+        m["nets"][0]["settings"]["hidden"] = serde_json::json!([1_000_000_000u64]);
+    });
+    refused_after(dir.path(), "nets[1].file", |m| {
+        m["nets"][1]["file"] = "../../elsewhere.bpk".into();
+    });
+    refused_after(dir.path(), "inputs 0", |m| m["inputs"] = 0.into());
+    refused_after(dir.path(), "scaling", |m| {
+        m["nets"][2]["input_scale"]["std"][0] = 0.0.into();
+    });
+    refused_after(dir.path(), "scaling", |m| {
+        m["nets"][0]["output_scale"]["std"] = serde_json::json!([]);
+    });
+    let huge = settings(vec![5000], 1e-3, 2);
+    let err = ResidualModel::fit(&somm(huge, 1), &train, &train, None).unwrap_err();
+    assert!(err.to_string().contains("x.hidden"), "{err}");
 }
 
 #[test]
