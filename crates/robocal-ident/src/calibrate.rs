@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 use robocal_data::ErrorStats;
-use robocal_robot::{Compliance, DEG_PER_KNM, ParamId, Robot};
+use robocal_robot::{Compliance, DEG_PER_KNM, ParamId, Robot, Unit};
 use serde::Serialize;
 
 use crate::bfgs::run_bfgs;
@@ -214,6 +214,10 @@ pub struct KinematicReport {
 
 /// Condition number of the scaled Jacobian above which the report warns.
 pub const ILL_CONDITIONED: f64 = 1e5;
+
+/// How far (mm, and 10 % of the nominal value) an identified link length may move from the
+/// robot file before the report warns.
+pub const FAR_FROM_NOMINAL: f64 = 10.0;
 
 /// Mean error (mm) the identified model may leave before the report warns that the data and
 /// the robot file do not describe the same arm: a kinematic calibration leaves well under a
@@ -438,7 +442,7 @@ pub fn calibrate_kinematics(
 
     let nominal_values = nominal.params();
     let identified_values = robot.params();
-    let parameters = ids
+    let parameters: Vec<ParameterReport> = ids
         .iter()
         .enumerate()
         .map(|(i, id)| {
@@ -456,6 +460,26 @@ pub fn calibrate_kinematics(
             }
         })
         .collect();
+    // A link length that moved far from the drawing: the data are in other units (a table
+    // scaled with them fits exactly), or the robot file is not this arm's. Base and tool are
+    // frames whose nominal values are guesses, so they are left out.
+    let far: Vec<String> = parameters
+        .iter()
+        .zip(&ids)
+        .filter(|(p, id)| {
+            p.identified_flag
+                && id.unit() == Unit::Mm
+                && !matches!(id, ParamId::Base(_) | ParamId::Tool(_))
+                && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
+        })
+        .map(|(p, _)| format!("{} {:.3} → {:.3} mm", p.name, p.nominal, p.identified))
+        .collect();
+    if !far.is_empty() {
+        warnings.push(format!(
+            "identified link lengths far from the nominal table (more than {FAR_FROM_NOMINAL} mm and 10 %): {}; check the units of the data (mm) and that the robot file describes this arm",
+            far.join(", ")
+        ));
+    }
     let compliance_report = match (&choice, &compliance) {
         (Some(choice), Some(model)) => Some(ComplianceReport {
             gravity: model.gravity.into(),

@@ -588,6 +588,22 @@ fn the_report_warns_when_the_data_cannot_determine_or_do_not_fit_the_model() {
         cal.report.warnings
     );
 
+    // The same arm measured in inches: a table scaled with the data fits, so only the link
+    // lengths' distance from the drawing gives it away.
+    let mut inches = good.clone();
+    for p in &mut inches.points {
+        *p /= 25.4;
+    }
+    let cal = calibrate_kinematics(&nominal, &inches, &settings).unwrap();
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("identified link lengths far") && w.contains("j3.a 800.000")),
+        "{:?}",
+        cal.report.warnings
+    );
+
     // Joints 2 and 3 swapped in the file: no table fits (a uniform change of units would, the
     // lengths scale with it); the report says so, and the values stay finite.
     let mut swapped = good.clone();
