@@ -52,3 +52,9 @@ twin:
 # fuzz the CSV and TOML loaders (proptest): CASES generated inputs per target, release build
 fuzz cases="20000":
     PROPTEST_CASES={{cases}} cargo test --release --test fuzz_loaders
+
+# the accuracy suite: default calibrate and each stage on twins of four arms (two seeds, effects
+# all on / modelled only, configuration and extrapolation splits), errors against the twins'
+# noise-free points; ARM6S, the family kept aside, only with ASIDE="--aside" (docs/accuracy.md)
+accuracy seeds="2" aside="":
+    cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}}

@@ -54,9 +54,13 @@ pub enum Command {
         /// Input CSV: pose, q1..qN, load (x, y, z not needed).
         #[arg(long, value_name = "CSV")]
         data: PathBuf,
-        /// Output CSV: pose, load, x, y, z.
+        /// Output CSV: pose, load, x, y, z (and sigma).
         #[arg(long, value_name = "CSV")]
         out: PathBuf,
+        /// Add a column `sigma`: each point's standard deviation, mm (models with a
+        /// Gaussian-process residual).
+        #[arg(long)]
+        sigma: bool,
     },
     /// Compare predictions with measured x, y, z: count, mean, std, RMS, max of the error (mm).
     Evaluate {

@@ -912,7 +912,7 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
         r["selection"]["held_out"]
             .as_str()
             .unwrap()
-            .contains("of 36 configurations held out (seed 2020)")
+            .contains("5-fold cross-validation over 36 configurations (seed 2020)")
     );
     assert!(decision(&r, "kinematic").0);
     let (kept, why) = decision(&r, "compliance");
@@ -963,4 +963,67 @@ fn default_calibrate_works_for_a_single_joint_from_an_identity_base() {
     assert!(decision(&r, "kinematic").0);
     assert!(r["kinematic"]["after"]["max"].as_f64().unwrap() < 1e-3);
     assert!(!r["kinematic"]["fixed"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn predict_sigma_comes_from_a_gp_model_and_is_refused_without_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = simulate("configs/twin/arm5.toml", &dir.path().join("sim"));
+    let train = subset(&data, "train.csv", |pose, _| pose < 30);
+    let test = subset(&data, "test.csv", |pose, _| pose >= 30);
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/arm5.toml",
+        "--data",
+        s(&train),
+        "--out",
+        s(&model),
+        "--config",
+        "configs/stages/gp.toml",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&model);
+    assert_eq!(r["residual"]["model"], "gp");
+    assert_eq!(r["residual"]["gp"].as_array().unwrap().len(), 3);
+    let (plain, with) = (dir.path().join("plain.csv"), dir.path().join("sigma.csv"));
+    for (out, extra) in [(&plain, None), (&with, Some("--sigma"))] {
+        let mut args = vec![
+            "predict",
+            "--model",
+            s(&model),
+            "--data",
+            s(&test),
+            "--out",
+            s(out),
+        ];
+        args.extend(extra);
+        let o = robocal(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let plain = std::fs::read_to_string(&plain).unwrap();
+    let with = std::fs::read_to_string(&with).unwrap();
+    assert!(with.starts_with("pose,load,x,y,z,sigma\n"), "{with}");
+    for (p, w) in plain.lines().skip(1).zip(with.lines().skip(1)) {
+        let (head, sigma) = w.rsplit_once(',').unwrap();
+        assert_eq!(head, p);
+        let sigma: f64 = sigma.parse().unwrap();
+        assert!(sigma > 0.0 && sigma < 1.0, "{sigma}");
+    }
+    // A model without a GP has no standard deviation to give: exit 1, nothing written.
+    let out = dir.path().join("none.csv");
+    let o = robocal(&[
+        "predict",
+        "--robot",
+        "configs/robots/arm5.toml",
+        "--data",
+        s(&test),
+        "--out",
+        s(&out),
+        "--sigma",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--sigma"));
+    assert!(!out.exists());
 }

@@ -82,13 +82,14 @@ pub fn run(
         .zip(validation.as_ref())
         .map(|(r, v)| (r, v.source.display().to_string()));
     let auto = AutoSettings::default();
-    let progress = bar(robocal_residual::ResidualModel::max_epochs(
-        &stages
-            .as_ref()
-            .and_then(|s| s.residual.as_ref())
-            .unwrap_or(&auto.residual)
-            .settings,
-    ));
+    let epochs = |s: &robocal_residual::ResidualStage| {
+        robocal_residual::ResidualModel::max_epochs(&s.settings)
+    };
+    let progress = bar(match &stages {
+        Some(s) => s.residual.as_ref().map_or(0, epochs),
+        // Every residual candidate on every fold, and the final fit.
+        None => (auto.folds as u64 + 1) * auto.residuals.iter().map(epochs).sum::<u64>(),
+    });
     let built = match &stages {
         Some(stages) => configured(stages, &nominal, &rows, val, Some(&progress)),
         None => automatic(&auto, &nominal, &rows, val, Some(&progress), &mut |line| {
@@ -184,7 +185,9 @@ pub fn run(
         data_file: data.to_path_buf(),
         stages_from: match config {
             Some(c) => format!("config {}", c.display()),
-            None => "default: each stage kept only if it lowers the held-out error".into(),
+            None => {
+                "default: the candidate with the lowest held-out error (cross-validated)".into()
+            }
         },
         selection: built.selection.clone(),
         kinematic_load: lightest,

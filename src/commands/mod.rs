@@ -22,7 +22,12 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
             config,
         } => calibrate::run(&robot, &data, validate.as_deref(), &out, config.as_deref()),
-        Command::Predict { source, data, out } => predict::run(&source, &data, &out),
+        Command::Predict {
+            source,
+            data,
+            out,
+            sigma,
+        } => predict::run(&source, &data, &out, sigma),
         Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
         Command::Compensate {
             model,

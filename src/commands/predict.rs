@@ -8,18 +8,23 @@ use robocal_data::{Prediction, SampleSet, write_predictions};
 use super::model;
 use crate::cli::ModelSource;
 
-/// Predicts every row of `data` and writes `pose,load,x,y,z` to `out`, atomically.
-pub fn run(source: &ModelSource, data: &Path, out: &Path) -> Result<()> {
+/// Predicts every row of `data` and writes `pose,load,x,y,z` to `out`, atomically; with
+/// `sigma`, also each point's standard deviation (a model with a Gaussian-process residual).
+pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result<()> {
     let model = model::load(source)?;
     let samples = SampleSet::read(data, model.robot.dof())?;
-    let rows: Vec<Prediction> = samples
-        .rows
-        .iter()
-        .zip(model.predict(&samples.rows))
-        .map(|(s, position)| Prediction {
+    let (points, sigmas) = model.predict_with_sigma(&samples.rows, sigma);
+    if sigma && sigmas.is_none() {
+        bail!(
+            "--sigma: this model gives no standard deviation (only a model with a Gaussian-process residual does); nothing written"
+        );
+    }
+    let rows: Vec<Prediction> = (samples.rows.iter().zip(points).enumerate())
+        .map(|(i, (s, position))| Prediction {
             pose: s.pose.clone(),
             load: s.load,
             position,
+            sigma: sigmas.as_ref().map(|v| v[i]),
         })
         .collect();
     // Finite inputs through a finite model give finite points; a table with absurd values can

@@ -406,15 +406,20 @@ pub struct Prediction {
     pub load: f64,
     /// Predicted target position, mm, world frame.
     pub position: Vector3<f64>,
+    /// Standard deviation of the predicted point (the root sum of the axes' variances), mm,
+    /// when the model gives one.
+    pub sigma: Option<f64>,
 }
 
-/// Writes `pose,load,x,y,z` with 6 decimals on x, y, z, atomically.
+/// Writes `pose,load,x,y,z` with 6 decimals on x, y, z, atomically; with a `sigma` column
+/// (6 decimals) when every row has one.
 pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<()> {
+    let sigma = !rows.is_empty() && rows.iter().all(|r| r.sigma.is_some());
     write_atomically(path.as_ref(), |w| {
-        writeln!(w, "pose,load,x,y,z")?;
+        writeln!(w, "pose,load,x,y,z{}", if sigma { ",sigma" } else { "" })?;
         for r in rows {
             let p = r.position;
-            writeln!(
+            write!(
                 w,
                 "{},{},{},{},{}",
                 csv_text(&r.pose),
@@ -423,6 +428,10 @@ pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<
                 fixed6(p.y),
                 fixed6(p.z)
             )?;
+            match r.sigma.filter(|_| sigma) {
+                Some(s) => writeln!(w, ",{}", fixed6(s))?,
+                None => writeln!(w)?,
+            }
         }
         Ok(())
     })

@@ -71,8 +71,10 @@ pub struct RawComplianceStage {
     /// the payload's gravity torque in the data.
     pub joints: Option<Vec<usize>>,
     /// Gravity in the robot base frame {0}, m/s² (default `[0, 0, -9.80665]`).
+    #[serde(default, deserialize_with = "robocal_robot::exact::option")]
     pub gravity: Option<[f64; 3]>,
     /// The payload's centre of mass in the flange frame, mm (default: the measured point).
+    #[serde(default, deserialize_with = "robocal_robot::exact::option")]
     pub payload_com: Option<[f64; 3]>,
 }
 

@@ -68,6 +68,32 @@ impl Predictor {
         points
     }
 
+    /// Predicted points for `samples` (mm, world frame) and, with `sigma` and a residual model
+    /// that knows how sure it is (the GP), each point's standard deviation: the root sum of the
+    /// axes' variances, mm.
+    pub fn predict_with_sigma<'a>(
+        &self,
+        samples: impl IntoIterator<Item = &'a Sample>,
+        sigma: bool,
+    ) -> (Vec<Vector3<f64>>, Option<Vec<f64>>) {
+        let samples: Vec<&Sample> = samples.into_iter().collect();
+        let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
+        let Some(residual) = &self.residual else {
+            return (points, None);
+        };
+        let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
+        let (mean, std) = residual.predict_with_std(&inputs, sigma);
+        for (p, e) in points.iter_mut().zip(mean) {
+            *p += Vector3::from(e);
+        }
+        let sigmas = std.map(|sd| {
+            sd.iter()
+                .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
+                .collect()
+        });
+        (points, sigmas)
+    }
+
     /// Error statistics on measured rows.
     pub fn stats(&self, rows: &[&Measurement]) -> ErrorStats {
         let predicted = self.predict(rows.iter().map(|m| &m.sample));
@@ -120,6 +146,27 @@ pub struct ResidualReport {
     pub classifier_accuracy_validation: Option<f64>,
     /// TPE searches that chose the settings (when the stage asked for one).
     pub search: Vec<SearchLog>,
+    /// The Gaussian process of each axis (a GP residual).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub gp: Vec<GpSummary>,
+}
+
+/// One axis's Gaussian process, in the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct GpSummary {
+    /// `x`, `y` or `z`.
+    pub axis: &'static str,
+    /// Rows it conditions on.
+    pub rows: usize,
+    /// Standard deviation of the learned error, mm (the kernel's signal).
+    pub signal_std: f64,
+    /// Standard deviation of what it takes as noise, mm.
+    pub noise_std: f64,
+    /// Length-scale of each standardised feature (sin q1, cos q1, …, load): short means the
+    /// error changes fast with it, long that it hardly depends on it.
+    pub lengthscales: Vec<f64>,
+    /// Negative log marginal likelihood per row on the hyper-parameter subset.
+    pub nll_per_row: f64,
 }
 
 /// The configurations (pose ids) of `rows`, sorted, each once.
@@ -193,6 +240,14 @@ pub fn train_residual(
             Samples::from_model(model, v.iter().copied()),
             source,
         ),
+        None if !stage.settings.kind.early_stops() => (
+            Samples::from_model(model, train.iter().copied()),
+            Samples::default(),
+            format!(
+                "none: a {} needs no early stopping and trains on every row",
+                stage.settings.kind.name()
+            ),
+        ),
         None => {
             let Some((t, v, how)) = hold_out(train, stage.holdout, seed) else {
                 return Err(PipelineError::Stage(
@@ -231,6 +286,18 @@ pub fn train_residual(
         classifier_accuracy_training: fitted.classifier.as_ref().map(|c| c.accuracy(&train)),
         classifier_accuracy_validation: fitted.classifier.as_ref().map(|c| c.accuracy(&val)),
         search: fitted.search.clone(),
+        gp: fitted.gp.as_ref().map_or_else(Vec::new, |g| {
+            (g.axes.iter().zip(["x", "y", "z"]))
+                .map(|(a, axis)| GpSummary {
+                    axis,
+                    rows: g.rows.len(),
+                    signal_std: a.signal_variance.sqrt() * a.target_std,
+                    noise_std: a.noise_variance.sqrt() * a.target_std,
+                    lengthscales: a.lengthscales.clone(),
+                    nll_per_row: a.nll_per_row,
+                })
+                .collect()
+        }),
     };
     Ok((fitted, report))
 }
@@ -242,13 +309,27 @@ pub struct Decision {
     pub stage: &'static str,
     /// Whether the stage is in the model.
     pub kept: bool,
-    /// Mean error on the held-out poses of the model without the stage, mm (absent when the
-    /// stage was not tried).
+    /// Held-out mean error of the best candidate without the stage, mm (absent when the stage
+    /// was not tried).
     pub held_out_without: Option<f64>,
-    /// Mean error on the held-out poses with the stage, mm.
+    /// Held-out mean error of the best candidate with the stage, mm.
     pub held_out_with: Option<f64>,
     /// Why.
     pub reason: String,
+}
+
+/// One candidate model of the default calibration and its held-out error.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    /// What it stacks, e.g. `kinematic + compliance + gp`.
+    pub name: String,
+    /// Statistics of every held-out row's error (each row held out once), mm; absent when
+    /// the candidate was skipped.
+    pub held_out: Option<ErrorStats>,
+    /// Seconds its folds took.
+    pub seconds: f64,
+    /// `chosen`, `evaluated`, or why it was skipped.
+    pub status: String,
 }
 
 /// How the default calibration chose its stages.
@@ -256,42 +337,68 @@ pub struct Decision {
 pub struct Selection {
     /// Where the held-out poses came from.
     pub held_out: String,
-    /// Rows the stages were fitted on while choosing.
+    /// Folds (1 with a validation file).
+    pub folds: usize,
+    /// Rows the candidates were fitted on, summed over the folds.
     pub fitted_rows: usize,
-    /// Held-out rows.
+    /// Rows held out, summed over the folds (every row once in cross-validation).
     pub held_out_rows: usize,
+    /// Every candidate, in the order tried.
+    pub candidates: Vec<Candidate>,
     /// One per stage, in order.
     pub decisions: Vec<Decision>,
-    /// Whether the kept stages were fitted again on every row of the data file.
+    /// Whether the chosen candidate was fitted again on every row of the data file (always,
+    /// unless a validation file was given or there were too few configurations to hold any
+    /// out).
     pub refitted_on_every_row: bool,
+    /// The time budget, s, and what the selection took.
+    pub budget_seconds: f64,
+    /// See `budget_seconds`.
+    pub seconds: f64,
 }
 
 /// Settings of the default calibration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AutoSettings {
-    /// Share of configurations held out when no validation file is given.
-    pub holdout: f64,
-    /// Seed of the hold-out (and of the residual networks).
+    /// Folds of the cross-validation over configurations (when no validation file is given).
+    pub folds: usize,
+    /// Seed of the folds (and of the residual models).
     pub seed: u64,
-    /// Fewest training configurations for which a residual model is tried.
+    /// Fewest configurations (in the data, or in each fold's training part) for which a
+    /// residual model is tried.
     pub min_residual_configurations: usize,
-    /// The residual stage tried.
-    pub residual: ResidualStage,
+    /// The residual models tried, each on top of the best physical model.
+    pub residuals: Vec<ResidualStage>,
+    /// Seconds the selection may take: a candidate whose folds would run past it (projected
+    /// from its first fold) is abandoned, and none starts after it. The only setting that
+    /// depends on the clock: far under budget, a seed gives the same model.
+    pub budget_seconds: f64,
 }
+
+/// Folds of the default cross-validation.
+pub const DEFAULT_FOLDS: usize = 5;
+
+/// The default selection's time budget, s.
+pub const DEFAULT_BUDGET_SECONDS: f64 = 120.0;
 
 impl Default for AutoSettings {
     fn default() -> Self {
+        let seed = robocal_residual::DEFAULT_SEED;
         Self {
-            holdout: 0.2,
-            seed: robocal_residual::DEFAULT_SEED,
+            folds: DEFAULT_FOLDS,
+            seed,
             min_residual_configurations: 40,
-            residual: ResidualStage {
-                settings: ResidualSettings::paper(
-                    ResidualKind::Somm,
-                    robocal_residual::DEFAULT_SEED,
-                ),
-                holdout: 0.2,
-            },
+            residuals: vec![
+                ResidualStage {
+                    settings: ResidualSettings::gp(seed),
+                    holdout: 0.2,
+                },
+                ResidualStage {
+                    settings: ResidualSettings::paper(ResidualKind::Somm, seed),
+                    holdout: 0.2,
+                },
+            ],
+            budget_seconds: DEFAULT_BUDGET_SECONDS,
         }
     }
 }
@@ -342,7 +449,86 @@ pub fn configured(
     })
 }
 
-/// The default calibration: see the module documentation. `say` hears a line per decision.
+/// The fold (0..k) of every row: configurations shuffled with `seed` and dealt round-robin, so
+/// that every load of a configuration falls in one fold. `k` is capped at the number of
+/// configurations.
+pub fn folds(rows: &[&Measurement], k: usize, seed: u64) -> (Vec<usize>, usize) {
+    let mut poses = configurations(rows);
+    poses.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    let k = k.clamp(1, poses.len().max(1));
+    let fold: std::collections::HashMap<&str, usize> =
+        poses.iter().enumerate().map(|(i, p)| (*p, i % k)).collect();
+    (
+        rows.iter()
+            .map(|r| fold.get(r.sample.pose.as_str()).copied().unwrap_or(0))
+            .collect(),
+        k,
+    )
+}
+
+/// The physical part of a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Physics {
+    /// The nominal table with base and tool fitted.
+    Aligned,
+    /// Kinematic identification (LM).
+    Rigid,
+    /// Kinematic identification with joint compliances.
+    Elastic,
+}
+
+impl Physics {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Aligned => "nominal (base and tool fitted)",
+            Self::Rigid => "kinematic",
+            Self::Elastic => "kinematic + compliance",
+        }
+    }
+
+    fn settings(self) -> KinematicSettings {
+        match self {
+            Self::Elastic => KinematicSettings {
+                compliance: Some(ComplianceSettings::default()),
+                ..KinematicSettings::default()
+            },
+            _ => KinematicSettings::default(),
+        }
+    }
+
+    /// The predictor of this physics from the identification that made it.
+    fn predictor(self, fit: &KinematicCalibration) -> Predictor {
+        match self {
+            Self::Aligned => Predictor {
+                robot: fit.aligned.clone(),
+                compliance: None,
+                residual: None,
+            },
+            _ => Predictor::kinematic(fit),
+        }
+    }
+}
+
+/// One split of the rows: fitted on `train`, scored on `test`.
+struct Fold<'a> {
+    train: Vec<&'a Measurement>,
+    test: Vec<&'a Measurement>,
+}
+
+/// Errors of `model` on `rows`, mm.
+fn errors(model: &Predictor, rows: &[&Measurement]) -> Vec<f64> {
+    let predicted = model.predict(rows.iter().map(|m| &m.sample));
+    (predicted.iter().zip(rows))
+        .map(|(p, m)| (p - m.position).norm())
+        .collect()
+}
+
+/// The default calibration: every candidate model — the nominal table with base and tool
+/// fitted; kinematic identification; with joint compliances (two or more loads); each residual
+/// model of `settings` on top of the best of those — is scored by its error on held-out poses
+/// (k-fold cross-validation over configurations, or the `validation` rows), the one with the
+/// lowest held-out mean is chosen and fitted again on every row. `say` hears a line per
+/// candidate and per decision.
 pub fn automatic(
     settings: &AutoSettings,
     nominal: &Robot,
@@ -351,189 +537,343 @@ pub fn automatic(
     bar: Option<&ProgressBar>,
     say: &mut dyn FnMut(&str),
 ) -> Result<Built> {
-    let (fit, held, held_out, refit) = match &validation {
-        Some((v, source)) => (rows.to_vec(), v.to_vec(), source.clone(), false),
-        None => match hold_out(rows, settings.holdout, settings.seed) {
-            Some((fit, held, how)) if configurations(&fit).len() >= 3 => (fit, held, how, true),
-            _ => {
-                // Too few poses to hold any out: the kinematic stage alone, on everything.
-                say("too few configurations to hold any out: kinematic identification only");
-                let stages = Stages::default();
-                let mut built = configured(&stages, nominal, rows, None, bar)?;
-                built.selection = Some(Selection {
-                    held_out: "none: fewer than 4 configurations".into(),
-                    fitted_rows: rows.len(),
-                    held_out_rows: 0,
-                    decisions: vec![Decision {
-                        stage: "kinematic",
-                        kept: true,
-                        held_out_without: None,
-                        held_out_with: None,
-                        reason: "kept untested: too few configurations to hold any out".into(),
-                    }],
-                    refitted_on_every_row: false,
-                });
-                return Ok(built);
-            }
-        },
+    let start = std::time::Instant::now();
+    let n_configurations = configurations(rows).len();
+    let (splits, held_out, refit) = match &validation {
+        Some((v, source)) => (
+            vec![Fold {
+                train: rows.to_vec(),
+                test: v.to_vec(),
+            }],
+            source.clone(),
+            false,
+        ),
+        None if n_configurations >= 4 => {
+            let (fold_of, k) = folds(rows, settings.folds, settings.seed);
+            let splits = (0..k)
+                .map(|f| Fold {
+                    train: (rows.iter().zip(&fold_of))
+                        .filter(|(_, g)| **g != f)
+                        .map(|(r, _)| *r)
+                        .collect(),
+                    test: (rows.iter().zip(&fold_of))
+                        .filter(|(_, g)| **g == f)
+                        .map(|(r, _)| *r)
+                        .collect(),
+                })
+                .collect();
+            (
+                splits,
+                format!(
+                    "{k}-fold cross-validation over {n_configurations} configurations (seed {})",
+                    settings.seed
+                ),
+                true,
+            )
+        }
+        None => {
+            // Too few poses to hold any out: the kinematic stage alone, on everything.
+            say("too few configurations to hold any out: kinematic identification only");
+            let stages = Stages::default();
+            let mut built = configured(&stages, nominal, rows, None, bar)?;
+            built.selection = Some(Selection {
+                held_out: "none: fewer than 4 configurations".into(),
+                folds: 0,
+                fitted_rows: rows.len(),
+                held_out_rows: 0,
+                candidates: Vec::new(),
+                decisions: vec![Decision {
+                    stage: "kinematic",
+                    kept: true,
+                    held_out_without: None,
+                    held_out_with: None,
+                    reason: "kept untested: too few configurations to hold any out".into(),
+                }],
+                refitted_on_every_row: false,
+                budget_seconds: settings.budget_seconds,
+                seconds: start.elapsed().as_secs_f64(),
+            });
+            return Ok(built);
+        }
     };
-    let mut decisions = Vec::new();
-    fn decide(
-        decisions: &mut Vec<Decision>,
-        stage: &'static str,
-        without: f64,
-        with: f64,
-        what: &str,
-    ) -> bool {
-        let kept = with < without;
-        let reason = format!(
-            "{}: held-out mean {without:.4} mm without, {with:.4} mm with {what}",
-            if kept { "kept" } else { "dropped" }
-        );
-        decisions.push(Decision {
-            stage,
-            kept,
-            held_out_without: Some(without),
-            held_out_with: Some(with),
-            reason,
+    let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
+    let mut candidates: Vec<Candidate> = Vec::new();
+    fn report(c: &Candidate, say: &mut dyn FnMut(&str)) {
+        say(&match &c.held_out {
+            Some(h) => format!(
+                "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({:.1} s)",
+                c.name, h.mean, h.max, c.seconds
+            ),
+            None => format!("candidate {}: {}", c.name, c.status),
         });
-        kept
     }
 
-    // Kinematic identification against the nominal table with base and tool fitted.
-    let rigid = KinematicSettings::default();
-    let kinematic = fit_kinematic(nominal, &fit, &rigid)?;
-    let aligned = Predictor {
-        robot: kinematic.aligned.clone(),
-        compliance: None,
-        residual: None,
-    };
-    let identified = Predictor::kinematic(&kinematic);
-    let (mut best, mut best_mean) = (aligned.clone(), aligned.stats(&held).mean);
-    let mut chosen = Stages::default();
-    let with = identified.stats(&held).mean;
-    let mut kinematic_kept = false;
-    if decide(
-        &mut decisions,
-        "kinematic",
-        best_mean,
-        with,
-        "the identified table (LM, identifiable parameters)",
-    ) {
-        (best, best_mean, kinematic_kept) = (identified, with, true);
-    }
-    let mut kinematic_run = kinematic;
-
-    // Joint compliance, when there are loads to separate it from the geometry.
-    let mut loads: Vec<f64> = fit.iter().map(|r| r.sample.load).collect();
+    // The physical models: one rigid identification per fold gives the aligned and the
+    // identified tables; the elastic one needs two loads.
+    let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
     loads.sort_by(f64::total_cmp);
     loads.dedup();
-    let elastic_settings = KinematicSettings {
-        compliance: Some(ComplianceSettings::default()),
-        ..KinematicSettings::default()
-    };
-    if loads.len() < 2 {
-        decisions.push(Decision {
-            stage: "compliance",
-            kept: false,
-            held_out_without: None,
-            held_out_with: None,
-            reason: format!(
-                "skipped: the data hold one load ({} kg); compliance needs two or more",
-                loads.first().copied().unwrap_or(0.0)
-            ),
-        });
+    let mut physics = vec![Physics::Aligned, Physics::Rigid];
+    let mut compliance_skip = None;
+    if loads.len() >= 2 {
+        physics.push(Physics::Elastic);
     } else {
-        match fit_kinematic(nominal, &fit, &elastic_settings) {
-            Ok(elastic) => {
-                let candidate = Predictor::kinematic(&elastic);
-                let with = candidate.stats(&held).mean;
-                if decide(
-                    &mut decisions,
-                    "compliance",
-                    best_mean,
-                    with,
-                    "joint compliances identified with the geometry on every load",
-                ) {
-                    (best, best_mean) = (candidate, with);
-                    kinematic_run = elastic;
-                    kinematic_kept = true;
-                    chosen.kinematic = elastic_settings.clone();
+        compliance_skip = Some(format!(
+            "skipped: the data hold one load ({} kg); compliance needs two or more",
+            loads.first().copied().unwrap_or(0.0)
+        ));
+    }
+    // Per fold, the fitted physical predictors (None: that fit failed on this fold).
+    let mut fitted: Vec<Vec<Option<Predictor>>> = vec![Vec::new(); splits.len()];
+    let mut held: Vec<Vec<f64>> = vec![Vec::new(); physics.len()];
+    let mut failure: Vec<Option<String>> = vec![None; physics.len()];
+    let mut seconds = vec![0.0; physics.len()];
+    for (f, fold) in splits.iter().enumerate() {
+        let t = std::time::Instant::now();
+        let rigid = fit_kinematic(nominal, &fold.train, &Physics::Rigid.settings())?;
+        let rigid_time = t.elapsed().as_secs_f64();
+        for (p, kind) in physics.iter().enumerate() {
+            let t = std::time::Instant::now();
+            let model = match kind {
+                Physics::Aligned | Physics::Rigid => Some(kind.predictor(&rigid)),
+                Physics::Elastic => match fit_kinematic(nominal, &fold.train, &kind.settings()) {
+                    Ok(fit) => Some(kind.predictor(&fit)),
+                    Err(e) => {
+                        failure[p] = Some(format!("skipped: {e}"));
+                        None
+                    }
+                },
+            };
+            seconds[p] +=
+                t.elapsed().as_secs_f64() + rigid_time * f64::from(*kind != Physics::Elastic) / 2.0;
+            if let Some(m) = &model {
+                held[p].extend(errors(m, &fold.test));
+            }
+            fitted[f].push(model);
+        }
+    }
+    let mut physics_stats: Vec<Option<ErrorStats>> = Vec::new();
+    for (p, kind) in physics.iter().enumerate() {
+        let stats = failure[p]
+            .is_none()
+            .then(|| ErrorStats::from_errors(&held[p]));
+        let c = Candidate {
+            name: kind.name().to_string(),
+            held_out: stats,
+            seconds: seconds[p],
+            status: failure[p].clone().unwrap_or_else(|| "evaluated".into()),
+        };
+        report(&c, say);
+        candidates.push(c);
+        physics_stats.push(stats);
+    }
+    let mean_at = |p: usize| physics_stats[p].as_ref().map_or(f64::INFINITY, |s| s.mean);
+    let lowest = |among: &mut dyn Iterator<Item = usize>| {
+        among.min_by(|&a, &b| mean_at(a).total_cmp(&mean_at(b)))
+    };
+    let best_physics = lowest(&mut (0..physics.len())).unwrap_or(0);
+    // Residual models learn what an identified model leaves: the best identified one.
+    let base_physics = lowest(&mut (0..physics.len()).filter(|&p| physics[p] != Physics::Aligned))
+        .unwrap_or(best_physics);
+
+    // Residual models on top of the best physics.
+    let fewest = splits
+        .iter()
+        .map(|f| configurations(&f.train).len())
+        .min()
+        .unwrap_or(0);
+    let mut residual_stats: Vec<(usize, Option<ErrorStats>)> = Vec::new();
+    for (r, stage) in settings.residuals.iter().enumerate() {
+        let name = format!(
+            "{} + {}",
+            physics[base_physics].name(),
+            stage.settings.kind.name()
+        );
+        let mut c = Candidate {
+            name,
+            held_out: None,
+            seconds: 0.0,
+            status: String::new(),
+        };
+        if fewest < settings.min_residual_configurations {
+            c.status = format!(
+                "skipped: {fewest} configurations to train on; a residual model needs at least {}",
+                settings.min_residual_configurations
+            );
+        } else if over_budget(0.0) {
+            c.status = format!(
+                "skipped: the time budget ({} s) is spent",
+                settings.budget_seconds
+            );
+        } else {
+            let mut errs = Vec::new();
+            let mut abandoned = None;
+            for (f, fold) in splits.iter().enumerate() {
+                let t = std::time::Instant::now();
+                let Some(base) = &fitted[f][base_physics] else {
+                    abandoned = Some("skipped: its physical model failed on a fold".to_string());
+                    break;
+                };
+                let (model, _) = train_residual(stage, base, &fold.train, None, bar)?;
+                let candidate = Predictor {
+                    residual: Some(model),
+                    ..base.clone()
+                };
+                errs.extend(errors(&candidate, &fold.test));
+                let took = t.elapsed().as_secs_f64();
+                c.seconds += took;
+                // The remaining folds and the final fit, at this fold's pace.
+                let left = (splits.len() - f) as f64 * took;
+                if f + 1 < splits.len() && over_budget(left) {
+                    abandoned = Some(format!(
+                        "abandoned: its folds would run past the time budget ({} s)",
+                        settings.budget_seconds
+                    ));
+                    break;
                 }
             }
-            Err(e) => decisions.push(Decision {
-                stage: "compliance",
-                kept: false,
-                held_out_without: Some(best_mean),
-                held_out_with: None,
-                reason: format!("skipped: {e}"),
-            }),
+            match abandoned {
+                Some(why) => c.status = why,
+                None => {
+                    c.held_out = Some(ErrorStats::from_errors(&errs));
+                    c.status = "evaluated".into();
+                }
+            }
         }
+        report(&c, say);
+        residual_stats.push((r, c.held_out));
+        candidates.push(c);
     }
+    let best_residual = residual_stats
+        .iter()
+        .filter_map(|(r, s)| s.as_ref().map(|s| (*r, s.mean)))
+        .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
 
-    // A residual model, when there are enough configurations to learn one.
-    let trained_configurations = configurations(&fit).len();
-    let mut residual = None;
-    if trained_configurations < settings.min_residual_configurations {
-        decisions.push(Decision {
-            stage: "residual",
-            kept: false,
-            held_out_without: Some(best_mean),
-            held_out_with: None,
-            reason: format!(
-                "skipped: {trained_configurations} configurations to train on; a residual model needs at least {}",
-                settings.min_residual_configurations
-            ),
-        });
-    } else {
-        let (model, report) = train_residual(&settings.residual, &best, &fit, None, bar)?;
-        let candidate = Predictor {
-            residual: Some(model.clone()),
-            ..best.clone()
+    // The winner.
+    let physics_mean = mean_at(best_physics);
+    let residual_wins = best_residual.filter(|(_, m)| *m < physics_mean);
+    let (winner, chosen_physics) = match residual_wins {
+        Some((r, _)) => (physics.len() + r, physics[base_physics]),
+        None => (best_physics, physics[best_physics]),
+    };
+    candidates[winner].status = "chosen".into();
+    let mean_of = |p: Physics| {
+        physics
+            .iter()
+            .position(|k| *k == p)
+            .and_then(|i| physics_stats[i].as_ref())
+            .map(|s| s.mean)
+    };
+    let mut decisions = Vec::new();
+    let decision =
+        |stage: &'static str, kept: bool, without: Option<f64>, with: Option<f64>, what: &str| {
+            let reason = match (without, with) {
+                (Some(w), Some(x)) => format!(
+                    "{}: held-out mean {w:.4} mm without, {x:.4} mm with {what}",
+                    if kept { "kept" } else { "dropped" }
+                ),
+                _ => what.to_string(),
+            };
+            Decision {
+                stage,
+                kept,
+                held_out_without: without,
+                held_out_with: with,
+                reason,
+            }
         };
-        let with = candidate.stats(&held).mean;
-        if decide(
-            &mut decisions,
+    decisions.push(decision(
+        "kinematic",
+        chosen_physics != Physics::Aligned,
+        mean_of(Physics::Aligned),
+        match chosen_physics {
+            Physics::Elastic => mean_of(Physics::Elastic),
+            _ => mean_of(Physics::Rigid),
+        },
+        "the identified table (LM, identifiable parameters)",
+    ));
+    decisions.push(match (&compliance_skip, mean_of(Physics::Elastic)) {
+        (Some(why), _) => decision("compliance", false, None, None, why),
+        (None, None) => decision(
+            "compliance",
+            false,
+            None,
+            None,
+            physics
+                .iter()
+                .position(|k| *k == Physics::Elastic)
+                .and_then(|i| failure[i].clone())
+                .as_deref()
+                .unwrap_or("skipped"),
+        ),
+        (None, Some(with)) => decision(
+            "compliance",
+            chosen_physics == Physics::Elastic,
+            mean_of(Physics::Rigid).map(|r| r.min(mean_of(Physics::Aligned).unwrap_or(r))),
+            Some(with),
+            "joint compliances identified with the geometry on every load",
+        ),
+    });
+    decisions.push(match best_residual {
+        Some((r, mean)) => decision(
             "residual",
-            best_mean,
-            with,
+            residual_wins.is_some(),
+            Some(physics_mean),
+            Some(mean),
             &format!(
-                "a {} residual model (paper settings)",
-                settings.residual.settings.kind.name()
+                "a {} residual model (the best of {} tried)",
+                settings.residuals[r].settings.kind.name(),
+                settings.residuals.len()
             ),
-        ) {
-            residual = Some((model, report));
-            chosen.residual = Some(settings.residual.clone());
-        }
-    }
+        ),
+        None => decision(
+            "residual",
+            false,
+            Some(physics_mean),
+            None,
+            &candidates
+                .get(physics.len())
+                .map_or("skipped: no residual model configured".to_string(), |c| {
+                    c.status.clone()
+                }),
+        ),
+    });
     for d in &decisions {
         say(&format!("stage {}: {}", d.stage, d.reason));
     }
-    if !kinematic_kept {
-        // Neither identification beat the nominal table: keep its base and tool fit.
-        kinematic_run.robot = kinematic_run.aligned.clone();
-        kinematic_run.compliance = None;
-    }
-    let selection = Selection {
-        held_out,
-        fitted_rows: fit.len(),
-        held_out_rows: held.len(),
-        decisions,
-        refitted_on_every_row: refit,
+    say(&format!(
+        "chosen: {} (held-out mean {:.4} mm)",
+        candidates[winner].name,
+        candidates[winner]
+            .held_out
+            .as_ref()
+            .map_or(f64::NAN, |s| s.mean)
+    ));
+
+    // Fit the winner on every row (with a validation file: on the data file's rows, the
+    // validation file early-stopping the networks as it always has).
+    let stages = Stages {
+        kinematic: chosen_physics.settings(),
+        residual: residual_wins.map(|(r, _)| settings.residuals[r].clone()),
     };
     if refit {
-        say("fitting the kept stages again on every row");
-        let mut built = configured(&chosen, nominal, rows, None, bar)?;
-        if !kinematic_kept {
-            built.kinematic.robot = built.kinematic.aligned.clone();
-        }
-        built.selection = Some(selection);
-        return Ok(built);
+        say("fitting the chosen model again on every row");
     }
-    Ok(Built {
-        kinematic: kinematic_run,
-        residual,
-        stages: chosen,
-        selection: Some(selection),
-    })
+    let mut built = configured(&stages, nominal, rows, validation.clone(), bar)?;
+    if chosen_physics == Physics::Aligned {
+        built.kinematic.robot = built.kinematic.aligned.clone();
+        built.kinematic.compliance = None;
+    }
+    built.selection = Some(Selection {
+        held_out,
+        folds: splits.len(),
+        fitted_rows: splits.iter().map(|f| f.train.len()).sum(),
+        held_out_rows: splits.iter().map(|f| f.test.len()).sum(),
+        candidates,
+        decisions,
+        refitted_on_every_row: refit,
+        budget_seconds: settings.budget_seconds,
+        seconds: start.elapsed().as_secs_f64(),
+    });
+    Ok(built)
 }

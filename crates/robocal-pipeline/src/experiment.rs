@@ -396,6 +396,9 @@ impl Experiment {
                                 mosm: Some(s.mosm.clone()),
                                 classifier: Some(s.classifier.clone()),
                                 search: s.search.clone(),
+                                encoding: (s.kind == ResidualKind::Gp || !s.encoding.is_raw())
+                                    .then_some(s.encoding),
+                                gp: (s.kind == ResidualKind::Gp).then(|| s.gp.clone()),
                             }
                         }),
                     }

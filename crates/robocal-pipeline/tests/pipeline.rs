@@ -249,24 +249,46 @@ fn experiment_files_are_validated_with_the_key_named() {
     );
 }
 
-/// The default calibration on the five-axis twin, with small networks and a low residual
-/// threshold so that every stage is tried: each decision follows its held-out numbers, the kept
-/// stages are in the model, and the model is refitted on every row.
+/// The default calibration on the five-axis twin, with a small network and a small GP and a
+/// low residual threshold so that every candidate is tried: the candidates' held-out numbers
+/// are their errors on the cross-validation folds (recomputed here for the kinematic one), the
+/// chosen candidate has the lowest, the decisions follow from them, and the model holds the
+/// chosen stages fitted again on every row.
 #[test]
-fn the_default_calibration_keeps_a_stage_only_when_the_held_out_error_falls() {
-    use robocal_pipeline::calibration::hold_out;
+fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error() {
+    use robocal_pipeline::calibration::{fit_kinematic, folds};
     use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_residual::{GpSettings, ResidualKind, ResidualSettings, ResidualStage};
     let twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     let data = twin.generate().unwrap().measurements;
     let rows: Vec<&robocal_data::Measurement> = data.rows.iter().collect();
-    let mut settings = AutoSettings {
-        min_residual_configurations: 10,
-        ..AutoSettings::default()
-    };
-    for net in &mut settings.residual.settings.axes {
+    let mut somm = ResidualSettings::paper(ResidualKind::Somm, 2020);
+    for net in &mut somm.axes {
         net.hidden = vec![8];
         net.max_epochs = 30;
     }
+    let mut gp = ResidualSettings::gp(2020);
+    gp.gp = GpSettings {
+        hyper_rows: 150,
+        max_rows: 400,
+        iterations: 20,
+        ..GpSettings::default()
+    };
+    let settings = AutoSettings {
+        folds: 3,
+        min_residual_configurations: 10,
+        residuals: vec![
+            ResidualStage {
+                settings: gp,
+                holdout: 0.2,
+            },
+            ResidualStage {
+                settings: somm,
+                holdout: 0.2,
+            },
+        ],
+        ..AutoSettings::default()
+    };
     let mut said = Vec::new();
     let built = automatic(&settings, &twin.nominal, &rows, None, None, &mut |l| {
         said.push(l.to_string())
@@ -274,36 +296,68 @@ fn the_default_calibration_keeps_a_stage_only_when_the_held_out_error_falls() {
     .unwrap();
     let selection = built.selection.as_ref().unwrap();
     assert!(selection.refitted_on_every_row);
-    assert_eq!(selection.fitted_rows + selection.held_out_rows, rows.len());
-    let stages: Vec<&str> = selection.decisions.iter().map(|d| d.stage).collect();
-    assert_eq!(stages, ["kinematic", "compliance", "residual"]);
+    assert_eq!(selection.folds, 3);
+    assert_eq!(selection.held_out_rows, rows.len());
+    assert_eq!(selection.fitted_rows, 2 * rows.len());
+    let names: Vec<&str> = selection
+        .candidates
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect();
+    assert_eq!(names.len(), 5, "{names:?}");
+    assert_eq!(names[1], "kinematic");
+    assert!(
+        names[3].ends_with("+ gp") && names[4].ends_with("+ somm"),
+        "{names:?}"
+    );
+    // The kinematic candidate's held-out mean is the rigid identification's error on each
+    // fold's held-out configurations, computed here again.
+    let (fold_of, k) = folds(&rows, 3, settings.seed);
+    let mut errors = Vec::new();
+    for f in 0..k {
+        let pick = |held: bool| -> Vec<&robocal_data::Measurement> {
+            (rows.iter().zip(&fold_of))
+                .filter(|(_, g)| (**g == f) == held)
+                .map(|(r, _)| *r)
+                .collect()
+        };
+        let fit = fit_kinematic(
+            &twin.nominal,
+            &pick(false),
+            &robocal_ident::KinematicSettings::default(),
+        )
+        .unwrap();
+        for m in pick(true) {
+            errors.push((fit.robot.point(&m.sample.joints_rad()) - m.position).norm());
+        }
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let kinematic = selection.candidates[1].held_out.as_ref().unwrap().mean;
+    assert!((kinematic - mean).abs() < 1e-12, "{kinematic} vs {mean}");
+    // The chosen one has the lowest held-out mean of all evaluated, and it is said.
+    let chosen: Vec<_> = (selection.candidates.iter())
+        .filter(|c| c.status == "chosen")
+        .collect();
+    assert_eq!(chosen.len(), 1);
+    let lowest = (selection.candidates.iter())
+        .filter_map(|c| c.held_out.as_ref().map(|h| h.mean))
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(chosen[0].held_out.as_ref().unwrap().mean, lowest);
+    assert!(
+        said.iter()
+            .any(|l| l.contains(&format!("chosen: {}", chosen[0].name))),
+        "{said:?}"
+    );
     for d in &selection.decisions {
-        let (without, with) = (d.held_out_without.unwrap(), d.held_out_with.unwrap());
-        assert_eq!(d.kept, with < without, "{d:?}");
         assert!(said.iter().any(|l| l.contains(&d.reason)), "{said:?}");
     }
-    // The held-out numbers are the model's on the held-out rows, computed here again: the
-    // kinematic stage's "with" is the rigid identification's error on the same hold-out.
-    let (fit, held, _) = hold_out(&rows, settings.holdout, settings.seed).unwrap();
-    let kin = robocal_pipeline::calibration::fit_kinematic(
-        &twin.nominal,
-        &fit,
-        &robocal_ident::KinematicSettings::default(),
-    )
-    .unwrap();
-    let errors: Vec<f64> = held
-        .iter()
-        .map(|m| (kin.robot.point(&m.sample.joints_rad()) - m.position).norm())
-        .collect();
-    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-    let first = &selection.decisions[0];
-    assert!((first.held_out_with.unwrap() - mean).abs() < 1e-12);
-    // What the decisions kept is what the model holds, fitted on every row.
-    let compliance_kept = selection.decisions[1].kept;
-    assert_eq!(built.kinematic.compliance.is_some(), compliance_kept);
-    assert_eq!(built.residual.is_some(), selection.decisions[2].kept);
-    assert_eq!(built.stages.residual.is_some(), selection.decisions[2].kept);
-    if compliance_kept {
+    // What was chosen is what the model holds, fitted on every row.
+    let with_compliance = chosen[0].name.contains("compliance");
+    assert_eq!(built.kinematic.compliance.is_some(), with_compliance);
+    let residual = chosen[0].name.ends_with("gp") || chosen[0].name.ends_with("somm");
+    assert_eq!(built.residual.is_some(), residual);
+    assert_eq!(selection.decisions[2].kept, residual);
+    if with_compliance {
         assert_eq!(built.kinematic.report.points, rows.len());
     }
 }

@@ -5,20 +5,24 @@
 //! - [`model`]: SOMM (one network per world axis), MOSM (one three-output network) and CA-SOMM
 //!   (a linfa decision tree picks one of two SOMM sets), standardised inputs and outputs, and the
 //!   saved form (`residual.json` + one burn record per network).
+//! - [`gp`]: a Gaussian process per axis (ARD squared-exponential kernel, marginal likelihood),
+//!   with a predictive standard deviation.
 //! - [`search`]: TPE hyper-parameter search (layers, neurons, activation, learning rate).
 
 pub mod error;
+pub mod gp;
 pub mod mlp;
 pub mod model;
 pub mod search;
 pub mod stage;
 
 pub use error::{ResidualError, Result};
+pub use gp::{GpAxis, GpSettings};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Split, TrainReport, train};
 pub use model::{
-    AxisNet, Classifier, ClassifierSettings, Gate, MANIFEST, PerClass, RESIDUAL_FORMAT,
-    ResidualKind, ResidualModel, ResidualSettings, Samples, Standardizer, inputs_of,
-    two_means_threshold,
+    AxisNet, Classifier, ClassifierSettings, Encoding, Gate, GpResidual, MANIFEST, PerClass,
+    RESIDUAL_FORMAT, ResidualKind, ResidualModel, ResidualSettings, Samples, Standardizer,
+    inputs_of, two_means_threshold,
 };
 pub use search::{SearchLog, SearchSettings, Trial, search};
 pub use stage::{DEFAULT_SEED, RawResidualStage, ResidualStage};

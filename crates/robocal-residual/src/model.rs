@@ -17,6 +17,7 @@ use robocal_robot::Robot;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
+use crate::gp::{GpAxis, GpSettings};
 use crate::mlp::{Dense, Mlp, NetSettings, Split, TrainReport, train};
 use crate::search::{SearchLog, SearchSettings, search};
 
@@ -52,6 +53,157 @@ pub fn inputs_of(sample: &Sample) -> Vec<f64> {
     let mut row = sample.joints.clone();
     row.push(sample.load);
     row
+}
+
+/// How an input row (joint angles in degrees, then the load) is presented to a model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Encoding {
+    /// As read: angles in degrees, then the load (the paper's inputs, eq. (24)).
+    #[default]
+    Raw,
+    /// `sin q, cos q` of every joint angle, then the load: an error that is periodic in the
+    /// angles is a smooth function of these, and ±180° are one angle.
+    Periodic,
+}
+
+impl Encoding {
+    /// Whether this is [`Encoding::Raw`] (the default, left out of saved files).
+    pub fn is_raw(&self) -> bool {
+        *self == Self::Raw
+    }
+
+    /// Features of an encoded row of `inputs` raw inputs (the last one the load).
+    pub fn features(self, inputs: usize) -> usize {
+        match self {
+            Self::Raw => inputs,
+            Self::Periodic => 2 * inputs.saturating_sub(1) + usize::from(inputs > 0),
+        }
+    }
+
+    /// The encoded row.
+    pub fn encode(self, row: &[f64]) -> Vec<f64> {
+        match self {
+            Self::Raw => row.to_vec(),
+            Self::Periodic => {
+                let Some((load, joints)) = row.split_last() else {
+                    return Vec::new();
+                };
+                let mut out = Vec::with_capacity(2 * joints.len() + 1);
+                for q in joints {
+                    let (s, c) = q.to_radians().sin_cos();
+                    out.push(s);
+                    out.push(c);
+                }
+                out.push(*load);
+                out
+            }
+        }
+    }
+
+    /// Every row encoded.
+    pub fn encode_all(self, rows: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        rows.iter().map(|r| self.encode(r)).collect()
+    }
+}
+
+/// The Gaussian-process residual: one [`GpAxis`] per world axis over standardised features,
+/// conditioned on the same rows.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GpResidual {
+    /// Feature scaling (of the encoded inputs).
+    pub input_scale: Standardizer,
+    /// The standardised feature rows the model conditions on.
+    pub rows: Vec<Vec<f64>>,
+    /// X, Y, Z.
+    pub axes: Vec<GpAxis>,
+    /// Cholesky factors for the variances, made on first use.
+    #[serde(skip)]
+    factors: std::sync::OnceLock<Vec<Option<faer::linalg::solvers::Llt<f64>>>>,
+}
+
+impl GpResidual {
+    fn fit(settings: &GpSettings, train_set: &Samples, seed: u64) -> Result<Self> {
+        let input_scale = Standardizer::fit(&train_set.inputs);
+        let x: Vec<Vec<f64>> = (train_set.inputs.iter())
+            .map(|r| input_scale.apply(r))
+            .collect();
+        let mut axes = Vec::with_capacity(3);
+        let mut rows = Vec::new();
+        for a in 0..3 {
+            let y: Vec<f64> = train_set.errors.iter().map(|e| e[a]).collect();
+            // One seed for every axis: the same conditioning rows.
+            let (gp, kept) = GpAxis::fit_rows(&x, &y, settings, seed)?;
+            axes.push(gp);
+            rows = kept;
+        }
+        Ok(Self {
+            input_scale,
+            rows: rows.iter().map(|&i| x[i].clone()).collect(),
+            axes,
+            factors: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// Predicted error (mm) per encoded row, and with `std` the latent standard deviation of
+    /// each axis's correction (mm).
+    fn predict(&self, encoded: &[Vec<f64>], std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+        let factors = std.then(|| {
+            self.factors
+                .get_or_init(|| self.axes.iter().map(|a| a.factor(&self.rows)).collect())
+        });
+        let mut mean = vec![[0.0; 3]; encoded.len()];
+        let mut sd = std.then(|| vec![[f64::NAN; 3]; encoded.len()]);
+        for (i, row) in encoded.iter().enumerate() {
+            let x = self.input_scale.apply(row);
+            for (a, gp) in self.axes.iter().enumerate() {
+                let f = factors.and_then(|f| f[a].as_ref());
+                let (m, s) = gp.predict_one(&self.rows, &x, f);
+                mean[i][a] = m;
+                if let (Some(sd), Some(s)) = (sd.as_mut(), s) {
+                    sd[i][a] = s;
+                }
+            }
+        }
+        (mean, sd)
+    }
+
+    fn check(&self, features: usize) -> std::result::Result<(), String> {
+        let fits = self.input_scale.mean.len() == features
+            && self.input_scale.std.len() == features
+            && (self.input_scale.mean.iter().chain(&self.input_scale.std)).all(|v| v.is_finite())
+            && self.input_scale.std.iter().all(|v| *v > 0.0);
+        if !fits {
+            return Err(format!("gp.input_scale: does not fit {features} features"));
+        }
+        if self.rows.len() < 2 || self.rows.len() > crate::gp::MAX_GP_ROWS {
+            return Err(format!(
+                "gp.rows: {} rows; a model conditions on 2 to {}",
+                self.rows.len(),
+                crate::gp::MAX_GP_ROWS
+            ));
+        }
+        if (self.rows.iter()).any(|r| r.len() != features || r.iter().any(|v| !v.is_finite())) {
+            return Err(format!(
+                "gp.rows: every row must hold {features} finite values"
+            ));
+        }
+        if self.axes.len() != 3 {
+            return Err("gp.axes: one per world axis (3)".into());
+        }
+        for (a, gp) in self.axes.iter().enumerate() {
+            gp.check(features, self.rows.len())
+                .map_err(|m| format!("gp.axes[{a}]: {m}"))?;
+        }
+        Ok(())
+    }
+}
+
+impl PartialEq for GpResidual {
+    fn eq(&self, other: &Self) -> bool {
+        self.input_scale == other.input_scale && self.rows == other.rows && self.axes == other.axes
+    }
 }
 
 impl Samples {
@@ -135,6 +287,13 @@ impl Standardizer {
             })
             .collect();
         Self { mean, std }
+    }
+
+    /// The standardised row.
+    pub fn apply(&self, row: &[f64]) -> Vec<f64> {
+        (row.iter().zip(&self.mean).zip(&self.std))
+            .map(|((v, m), s)| (v - m) / s)
+            .collect()
     }
 
     fn forward(&self, row: &[f64], out: &mut Vec<f32>) {
@@ -265,6 +424,9 @@ pub enum ResidualKind {
     Mosm,
     /// A classifier picks one of two SOMM sets (the paper's CA-SOMM-ANN).
     CaSomm,
+    /// A Gaussian process per axis (ARD squared-exponential kernel), with predictive
+    /// standard deviations.
+    Gp,
 }
 
 impl ResidualKind {
@@ -274,7 +436,13 @@ impl ResidualKind {
             Self::Somm => "somm",
             Self::Mosm => "mosm",
             Self::CaSomm => "ca-somm",
+            Self::Gp => "gp",
         }
+    }
+
+    /// Whether training early-stops on a validation set (the networks; the GP does not).
+    pub fn early_stops(self) -> bool {
+        self != Self::Gp
     }
 }
 
@@ -360,6 +528,10 @@ pub struct ResidualSettings {
     pub classifier: ClassifierSettings,
     /// A TPE search of each network's architecture and learning rate before training, if asked.
     pub search: Option<SearchSettings>,
+    /// The Gaussian process (GP).
+    pub gp: GpSettings,
+    /// How input rows are presented to the networks, the classifier and the GP.
+    pub encoding: Encoding,
     /// Seed of weight initialisation and batch order.
     pub seed: u64,
 }
@@ -378,7 +550,17 @@ impl ResidualSettings {
             mosm: NetSettings::paper_z(),
             classifier: ClassifierSettings::default(),
             search: None,
+            gp: GpSettings::default(),
+            encoding: Encoding::Raw,
             seed,
+        }
+    }
+
+    /// A Gaussian process per axis on the periodic encoding (robocal's default residual).
+    pub fn gp(seed: u64) -> Self {
+        Self {
+            encoding: Encoding::Periodic,
+            ..Self::paper(ResidualKind::Gp, seed)
         }
     }
 
@@ -395,6 +577,9 @@ impl ResidualSettings {
             && let Err((field, m)) = search.check()
         {
             return Some((format!("search.{field}"), m));
+        }
+        if let Err((field, m)) = self.gp.check() {
+            return Some((format!("gp.{field}"), m));
         }
         if !matches!(self.classifier.axis, 'x' | 'y' | 'z') {
             return Some((
@@ -579,6 +764,10 @@ pub struct ResidualModel {
     pub classifier: Option<Classifier>,
     /// The hyper-parameter searches that chose the networks' settings (empty without search).
     pub search: Vec<SearchLog>,
+    /// How input rows are encoded before anything sees them.
+    pub encoding: Encoding,
+    /// The Gaussian process (GP).
+    pub gp: Option<GpResidual>,
 }
 
 /// A model file's manifest entry for one network.
@@ -603,6 +792,10 @@ struct Manifest {
     classifier: Option<Classifier>,
     #[serde(default)]
     search: Vec<SearchLog>,
+    #[serde(default, skip_serializing_if = "Encoding::is_raw")]
+    encoding: Encoding,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    gp: Option<GpResidual>,
 }
 
 /// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
@@ -636,6 +829,23 @@ impl ResidualModel {
             ));
         }
         let seed = settings.seed;
+        let encoding = settings.encoding;
+        let encoded = |s: &Samples| Samples {
+            inputs: encoding.encode_all(&s.inputs),
+            errors: s.errors.clone(),
+        };
+        let (train_set, validation) = (&encoded(train_set), &encoded(validation));
+        if settings.kind == ResidualKind::Gp {
+            return Ok(Self {
+                kind: settings.kind,
+                inputs,
+                nets: Vec::new(),
+                classifier: None,
+                search: Vec::new(),
+                encoding,
+                gp: Some(GpResidual::fit(&settings.gp, train_set, seed)?),
+            });
+        }
         let (settings, search_logs) = Self::searched(settings, train_set, validation);
         let settings = &settings;
         // One axis's network; a SOMM set is the three of them.
@@ -653,7 +863,7 @@ impl ResidualModel {
             (0..3).map(|a| fit(a, set, val, offset)).collect()
         };
         let (nets, classifier) = match settings.kind {
-            ResidualKind::Somm => (somm(train_set, validation, 0), None),
+            ResidualKind::Somm | ResidualKind::Gp => (somm(train_set, validation, 0), None),
             ResidualKind::Mosm => (
                 vec![AxisNet::fit(
                     vec![0, 1, 2],
@@ -683,7 +893,8 @@ impl ResidualModel {
                     .iter()
                     .map(|v| usize::from(*v >= threshold))
                     .collect();
-                let x = Array2::from_shape_fn((train_set.len(), inputs), |(i, j)| {
+                let features = encoding.features(inputs);
+                let x = Array2::from_shape_fn((train_set.len(), features), |(i, j)| {
                     train_set.inputs[i][j]
                 });
                 let data = Dataset::new(x, Array1::from_vec(labels.clone()));
@@ -757,6 +968,8 @@ impl ResidualModel {
             nets,
             classifier,
             search: search_logs,
+            encoding,
+            gp: None,
         })
     }
 
@@ -817,11 +1030,31 @@ impl ResidualModel {
             ResidualKind::Somm => axes,
             ResidualKind::Mosm => settings.mosm.max_epochs,
             ResidualKind::CaSomm => 2 * axes,
+            ResidualKind::Gp => 0,
         }) as u64
     }
 
     /// Predicted error (mm, world X/Y/Z) for each input row.
     pub fn predict(&self, inputs: &[Vec<f64>]) -> Vec<[f64; 3]> {
+        self.predict_with_std(inputs, false).0
+    }
+
+    /// Predicted error (mm, world X/Y/Z) for each input row, and — for a model that knows how
+    /// sure it is (the GP) and when `std` is asked for — the standard deviation of each axis's
+    /// correction (mm).
+    pub fn predict_with_std(
+        &self,
+        inputs: &[Vec<f64>],
+        std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+        let encoded = self.encoding.encode_all(inputs);
+        if let Some(gp) = &self.gp {
+            return gp.predict(&encoded, std);
+        }
+        (self.predict_encoded(&encoded), None)
+    }
+
+    fn predict_encoded(&self, inputs: &[Vec<f64>]) -> Vec<[f64; 3]> {
         let mut out = vec![[0.0; 3]; inputs.len()];
         match &self.classifier {
             None => {
@@ -857,7 +1090,7 @@ impl ResidualModel {
     fn net_file(&self, i: usize) -> String {
         let axis = ["x", "y", "z"];
         match self.kind {
-            ResidualKind::Somm => format!("residual-{}.bpk", axis[i]),
+            ResidualKind::Somm | ResidualKind::Gp => format!("residual-{}.bpk", axis[i]),
             ResidualKind::Mosm => "residual-xyz.bpk".into(),
             ResidualKind::CaSomm => {
                 format!("residual-{}-{}.bpk", ["a", "b"][i / 3], axis[i % 3])
@@ -899,6 +1132,8 @@ impl ResidualModel {
             nets: entries,
             classifier: self.classifier.clone(),
             search: self.search.clone(),
+            encoding: self.encoding,
+            gp: self.gp.clone(),
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
@@ -938,7 +1173,19 @@ impl ResidualModel {
             ResidualKind::Somm => 3,
             ResidualKind::Mosm => 1,
             ResidualKind::CaSomm => 6,
+            ResidualKind::Gp => 0,
         };
+        if (m.kind == ResidualKind::Gp) != m.gp.is_some() {
+            return Err(format(format!(
+                "a {} model {} a `gp` section",
+                m.kind.name(),
+                if m.kind == ResidualKind::Gp {
+                    "needs"
+                } else {
+                    "has no"
+                }
+            )));
+        }
         if m.nets.len() != expected || (m.kind == ResidualKind::CaSomm) != m.classifier.is_some() {
             return Err(format(format!(
                 "a {} model has {expected} networks{}",
@@ -950,8 +1197,12 @@ impl ResidualModel {
                 }
             )));
         }
+        let features = m.encoding.features(m.inputs);
         if let Some(c) = &m.classifier {
-            c.check(m.inputs).map_err(format)?;
+            c.check(features).map_err(format)?;
+        }
+        if let Some(gp) = &m.gp {
+            gp.check(features).map_err(format)?;
         }
         let device = Device::flex();
         let mut nets = Vec::new();
@@ -978,7 +1229,7 @@ impl ResidualModel {
                     e.file
                 )));
             }
-            if !fits(&e.input_scale, m.inputs)
+            if !fits(&e.input_scale, features)
                 || !fits(&e.output_scale, e.axes.len())
                 || e.axes.is_empty()
                 || e.axes.iter().any(|a| *a > 2)
@@ -990,7 +1241,7 @@ impl ResidualModel {
             }
             let file = dir.join(&e.file);
             let net = Mlp::new(
-                m.inputs,
+                features,
                 &e.settings.hidden,
                 e.axes.len(),
                 e.settings.activation,
@@ -1017,6 +1268,8 @@ impl ResidualModel {
             nets,
             classifier: m.classifier,
             search: m.search,
+            encoding: m.encoding,
+            gp: m.gp,
         })
     }
 }

@@ -2,16 +2,22 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::gp::GpSettings;
 use crate::mlp::NetSettings;
-use crate::model::{ClassifierSettings, ResidualKind, ResidualSettings};
+use crate::model::{ClassifierSettings, Encoding, ResidualKind, ResidualSettings};
 use crate::search::SearchSettings;
 
 /// `[residual]` as written. Absent networks get the paper's settings (Tables 2 and 3).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawResidualStage {
-    /// `"somm"`, `"mosm"` or `"ca-somm"`.
+    /// `"somm"`, `"mosm"`, `"ca-somm"` or `"gp"`.
     pub model: String,
+    /// How inputs are presented: `"raw"` (angles in degrees and the load, the paper's; the
+    /// default for the networks) or `"periodic"` (sin and cos of every angle, and the load; the
+    /// default for the GP).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub encoding: Option<Encoding>,
     /// Seed of initialisation, batch order and the validation hold-out.
     pub seed: Option<u64>,
     /// Share of the training configurations held out for early stopping when no `--validate`
@@ -29,6 +35,9 @@ pub struct RawResidualStage {
     pub classifier: Option<ClassifierSettings>,
     /// A TPE search of every network's architecture and learning rate before training.
     pub search: Option<SearchSettings>,
+    /// The Gaussian process (`model = "gp"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gp: Option<GpSettings>,
 }
 
 /// A validated residual stage.
@@ -50,16 +59,27 @@ impl RawResidualStage {
             "somm" => ResidualKind::Somm,
             "mosm" => ResidualKind::Mosm,
             "ca-somm" => ResidualKind::CaSomm,
+            "gp" => ResidualKind::Gp,
             other => {
                 return Err((
                     "residual.model".into(),
                     format!(
-                        "`{other}` is not a residual model; use \"somm\", \"mosm\" or \"ca-somm\""
+                        "`{other}` is not a residual model; use \"somm\", \"mosm\", \"ca-somm\" or \"gp\""
                     ),
                 ));
             }
         };
-        let mut settings = ResidualSettings::paper(kind, self.seed.unwrap_or(DEFAULT_SEED));
+        let seed = self.seed.unwrap_or(DEFAULT_SEED);
+        let mut settings = match kind {
+            ResidualKind::Gp => ResidualSettings::gp(seed),
+            _ => ResidualSettings::paper(kind, seed),
+        };
+        if let Some(e) = self.encoding {
+            settings.encoding = e;
+        }
+        if let Some(g) = &self.gp {
+            settings.gp = g.clone();
+        }
         for (slot, given) in settings.axes.iter_mut().zip([&self.x, &self.y, &self.z]) {
             if let Some(s) = given {
                 *slot = s.clone();

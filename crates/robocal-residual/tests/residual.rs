@@ -330,3 +330,74 @@ fn tpe_search_tries_the_asked_trials_within_bounds_and_keeps_the_best() {
     a.save(dir.path()).unwrap();
     assert_eq!(ResidualModel::load(dir.path()).unwrap().search, a.search);
 }
+
+/// The GP residual on the periodic encoding: it learns an error periodic in the angles
+/// (inputs in degrees, the last one the load), its save/load round trip predicts the same to the
+/// bit, its standard deviation grows away from the training poses, and a tampered file is
+/// refused with the field named.
+#[test]
+fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
+    use robocal_residual::{Encoding, GpSettings};
+    // Joints within ±90°; the error a function of sin/cos of the angles and the load.
+    let f = |r: &[f64]| {
+        let q: Vec<f64> = r[..6].iter().map(|d| d.to_radians()).collect();
+        [
+            0.2 * q[0].sin() + 0.1 * (q[1] + q[2]).cos() * (1.0 + 0.05 * r[6]),
+            0.15 * (2.0 * q[3]).sin(),
+            0.1 * q[4].cos() * q[5].sin(),
+        ]
+    };
+    let make = |n: usize, seed: u64, range: f64| {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let inputs: Vec<Vec<f64>> = (0..n)
+            .map(|_| {
+                let mut r: Vec<f64> = (0..6).map(|_| rng.random_range(-range..range)).collect();
+                r.push(rng.random_range(0.0..10.0));
+                r
+            })
+            .collect();
+        let errors = inputs.iter().map(|r| f(r)).collect();
+        Samples { inputs, errors }
+    };
+    let train = make(300, 1, 90.0);
+    let test = make(100, 2, 90.0);
+    let mut s = ResidualSettings::gp(5);
+    assert_eq!(s.encoding, Encoding::Periodic);
+    s.gp = GpSettings {
+        hyper_rows: 200,
+        iterations: 40,
+        ..GpSettings::default()
+    };
+    let model = ResidualModel::fit(&s, &train, &Samples::default(), None).unwrap();
+    for axis in 0..3 {
+        let (left, spread) = (rms(&model, &test, axis), std_of(&test, axis));
+        assert!(left < 0.25 * spread, "axis {axis}: {left} left of {spread}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    model.save(dir.path()).unwrap();
+    let loaded = ResidualModel::load(dir.path()).unwrap();
+    let (a, sa) = model.predict_with_std(&test.inputs, true);
+    let (b, sb) = loaded.predict_with_std(&test.inputs, true);
+    assert_eq!(a, b);
+    assert_eq!(sa, sb);
+    // Far outside the trained joint range (±170° on every joint), the model is less sure.
+    let far = make(100, 3, 170.0);
+    let far: Vec<Vec<f64>> = far
+        .inputs
+        .into_iter()
+        .filter(|r| r[..6].iter().any(|q| q.abs() > 120.0))
+        .collect();
+    let (_, s_far) = model.predict_with_std(&far, true);
+    let mean = |s: &[[f64; 3]]| s.iter().map(|v| v[0]).sum::<f64>() / s.len() as f64;
+    assert!(mean(&s_far.unwrap()) > 2.0 * mean(&sa.unwrap()));
+    // The networks give no standard deviation.
+    let text = std::fs::read_to_string(dir.path().join("residual.json")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    json["gp"]["axes"][1]["alpha"].as_array_mut().unwrap().pop();
+    std::fs::write(dir.path().join("residual.json"), json.to_string()).unwrap();
+    let err = ResidualModel::load(dir.path()).unwrap_err().to_string();
+    assert!(
+        err.contains("gp.axes[1]") && err.contains("residual.json"),
+        "{err}"
+    );
+}

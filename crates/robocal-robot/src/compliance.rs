@@ -71,8 +71,10 @@ impl Robot {
 #[serde(deny_unknown_fields)]
 pub struct RawCompliance {
     /// Gravity in the robot's base frame {0}, m/s².
+    #[serde(deserialize_with = "crate::exact::array")]
     pub gravity: [f64; 3],
     /// The payload's centre of mass in the flange frame, mm.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub payload_com: [f64; 3],
     /// One per joint, deg per kN·m (0: rigid).
     pub compliance: Vec<f64>,

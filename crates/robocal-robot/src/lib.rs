@@ -28,6 +28,7 @@
 
 pub mod compliance;
 pub mod error;
+pub mod exact;
 pub mod ik;
 pub mod kinematics;
 pub mod params;

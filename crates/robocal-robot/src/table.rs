@@ -83,7 +83,11 @@ pub struct RawJoint {
     /// theta_i offset, deg.
     pub theta: f64,
     /// Optional limits, deg.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::exact::option"
+    )]
     pub limits: Option<[f64; 2]>,
 }
 
@@ -92,8 +96,10 @@ pub struct RawJoint {
 #[serde(deny_unknown_fields)]
 pub struct RawBase {
     /// mm.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub xyz: [f64; 3],
     /// Roll, pitch, yaw, deg.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub rpy: [f64; 3],
 }
 
@@ -102,6 +108,7 @@ pub struct RawBase {
 #[serde(deny_unknown_fields)]
 pub struct RawTool {
     /// mm, flange frame.
+    #[serde(deserialize_with = "crate::exact::array")]
     pub xyz: [f64; 3],
 }
 

@@ -112,3 +112,22 @@ fn no_joint_and_missing_file() {
     assert!(matches!(err, RobotError::Io { .. }));
     assert!(err.to_string().contains("/nonexistent/robot.toml"));
 }
+
+#[test]
+fn arrays_with_too_many_numbers_are_refused_at_their_line() {
+    // base.rpy is on line 17, base.xyz on 16, tool.xyz on 19, the first joint's limits on 8.
+    for (from, to, line) in [
+        (
+            "rpy = [10.0, 20.0, 30.0]",
+            "rpy = [10.0, 20.0, 30.0, 40.0]",
+            17,
+        ),
+        ("xyz = [1.0, 2.0, 3.0]", "xyz = [1.0, 2.0]", 16),
+        ("xyz = [0.0, 0.0, 50.0]", "xyz = [0.0, 0.0, 50.0, 1.0]", 19),
+        ("limits = [-90.0, 90.0]", "limits = [-90.0, 90.0, 0.0]", 8),
+    ] {
+        let (at, _, message) = toml_error_at(&GOOD.replace(from, to));
+        assert_eq!(at, line, "{to}: {message}");
+        assert!(message.contains("expected"), "{to}: {message}");
+    }
+}

@@ -16,6 +16,7 @@ struct RawTwin {
     seed: u64,
     nominal: PathBuf,
     truth: RobotTable,
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
     gravity: [f64; 3],
     masses: RawMasses,
     compliance: RawCompliance,
@@ -31,7 +32,9 @@ struct RawTwin {
 #[serde(deny_unknown_fields)]
 struct RawMasses {
     link_mass: Vec<f64>,
+    #[serde(deserialize_with = "robocal_robot::exact::arrays")]
     link_com: Vec<[f64; 3]>,
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
     payload_com: [f64; 3],
 }
 
@@ -75,8 +78,11 @@ struct RawNoise {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPoses {
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
     x: [f64; 2],
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
     y: [f64; 2],
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
     z: [f64; 2],
     step: f64,
     count: usize,

@@ -1,0 +1,253 @@
+//! robocal's accuracy suite (`just accuracy`): the default calibration, and each stage alone, on
+//! twins of four arms, several seeds, with the twins' effects all on or only those the physical
+//! model family holds, on a split of configurations and on an extrapolation split. Errors are
+//! measured against the twins' noise-free points on poses never trained on; the noise floor is
+//! the measured points' own distance from those.
+//!
+//! ```sh
+//! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
+//! ```
+//!
+//! Every twin is a twin's; none of these numbers is a real robot's. The ARM6S family is kept
+//! aside: it runs only with `--aside` (or `--arms arm6s`), and was never run while tuning.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use robocal_data::{ErrorStats, Measurement};
+use robocal_ident::{ComplianceSettings, KinematicSettings};
+use robocal_pipeline::calibration::{Predictor, configured};
+use robocal_pipeline::{AutoSettings, Stages, automatic};
+use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
+use robocal_robot::{JointField, ParamId};
+use robocal_twin::TwinConfig;
+
+/// The twins: name, file; the last is kept aside.
+const ARMS: [(&str, &str); 4] = [
+    ("pmc6va030", "configs/twin/pmc6va030.toml"),
+    ("arm7", "configs/twin/arm7.toml"),
+    ("arm5", "configs/twin/arm5.toml"),
+    ("arm6s", "configs/twin/arm6s.toml"),
+];
+const ASIDE: &str = "arm6s";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A member of a twin family: the file's twin with its truth, masses, stiffnesses and gear
+/// errors drawn again around the file's values (seed 0 is the file's twin itself).
+fn member(base: &TwinConfig, seed: u64) -> TwinConfig {
+    let mut twin = base.clone();
+    if seed == 0 {
+        return twin;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut gauss = |s: f64| -> f64 {
+        // Box–Muller from two uniforms.
+        let (u, v): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
+        s * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    };
+    for id in twin.nominal.param_ids() {
+        let sd = match id {
+            ParamId::Joint {
+                field: JointField::A | JointField::D,
+                ..
+            } => 0.3,
+            ParamId::Joint { .. } => 0.04f64.to_radians(),
+            _ => continue,
+        };
+        let v = twin.nominal.param(id) + gauss(sd);
+        // The nominal table has every parameter the truth has.
+        let _ = twin.truth.set_param(id, v);
+    }
+    for m in &mut twin.masses.link_mass {
+        *m *= 1.0 + 0.15 * gauss(1.0).clamp(-2.0, 2.0);
+    }
+    if let Some(c) = &mut twin.compliance {
+        for k in &mut c.stiffness {
+            *k *= (0.25 * gauss(1.0)).exp();
+        }
+    }
+    if let Some(g) = &mut twin.gear {
+        for a in g.amplitude_1.iter_mut().chain(g.amplitude_2.iter_mut()) {
+            *a *= (0.3 * gauss(1.0)).exp();
+        }
+        for p in g.phase_1.iter_mut().chain(g.phase_2.iter_mut()) {
+            *p += gauss(1.0);
+        }
+    }
+    twin.seed = twin.seed.wrapping_add(seed.wrapping_mul(7919));
+    twin
+}
+
+/// Which of the twin's effects are on.
+#[derive(Clone, Copy, PartialEq)]
+enum Effects {
+    /// Everything the file has.
+    All,
+    /// Geometry, joint compliance under the payload and noise: what the physical model holds.
+    Modelled,
+}
+
+/// Test rows: a random quarter of the configurations, or the quarter with the highest joint-1
+/// reading (the test poses lie outside the trained range of joint 1).
+#[derive(Clone, Copy, PartialEq)]
+enum Split {
+    Configurations,
+    Extrapolation,
+}
+
+fn split<'a>(
+    rows: &[&'a Measurement],
+    how: Split,
+    seed: u64,
+) -> (Vec<&'a Measurement>, Vec<&'a Measurement>) {
+    let mut poses: Vec<(&str, f64)> = rows
+        .iter()
+        .map(|r| (r.sample.pose.as_str(), r.sample.joints[0]))
+        .collect();
+    poses.sort_by(|a, b| a.0.cmp(b.0));
+    poses.dedup_by(|a, b| a.0 == b.0);
+    match how {
+        Split::Configurations => {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xACC);
+            for i in (1..poses.len()).rev() {
+                let j = rng.random_range(0..=i);
+                poses.swap(i, j);
+            }
+        }
+        Split::Extrapolation => poses.sort_by(|a, b| b.1.total_cmp(&a.1)),
+    }
+    let test: std::collections::HashSet<&str> =
+        poses[..poses.len() / 4].iter().map(|p| p.0).collect();
+    rows.iter()
+        .partition(|r| !test.contains(r.sample.pose.as_str()))
+}
+
+/// Mean error of `model` against the noise-free points of `test` (`truth`: pose/load → point).
+fn versus_truth(
+    model: &Predictor,
+    test: &[&Measurement],
+    truth: &std::collections::HashMap<(String, u64), Vector3<f64>>,
+) -> ErrorStats {
+    let predicted = model.predict(test.iter().map(|m| &m.sample));
+    let errors: Vec<f64> = (predicted.iter().zip(test))
+        .map(|(p, m)| (p - truth[&(m.sample.pose.clone(), m.sample.load.to_bits())]).norm())
+        .collect();
+    ErrorStats::from_errors(&errors)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let value = |flag: &str| {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let seeds: u64 = value("--seeds").map_or(Ok(2), |s| s.parse())?;
+    let aside = args.iter().any(|a| a == "--aside");
+    let arms: Vec<String> = match value("--arms") {
+        Some(list) => list.split(',').map(str::to_string).collect(),
+        None => ARMS
+            .iter()
+            .map(|a| a.0.to_string())
+            .filter(|a| aside || a != ASIDE)
+            .collect(),
+    };
+    println!(
+        "| arm | seed | effects | split | test rows | noise floor | kinematic | + compliance | + compliance + SOMM (paper) | + compliance + GP | default | default's choice | default s |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (name, file) in ARMS.iter().filter(|a| arms.iter().any(|n| n == a.0)) {
+        let base = TwinConfig::load(root().join(file))?;
+        for seed in 0..seeds {
+            for effects in [Effects::All, Effects::Modelled] {
+                let mut twin = member(&base, seed);
+                if effects == Effects::Modelled {
+                    twin.gear = None;
+                    twin.backlash.clear();
+                }
+                let data = twin.generate()?;
+                let truth: std::collections::HashMap<(String, u64), Vector3<f64>> = data
+                    .truth
+                    .rows
+                    .iter()
+                    .map(|r| ((r.sample.pose.clone(), r.sample.load.to_bits()), r.position))
+                    .collect();
+                let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
+                for how in [Split::Configurations, Split::Extrapolation] {
+                    let (train, test) = split(&rows, how, seed);
+                    let floor = {
+                        let e: Vec<f64> = test
+                            .iter()
+                            .map(|m| {
+                                (m.position
+                                    - truth[&(m.sample.pose.clone(), m.sample.load.to_bits())])
+                                    .norm()
+                            })
+                            .collect();
+                        ErrorStats::from_errors(&e).mean
+                    };
+                    let stage = |compliance: bool, residual: Option<ResidualSettings>| Stages {
+                        kinematic: KinematicSettings {
+                            compliance: compliance.then(ComplianceSettings::default),
+                            ..KinematicSettings::default()
+                        },
+                        residual: residual.map(|settings| ResidualStage {
+                            settings,
+                            holdout: 0.2,
+                        }),
+                    };
+                    let score = |stages: &Stages| -> String {
+                        match configured(stages, &twin.nominal, &train, None, None) {
+                            Ok(b) => {
+                                format!("{:.4}", versus_truth(&b.predictor(), &test, &truth).mean)
+                            }
+                            Err(e) => format!("failed ({e})"),
+                        }
+                    };
+                    let kin = score(&stage(false, None));
+                    let comp = score(&stage(true, None));
+                    let somm = score(&stage(
+                        true,
+                        Some(ResidualSettings::paper(ResidualKind::Somm, 2020)),
+                    ));
+                    let gp = score(&stage(true, Some(ResidualSettings::gp(2020))));
+                    let t = Instant::now();
+                    let built = automatic(
+                        &AutoSettings::default(),
+                        &twin.nominal,
+                        &train,
+                        None,
+                        None,
+                        &mut |_| {},
+                    )?;
+                    let secs = t.elapsed().as_secs_f64();
+                    let choice = built
+                        .selection
+                        .as_ref()
+                        .and_then(|s| s.candidates.iter().find(|c| c.status == "chosen"))
+                        .map_or("?".to_string(), |c| c.name.clone());
+                    let default = versus_truth(&built.predictor(), &test, &truth).mean;
+                    println!(
+                        "| {name} | {seed} | {} | {} | {} | {floor:.4} | {kin} | {comp} | {somm} | {gp} | **{default:.4}** | {choice} | {secs:.1} |",
+                        match effects {
+                            Effects::All => "all",
+                            Effects::Modelled => "modelled only",
+                        },
+                        match how {
+                            Split::Configurations => "configurations",
+                            Split::Extrapolation => "extrapolation (q1)",
+                        },
+                        test.len(),
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,472 @@
+//! A Gaussian-process residual: one GP per world axis over the encoded inputs, with an ARD
+//! squared-exponential kernel and Gaussian noise whose hyper-parameters maximise the marginal
+//! likelihood; it gives a predictive standard deviation with every correction.
+//!
+//! For axis `a` with standardised targets `y` (mean 0, variance 1 on the training rows) and
+//! standardised features `x`:
+//!
+//! `k(x, x') = s² exp(−½ Σ_d (x_d − x'_d)² / ℓ_d²)`, `K = k(X, X) + σ² I`,
+//!
+//! `−log p(y) = ½ yᵀK⁻¹y + ½ log |K| + (n/2) log 2π`, minimised over `log s², log ℓ_d, log σ²`
+//! by Adam with the analytic gradient `½ tr((K⁻¹ − ααᵀ) ∂K/∂θ)`, `α = K⁻¹y`, on a seeded subset
+//! of at most `hyper_rows` rows (O(n³) per step), the best point seen kept. The model then
+//! conditions on at most `max_rows` rows (one Cholesky factorisation, faer): the mean is
+//! `k(x*, X) α` and the latent variance `s² − k*ᵀ K⁻¹ k*`, both in standardised units and scaled
+//! back to mm.
+//!
+//! ```
+//! use robocal_residual::gp::{GpAxis, GpSettings};
+//! // y = sin(3x) on 40 points of [-1, 1]: the GP interpolates between them.
+//! let x: Vec<Vec<f64>> = (0..40).map(|i| vec![-1.0 + 2.0 * i as f64 / 39.0]).collect();
+//! let y: Vec<f64> = x.iter().map(|r| (3.0 * r[0]).sin()).collect();
+//! let gp = GpAxis::fit(&x, &y, &GpSettings::default(), 7).unwrap();
+//! let (mean, std) = gp.predict_one(&x, &[0.31], None);
+//! assert!((mean - (0.93f64).sin()).abs() < 1e-2, "{mean}");
+//! assert!(std.is_none());
+//! ```
+
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::{Mat, Side};
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ResidualError, Result};
+
+/// How a Gaussian process is fitted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GpSettings {
+    /// Most rows the marginal likelihood is maximised on (a seeded subset; O(n³) per step).
+    #[serde(default = "default_hyper_rows")]
+    pub hyper_rows: usize,
+    /// Most rows the model conditions on (a seeded subset; O(n³) once, O(n) per prediction).
+    #[serde(default = "default_max_rows")]
+    pub max_rows: usize,
+    /// Adam steps on the log hyper-parameters.
+    #[serde(default = "default_iterations")]
+    pub iterations: usize,
+    /// Adam's step size in log units.
+    #[serde(default = "default_step")]
+    pub step: f64,
+}
+
+fn default_hyper_rows() -> usize {
+    500
+}
+fn default_max_rows() -> usize {
+    2500
+}
+fn default_iterations() -> usize {
+    80
+}
+fn default_step() -> f64 {
+    0.08
+}
+
+impl Default for GpSettings {
+    fn default() -> Self {
+        Self {
+            hyper_rows: default_hyper_rows(),
+            max_rows: default_max_rows(),
+            iterations: default_iterations(),
+            step: default_step(),
+        }
+    }
+}
+
+/// Most rows a GP may condition on: its kernel matrix is `n² × 8` bytes (about 200 MB here).
+pub const MAX_GP_ROWS: usize = 5000;
+
+impl GpSettings {
+    /// The first bad setting as (field, message).
+    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
+        if self.hyper_rows < 2 || self.hyper_rows > MAX_GP_ROWS {
+            return Err((
+                "hyper_rows",
+                format!("must lie between 2 and {MAX_GP_ROWS}"),
+            ));
+        }
+        if self.max_rows < 2 || self.max_rows > MAX_GP_ROWS {
+            return Err(("max_rows", format!("must lie between 2 and {MAX_GP_ROWS}")));
+        }
+        if self.iterations > 10_000 {
+            return Err(("iterations", "at most 10000".into()));
+        }
+        if !(self.step.is_finite() && self.step > 0.0 && self.step < 10.0) {
+            return Err(("step", "must lie between 0 and 10".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Bounds of the log hyper-parameters (standardised units): signal variance, length-scales,
+/// noise variance. They keep the kernel matrix well away from singular.
+const LOG_SIGNAL: (f64, f64) = (-9.2, 4.6); // 1e-4 .. 100
+const LOG_LENGTH: (f64, f64) = (-3.0, 5.0); // 0.05 .. 150
+const LOG_NOISE: (f64, f64) = (-11.5, 0.7); // 1e-5 .. 2
+/// Added to the kernel's diagonal for round-off, standardised units.
+const JITTER: f64 = 1e-8;
+
+/// One axis's Gaussian process, in standardised units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GpAxis {
+    /// Signal variance `s²`.
+    pub signal_variance: f64,
+    /// One length-scale per feature.
+    pub lengthscales: Vec<f64>,
+    /// Noise variance `σ²`.
+    pub noise_variance: f64,
+    /// Target mean and standard deviation (mm) that standardised the targets.
+    pub target_mean: f64,
+    /// See `target_mean`.
+    pub target_std: f64,
+    /// `K⁻¹ y` over the rows the model conditions on.
+    pub alpha: Vec<f64>,
+    /// Negative log marginal likelihood per row at the chosen hyper-parameters (on the
+    /// hyper-parameter subset).
+    pub nll_per_row: f64,
+}
+
+/// Squared-exponential kernel without the noise term.
+fn kernel(a: &[f64], b: &[f64], inv_l2: &[f64], s2: f64) -> f64 {
+    let mut d2 = 0.0;
+    for ((x, y), w) in a.iter().zip(b).zip(inv_l2) {
+        let d = x - y;
+        d2 += d * d * w;
+    }
+    s2 * (-0.5 * d2).exp()
+}
+
+/// The kernel matrix of `x` with noise `noise` on the diagonal.
+fn gram(x: &[Vec<f64>], inv_l2: &[f64], s2: f64, noise: f64) -> Mat<f64> {
+    let n = x.len();
+    let mut k = Mat::<f64>::zeros(n, n);
+    for i in 0..n {
+        for j in 0..i {
+            let v = kernel(&x[i], &x[j], inv_l2, s2);
+            k[(i, j)] = v;
+            k[(j, i)] = v;
+        }
+        k[(i, i)] = s2 + noise + JITTER;
+    }
+    k
+}
+
+/// Negative log marginal likelihood and its gradient in `theta = [log s², log ℓ.., log σ²]`.
+fn nll_and_gradient(x: &[Vec<f64>], y: &[f64], theta: &[f64]) -> Option<(f64, Vec<f64>)> {
+    let n = x.len();
+    let d = theta.len() - 2;
+    let s2 = theta[0].exp();
+    let inv_l2: Vec<f64> = theta[1..=d].iter().map(|t| (-2.0 * t).exp()).collect();
+    let noise = theta[d + 1].exp();
+    let k = gram(x, &inv_l2, s2, noise);
+    let llt = k.llt(Side::Lower).ok()?;
+    let yv = Mat::from_fn(n, 1, |i, _| y[i]);
+    let alpha = llt.solve(&yv);
+    let l = llt.L();
+    let log_det: f64 = (0..n).map(|i| l[(i, i)].ln()).sum::<f64>() * 2.0;
+    let fit: f64 = (0..n).map(|i| y[i] * alpha[(i, 0)]).sum();
+    let nll = 0.5 * fit + 0.5 * log_det + 0.5 * n as f64 * (2.0 * std::f64::consts::PI).ln();
+    // W = K⁻¹ − ααᵀ; dNLL/dθ = ½ Σ_ij W_ij ∂K_ij/∂θ.
+    let kinv = llt.inverse();
+    let mut grad = vec![0.0; d + 2];
+    for i in 0..n {
+        for j in 0..n {
+            let w = kinv[(i, j)] - alpha[(i, 0)] * alpha[(j, 0)];
+            let kse = if i == j { s2 } else { k[(i, j)] };
+            grad[0] += w * kse;
+            if i != j {
+                for (c, g) in grad[1..=d].iter_mut().enumerate() {
+                    let r = x[i][c] - x[j][c];
+                    *g += w * kse * r * r * inv_l2[c];
+                }
+            } else {
+                grad[d + 1] += w * noise;
+            }
+        }
+    }
+    grad.iter_mut().for_each(|g| *g *= 0.5);
+    Some((nll, grad))
+}
+
+/// Seeded choice of at most `max` of `n` row indices, ascending.
+fn subset(n: usize, max: usize, rng: &mut ChaCha8Rng) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..n).collect();
+    if n > max {
+        idx.shuffle(rng);
+        idx.truncate(max);
+        idx.sort_unstable();
+    }
+    idx
+}
+
+impl GpAxis {
+    /// Fits one axis on standardised features `x` (rows) and targets `y` (mm): the
+    /// hyper-parameters on a seeded subset, then `α` on at most `settings.max_rows` rows (the
+    /// same subset for every call with the same `seed` and row count, so that axes fitted with
+    /// one seed share their rows).
+    pub fn fit(x: &[Vec<f64>], y: &[f64], settings: &GpSettings, seed: u64) -> Result<Self> {
+        let (model, _) = Self::fit_rows(x, y, settings, seed)?;
+        Ok(model)
+    }
+
+    /// [`Self::fit`], also returning the rows (indices into `x`) the model conditions on.
+    pub fn fit_rows(
+        x: &[Vec<f64>],
+        y: &[f64],
+        settings: &GpSettings,
+        seed: u64,
+    ) -> Result<(Self, Vec<usize>)> {
+        settings
+            .check()
+            .map_err(|(k, m)| ResidualError::Settings(format!("gp.{k}: {m}")))?;
+        let n = x.len();
+        if n < 2 || y.len() != n {
+            return Err(ResidualError::Data(format!(
+                "a Gaussian process needs at least two rows with one target each ({n} rows, {} targets)",
+                y.len()
+            )));
+        }
+        let d = x[0].len();
+        let target_mean = y.iter().sum::<f64>() / n as f64;
+        let var = y.iter().map(|v| (v - target_mean).powi(2)).sum::<f64>() / n as f64;
+        let target_std = if var > 1e-24 { var.sqrt() } else { 1.0 };
+        let ys: Vec<f64> = y.iter().map(|v| (v - target_mean) / target_std).collect();
+
+        // Hyper-parameters by Adam on a subset.
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let keep = subset(n, settings.hyper_rows, &mut rng);
+        let hx: Vec<Vec<f64>> = keep.iter().map(|&i| x[i].clone()).collect();
+        let hy: Vec<f64> = keep.iter().map(|&i| ys[i]).collect();
+        let mut theta = vec![0.0; d + 2];
+        theta[1..=d].fill((d.max(1) as f64).sqrt().ln());
+        theta[d + 1] = (0.1f64).ln();
+        let clamp = |theta: &mut [f64]| {
+            theta[0] = theta[0].clamp(LOG_SIGNAL.0, LOG_SIGNAL.1);
+            for t in &mut theta[1..=d] {
+                *t = t.clamp(LOG_LENGTH.0, LOG_LENGTH.1);
+            }
+            theta[d + 1] = theta[d + 1].clamp(LOG_NOISE.0, LOG_NOISE.1);
+        };
+        let (b1, b2, eps) = (0.9, 0.999, 1e-8);
+        let (mut m, mut v) = (vec![0.0; d + 2], vec![0.0; d + 2]);
+        let mut best: Option<(f64, Vec<f64>)> = None;
+        for step in 1..=settings.iterations.max(1) {
+            let Some((nll, grad)) = nll_and_gradient(&hx, &hy, &theta) else {
+                // Not positive definite: more noise and go on.
+                theta[d + 1] += 1.0;
+                clamp(&mut theta);
+                continue;
+            };
+            if best.as_ref().is_none_or(|(b, _)| nll < *b) {
+                best = Some((nll, theta.clone()));
+            }
+            if step == settings.iterations.max(1) {
+                break;
+            }
+            for k in 0..d + 2 {
+                m[k] = b1 * m[k] + (1.0 - b1) * grad[k];
+                v[k] = b2 * v[k] + (1.0 - b2) * grad[k] * grad[k];
+                let mh = m[k] / (1.0 - b1.powi(step as i32));
+                let vh = v[k] / (1.0 - b2.powi(step as i32));
+                theta[k] -= settings.step * mh / (vh.sqrt() + eps);
+            }
+            clamp(&mut theta);
+        }
+        let Some((nll, theta)) = best else {
+            return Err(ResidualError::Data(
+                "the Gaussian process's kernel matrix is not positive definite at any tried hyper-parameters (duplicate rows with different targets?)".into(),
+            ));
+        };
+
+        // Condition on (a subset of) every row.
+        let rows = subset(n, settings.max_rows, &mut rng);
+        let fx: Vec<Vec<f64>> = rows.iter().map(|&i| x[i].clone()).collect();
+        let mut model = Self {
+            signal_variance: theta[0].exp(),
+            lengthscales: theta[1..=d].iter().map(|t| t.exp()).collect(),
+            noise_variance: theta[d + 1].exp(),
+            target_mean,
+            target_std,
+            alpha: Vec::new(),
+            nll_per_row: nll / hx.len() as f64,
+        };
+        let llt = model.factor(&fx).ok_or_else(|| {
+            ResidualError::Data(
+                "the Gaussian process's kernel matrix is not positive definite".into(),
+            )
+        })?;
+        let yv = Mat::from_fn(rows.len(), 1, |i, _| ys[rows[i]]);
+        let alpha = llt.solve(&yv);
+        model.alpha = (0..rows.len()).map(|i| alpha[(i, 0)]).collect();
+        Ok((model, rows))
+    }
+
+    fn inv_l2(&self) -> Vec<f64> {
+        self.lengthscales.iter().map(|l| 1.0 / (l * l)).collect()
+    }
+
+    /// The Cholesky factor of the kernel matrix over the conditioning rows `x` (for variances).
+    pub fn factor(&self, x: &[Vec<f64>]) -> Option<faer::linalg::solvers::Llt<f64>> {
+        gram(x, &self.inv_l2(), self.signal_variance, self.noise_variance)
+            .llt(Side::Lower)
+            .ok()
+    }
+
+    /// Mean (mm) at the standardised feature row `row`, given the conditioning rows `x`; with
+    /// the factor of [`Self::factor`], also the latent standard deviation (mm).
+    pub fn predict_one(
+        &self,
+        x: &[Vec<f64>],
+        row: &[f64],
+        factor: Option<&faer::linalg::solvers::Llt<f64>>,
+    ) -> (f64, Option<f64>) {
+        let inv_l2 = self.inv_l2();
+        let ks: Vec<f64> = x
+            .iter()
+            .map(|xi| kernel(xi, row, &inv_l2, self.signal_variance))
+            .collect();
+        let mean: f64 = ks.iter().zip(&self.alpha).map(|(k, a)| k * a).sum();
+        let std = factor.map(|llt| {
+            let kv = Mat::from_fn(ks.len(), 1, |i, _| ks[i]);
+            let w = llt.solve(&kv);
+            let explained: f64 = (0..ks.len()).map(|i| ks[i] * w[(i, 0)]).sum();
+            (self.signal_variance - explained).max(0.0).sqrt() * self.target_std
+        });
+        (mean * self.target_std + self.target_mean, std)
+    }
+
+    /// Checks a model read from a file against its feature count and row count.
+    pub fn check(&self, features: usize, rows: usize) -> std::result::Result<(), String> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if self.lengthscales.len() != features || self.alpha.len() != rows {
+            return Err(format!(
+                "{} length-scales and {} weights for {features} features and {rows} rows",
+                self.lengthscales.len(),
+                self.alpha.len()
+            ));
+        }
+        if !positive(self.signal_variance)
+            || !positive(self.noise_variance)
+            || !positive(self.target_std)
+            || !self.target_mean.is_finite()
+            || !self.lengthscales.iter().all(|l| positive(*l))
+            || !self.alpha.iter().all(|a| a.is_finite())
+        {
+            return Err(
+                "variances, length-scales and the target scale must be positive, every value finite"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The NLL's gradient against central differences.
+    #[test]
+    fn gradient_matches_central_differences() {
+        let x: Vec<Vec<f64>> = (0..25)
+            .map(|i| {
+                let t = i as f64 * 0.37;
+                vec![t.sin(), (1.3 * t).cos(), 0.1 * t]
+            })
+            .collect();
+        let y: Vec<f64> = x.iter().map(|r| r[0] * r[1] + 0.3 * r[2]).collect();
+        let theta = vec![0.2, -0.1, 0.3, 0.5, -2.0];
+        let (_, g) = nll_and_gradient(&x, &y, &theta).unwrap();
+        for k in 0..theta.len() {
+            let h = 1e-5;
+            let mut up = theta.clone();
+            up[k] += h;
+            let mut down = theta.clone();
+            down[k] -= h;
+            let fd = (nll_and_gradient(&x, &y, &up).unwrap().0
+                - nll_and_gradient(&x, &y, &down).unwrap().0)
+                / (2.0 * h);
+            assert!(
+                (fd - g[k]).abs() < 1e-5 * (1.0 + fd.abs()),
+                "θ{k}: {fd} vs {}",
+                g[k]
+            );
+        }
+    }
+
+    /// With fixed hyper-parameters the mean and variance are the closed-form GP posterior,
+    /// computed here independently for two training points.
+    #[test]
+    fn posterior_matches_the_two_point_closed_form() {
+        let x = vec![vec![0.0], vec![1.0]];
+        let (s2, l, noise) = (1.5, 0.8, 0.1);
+        let model = GpAxis {
+            signal_variance: s2,
+            lengthscales: vec![l],
+            noise_variance: noise,
+            target_mean: 0.0,
+            target_std: 1.0,
+            alpha: Vec::new(),
+            nll_per_row: 0.0,
+        };
+        let y = [0.7, -0.4];
+        let k12 = s2 * (-0.5 / (l * l)).exp();
+        let (a, b) = (s2 + noise + JITTER, k12);
+        let det = a * a - b * b;
+        let inv = [[a / det, -b / det], [-b / det, a / det]];
+        let alpha = [
+            inv[0][0] * y[0] + inv[0][1] * y[1],
+            inv[1][0] * y[0] + inv[1][1] * y[1],
+        ];
+        let model = GpAxis {
+            alpha: alpha.to_vec(),
+            ..model
+        };
+        let star = 0.4;
+        let ks = [
+            s2 * (-0.5 * star * star / (l * l)).exp(),
+            s2 * (-0.5 * (star - 1.0f64).powi(2) / (l * l)).exp(),
+        ];
+        let mean = ks[0] * alpha[0] + ks[1] * alpha[1];
+        let quad = ks[0] * (inv[0][0] * ks[0] + inv[0][1] * ks[1])
+            + ks[1] * (inv[1][0] * ks[0] + inv[1][1] * ks[1]);
+        let llt = model.factor(&x).unwrap();
+        let (m, s) = model.predict_one(&x, &[star], Some(&llt));
+        assert!((m - mean).abs() < 1e-12, "{m} vs {mean}");
+        assert!((s.unwrap() - (s2 - quad).sqrt()).abs() < 1e-12);
+    }
+
+    /// Fitting recovers the noise level of data with known noise, and the fitted model's
+    /// mean passes near the noise-free function.
+    #[test]
+    fn fit_finds_the_noise_level() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let x: Vec<Vec<f64>> = (0..150)
+            .map(|i| vec![-2.0 + 4.0 * i as f64 / 149.0])
+            .collect();
+        let noise = 0.05;
+        let y: Vec<f64> = x
+            .iter()
+            .map(|r| {
+                let e: f64 = rand_distr::Distribution::sample(
+                    &rand_distr::Normal::new(0.0, noise).unwrap(),
+                    &mut rng,
+                );
+                r[0].sin() + e
+            })
+            .collect();
+        let settings = GpSettings {
+            iterations: 150,
+            ..GpSettings::default()
+        };
+        let gp = GpAxis::fit(&x, &y, &settings, 1).unwrap();
+        let sigma = gp.noise_variance.sqrt() * gp.target_std;
+        assert!((0.6 * noise..1.5 * noise).contains(&sigma), "σ {sigma}");
+        let (m, _) = gp.predict_one(&x, &[0.5], None);
+        assert!((m - 0.5f64.sin()).abs() < 0.03, "{m}");
+    }
+}
