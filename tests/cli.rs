@@ -926,7 +926,16 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
         let p = params.iter().find(|p| p["name"] == name).unwrap();
         assert_eq!(p["identified_flag"], true, "{name}");
     }
-    assert!(!model.join("compliance.toml").exists());
+    // No payload compliance: a joint-error file only when harmonics or self-weight terms were
+    // chosen, and then every compliance in it is zero.
+    let (errors_kept, why) = decision(&r, "joint_errors");
+    assert!(why.contains("held-out mean"), "{why}");
+    assert_eq!(model.join("compliance.toml").exists(), errors_kept);
+    if errors_kept {
+        let c = robocal_robot::Compliance::load(model.join("compliance.toml"), 5).unwrap();
+        assert!(c.values.iter().all(|v| *v == 0.0));
+        assert!(!c.harmonics.is_empty());
+    }
     assert!(r["kinematic"]["after"]["mean"].as_f64().unwrap() < 0.2);
 }
 

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 use robocal_data::ErrorStats;
-use robocal_robot::{Compliance, DEG_PER_KNM, ParamId, Robot, Unit};
+use robocal_robot::{Compliance, DEG_PER_KNM, ErrorParam, JointErrors, ParamId, Robot, Unit};
 use serde::Serialize;
 
 use crate::bfgs::run_bfgs;
@@ -46,6 +46,48 @@ pub struct KinematicSettings {
     pub rank_tolerance: f64,
     /// Joint compliances identified with the geometry (elasto-geometric calibration).
     pub compliance: Option<ComplianceSettings>,
+    /// Transmission harmonics and self-weight terms identified with the geometry.
+    pub joint_errors: Option<JointErrorSettings>,
+}
+
+/// Which configuration-dependent joint errors are identified with the geometry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointErrorSettings {
+    /// Highest transmission-harmonic order per joint (0: none).
+    pub harmonics: u32,
+    /// Joints (0-based) with harmonics; `None`: every joint.
+    pub harmonic_joints: Option<Vec<usize>>,
+    /// Self-weight terms (every joint; those the poses cannot separate are held at zero).
+    pub self_weight: bool,
+    /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
+    /// settings' when both are given).
+    pub gravity: Vector3<f64>,
+}
+
+impl Default for JointErrorSettings {
+    fn default() -> Self {
+        Self {
+            harmonics: 2,
+            harmonic_joints: None,
+            self_weight: false,
+            gravity: Vector3::new(0.0, 0.0, -9.80665),
+        }
+    }
+}
+
+/// One joint-error coefficient besides the payload compliances, in the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ErrorTermReport {
+    /// Stable name: `j2.h1.sin`, `j3.sw4.mass`.
+    pub name: String,
+    /// `deg` for harmonics, `deg per basis unit` for self-weight terms.
+    pub unit: &'static str,
+    /// Identified value (0 when held).
+    pub value: f64,
+    /// Standard deviation.
+    pub std: Option<f64>,
+    /// Whether it was identified (false: the poses cannot separate it; held at 0).
+    pub identified: bool,
 }
 
 impl Default for KinematicSettings {
@@ -56,6 +98,7 @@ impl Default for KinematicSettings {
             max_iterations: 200,
             rank_tolerance: 1e-6,
             compliance: None,
+            joint_errors: None,
         }
     }
 }
@@ -208,6 +251,9 @@ pub struct KinematicReport {
     /// Joint compliances, when identified with the geometry.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub compliance: Option<ComplianceReport>,
+    /// Transmission harmonics and self-weight terms, when identified with the geometry.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub joint_errors: Vec<ErrorTermReport>,
     /// What the user should know about the data's ability to determine the parameters.
     pub warnings: Vec<String>,
 }
@@ -364,9 +410,44 @@ pub fn calibrate_kinematics(
     let ids = aligned.param_ids();
     let mut problem = CalibrationProblem::new(&aligned, selected.clone(), obs);
     let mut columns: Vec<Column> = selected.iter().map(|&i| ids[i].into()).collect();
-    if let Some(c) = &choice {
-        problem = problem.with_compliance(c.start.clone(), c.joints.clone());
-        columns.extend(c.joints.iter().map(|&j| Column::Compliance(j)));
+    let mut start: Option<JointErrors> = choice.as_ref().map(|c| c.start.clone());
+    let mut params: Vec<ErrorParam> = choice.as_ref().map_or_else(Vec::new, |c| {
+        c.joints
+            .iter()
+            .map(|&j| ErrorParam::Compliance(j))
+            .collect()
+    });
+    if let Some(je) = &settings.joint_errors {
+        let dof = aligned.dof();
+        let mut model = start
+            .take()
+            .unwrap_or_else(|| JointErrors::new(vec![0.0; dof], je.gravity, aligned.tool));
+        let first_harmonic = model.harmonics.len();
+        let joints: Vec<usize> = je
+            .harmonic_joints
+            .clone()
+            .unwrap_or_else(|| (0..dof).collect());
+        if let Some(&bad) = joints.iter().find(|&&j| j >= dof) {
+            return Err(IdentError::Compliance(format!(
+                "harmonics: joint {} does not exist: the robot has {dof} joints",
+                bad + 1
+            )));
+        }
+        model = model.with_harmonics(&joints, je.harmonics);
+        for i in first_harmonic..model.harmonics.len() {
+            params.push(ErrorParam::HarmonicSin(i));
+            params.push(ErrorParam::HarmonicCos(i));
+        }
+        if je.self_weight {
+            let first = model.self_weight.len();
+            model = model.with_self_weight(&(0..dof).collect::<Vec<_>>(), dof);
+            params.extend((first..model.self_weight.len()).map(ErrorParam::SelfWeight));
+        }
+        start = Some(model);
+    }
+    if let Some(model) = &start {
+        columns.extend(params.iter().map(|&p| Column::of_error(model, p)));
+        problem = problem.with_joint_errors(model.clone(), params.clone());
     }
     let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
     let ident = analyse(&jac, &columns, settings.rank_tolerance);
@@ -400,7 +481,7 @@ pub fn calibrate_kinematics(
     let finite = robot.params().iter().all(|v| v.is_finite())
         && compliance
             .as_ref()
-            .is_none_or(|c| c.values.iter().all(|v| v.is_finite()));
+            .is_none_or(|c| c.params().iter().all(|&p| c.param(p).is_finite()));
     if !finite {
         return Err(IdentError::Solver {
             solver: settings.solver.name(),
@@ -513,6 +594,27 @@ pub fn calibrate_kinematics(
         }),
         _ => None,
     };
+    let joint_errors = match &compliance {
+        Some(model) if settings.joint_errors.is_some() => params
+            .iter()
+            .filter(|p| !matches!(p, ErrorParam::Compliance(_)))
+            .map(|&p| {
+                let column = Column::of_error(model, p);
+                ErrorTermReport {
+                    name: model.param_name(p),
+                    unit: if matches!(p, ErrorParam::SelfWeight(_)) {
+                        "deg per basis unit"
+                    } else {
+                        "deg"
+                    },
+                    value: model.param(p).to_degrees(),
+                    std: std_of(column).map(f64::to_degrees),
+                    identified: kept.contains(&column),
+                }
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
     Ok(KinematicCalibration {
         robot,
         compliance,
@@ -533,6 +635,7 @@ pub fn calibrate_kinematics(
             condition_number: ident.condition_number,
             observability_index: ident.observability_index,
             compliance: compliance_report,
+            joint_errors,
             warnings,
         },
     })

@@ -4,7 +4,7 @@
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
-use robocal_robot::{JointField, ParamId};
+use robocal_robot::{ErrorParam, JointErrors, JointField, MomentPart, ParamId};
 
 /// Result of [`analyse`].
 #[derive(Debug, Clone, PartialEq)]
@@ -27,6 +27,43 @@ pub enum Column {
     Param(ParamId),
     /// The compliance of a joint (0-based).
     Compliance(usize),
+    /// A transmission harmonic's sine (`cos: false`) or cosine coefficient.
+    Harmonic {
+        /// 0-based joint.
+        joint: usize,
+        /// Order.
+        order: u32,
+        /// The cosine coefficient.
+        cos: bool,
+    },
+    /// A self-weight coefficient.
+    SelfWeight {
+        /// 0-based joint that deflects.
+        joint: usize,
+        /// 0-based link whose weight.
+        body: usize,
+        /// Which unit quantity.
+        part: MomentPart,
+    },
+}
+
+impl Column {
+    /// The column of a joint-error coefficient of `errors`.
+    pub fn of_error(errors: &JointErrors, p: ErrorParam) -> Self {
+        match p {
+            ErrorParam::Compliance(j) => Self::Compliance(j),
+            ErrorParam::HarmonicSin(i) | ErrorParam::HarmonicCos(i) => Self::Harmonic {
+                joint: errors.harmonics[i].joint,
+                order: errors.harmonics[i].order,
+                cos: matches!(p, ErrorParam::HarmonicCos(_)),
+            },
+            ErrorParam::SelfWeight(i) => Self::SelfWeight {
+                joint: errors.self_weight[i].joint,
+                body: errors.self_weight[i].body,
+                part: errors.self_weight[i].part,
+            },
+        }
+    }
 }
 
 impl From<ParamId> for Column {
@@ -40,6 +77,15 @@ impl std::fmt::Display for Column {
         match self {
             Self::Param(id) => id.fmt(f),
             Self::Compliance(j) => write!(f, "j{}.compliance", j + 1),
+            Self::Harmonic { joint, order, cos } => write!(
+                f,
+                "j{}.h{order}.{}",
+                joint + 1,
+                if *cos { "cos" } else { "sin" }
+            ),
+            Self::SelfWeight { joint, body, part } => {
+                write!(f, "j{}.sw{}.{}", joint + 1, body + 1, part.name())
+            }
         }
     }
 }
@@ -51,6 +97,12 @@ fn priority(column: Column) -> (usize, usize, usize) {
     let id = match column {
         Column::Param(id) => id,
         Column::Compliance(j) => return (3, j, 0),
+        Column::Harmonic { joint, order, cos } => {
+            return (4, joint, 2 * order as usize + usize::from(cos));
+        }
+        Column::SelfWeight { joint, body, part } => {
+            return (5, joint, 4 * body + part as usize);
+        }
     };
     match id {
         ParamId::Base(a) => (0, 0, a),

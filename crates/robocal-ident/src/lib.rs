@@ -22,9 +22,10 @@ pub mod registration;
 pub mod stage;
 
 pub use calibrate::{
-    ComplianceReport, ComplianceSettings, FixedParameter, ILL_CONDITIONED, JointCompliance,
-    KinematicCalibration, KinematicReport, KinematicSettings, POOR_FIT, ParameterReport,
-    SolverKind, TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints,
+    ComplianceReport, ComplianceSettings, ErrorTermReport, FixedParameter, ILL_CONDITIONED,
+    JointCompliance, JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings,
+    POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align, calibrate_kinematics,
+    default_compliance_joints,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};
@@ -33,4 +34,4 @@ pub use problem::{
     BestPoint, CalibrationProblem, LeastSquares, MeanDistance, Observations, select,
 };
 pub use registration::{kabsch, register_base};
-pub use stage::{RawComplianceStage, RawKinematicStage};
+pub use stage::{RawComplianceStage, RawJointErrorStage, RawKinematicStage};

@@ -11,7 +11,7 @@ use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Opera
 use faer::Mat;
 use nalgebra::{DMatrix, Vector3};
 use robocal_data::MeasurementSet;
-use robocal_robot::{Compliance, ParamId, Robot};
+use robocal_robot::{Compliance, ErrorParam, JointErrors, ParamId, Robot};
 
 /// Measured points with their joint readings and loads.
 #[derive(Debug, Clone, PartialEq)]
@@ -116,13 +116,13 @@ pub struct CalibrationProblem<'a> {
     obs: &'a Observations,
 }
 
-/// The compliance part of a problem.
+/// The joint-error part of a problem.
 #[derive(Debug, Clone)]
 struct ComplianceFit {
-    /// Values at `u = 0` (and gravity and payload), rad/(N·m).
-    start: Compliance,
-    /// Joints (0-based) whose compliance is identified.
-    joints: Vec<usize>,
+    /// The model at `u = 0` (and gravity and payload).
+    start: JointErrors,
+    /// Its coefficients that are identified.
+    params: Vec<ErrorParam>,
 }
 
 /// Scale of each column from its RMS length per point: `1 / norm`, or 1 for a column that is
@@ -166,19 +166,28 @@ impl<'a> CalibrationProblem<'a> {
     /// The same problem with the compliances of `joints` (0-based) identified too, starting
     /// from `start`; their columns are scaled like the geometric ones (unit RMS per point),
     /// independently of the geometric scales.
-    pub fn with_compliance(mut self, start: Compliance, joints: Vec<usize>) -> Self {
+    pub fn with_compliance(self, start: Compliance, joints: Vec<usize>) -> Self {
+        let params = joints.into_iter().map(ErrorParam::Compliance).collect();
+        self.with_joint_errors(start, params)
+    }
+
+    /// The same problem with the joint-error coefficients `params` of `start` identified too
+    /// (compliances, harmonics, self-weight terms), starting from `start`'s values; their
+    /// columns are scaled like the geometric ones (unit RMS per point).
+    pub fn with_joint_errors(mut self, start: JointErrors, params: Vec<ErrorParam>) -> Self {
         let m = self.obs.len().max(1) as f64;
-        let mut sums = vec![0.0; joints.len()];
+        let mut sums = vec![0.0; params.len()];
         for i in 0..self.obs.len() {
-            let (_, jac) = start.jacobian(&self.robot, self.obs.joints(i), self.obs.loads[i]);
-            for (sum, &j) in sums.iter_mut().zip(&joints) {
-                *sum += jac.column(j).norm_squared();
+            let (_, jac) =
+                start.param_jacobian(&self.robot, self.obs.joints(i), self.obs.loads[i], &params);
+            for (k, sum) in sums.iter_mut().enumerate() {
+                *sum += jac.column(k).norm_squared();
             }
         }
         let norms: Vec<f64> = sums.iter().map(|s| (s / m).sqrt()).collect();
         self.scale.truncate(self.selected.len());
         self.scale.extend(column_scales(&norms));
-        self.compliance = Some(ComplianceFit { start, joints });
+        self.compliance = Some(ComplianceFit { start, params });
         self
     }
 
@@ -188,9 +197,9 @@ impl<'a> CalibrationProblem<'a> {
         let ng = self.selected.len();
         let compliance = self.compliance.as_ref().map(|c| ComplianceFit {
             start: c.start.clone(),
-            joints: (positions.iter())
+            params: (positions.iter())
                 .filter(|&&p| p >= ng)
-                .map(|&p| c.joints[p - ng])
+                .map(|&p| c.params[p - ng])
                 .collect(),
         });
         let mut order: Vec<usize> = positions.iter().copied().filter(|&p| p < ng).collect();
@@ -213,9 +222,9 @@ impl<'a> CalibrationProblem<'a> {
         &self.selected
     }
 
-    /// Joints (0-based) whose compliance is identified (empty for a rigid problem).
-    pub fn compliance_joints(&self) -> &[usize] {
-        self.compliance.as_ref().map_or(&[], |c| &c.joints)
+    /// The joint-error coefficients identified (empty for a rigid problem).
+    pub fn error_params(&self) -> &[ErrorParam] {
+        self.compliance.as_ref().map_or(&[], |c| &c.params)
     }
 
     /// Number of unknowns: geometric parameters, then compliances.
@@ -255,8 +264,9 @@ impl<'a> CalibrationProblem<'a> {
         let ng = self.selected.len();
         self.compliance.as_ref().map(|c| {
             let mut model = c.start.clone();
-            for (k, &j) in c.joints.iter().enumerate() {
-                model.values[j] += self.scale[ng + k] * u[ng + k];
+            for (k, &p) in c.params.iter().enumerate() {
+                let v = model.param(p) + self.scale[ng + k] * u[ng + k];
+                model.set_param(p, v);
             }
             model
         })
@@ -284,18 +294,16 @@ impl<'a> CalibrationProblem<'a> {
         let compliance = self.compliance_at(u);
         let m = self.obs.len();
         let ng = self.selected.len();
-        let joints = self.compliance_joints();
+        let params = self.error_params();
         let mut full = DMatrix::zeros(3 * m, robot.param_count());
-        let mut cjac = DMatrix::zeros(3 * m, joints.len());
+        let mut cjac = DMatrix::zeros(3 * m, params.len());
         let mut r = Vec::with_capacity(3 * m);
         for i in 0..m {
             let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
             let p = match &compliance {
                 Some(c) => {
-                    let (_, jac) = c.jacobian(&robot, q, load);
-                    for (k, &j) in joints.iter().enumerate() {
-                        cjac.view_mut((3 * i, k), (3, 1)).copy_from(&jac.column(j));
-                    }
+                    let (_, jac) = c.param_jacobian(&robot, q, load, params);
+                    cjac.view_mut((3 * i, 0), (3, params.len())).copy_from(&jac);
                     robot.write_param_jacobian(&c.deflected(&robot, q, load), &mut full, 3 * i)
                 }
                 None => robot.write_param_jacobian(q, &mut full, 3 * i),

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::{ComplianceSettings, KinematicSettings, SolverKind};
+use crate::calibrate::{ComplianceSettings, JointErrorSettings, KinematicSettings, SolverKind};
 
 /// `[kinematic]` as written.
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
@@ -131,6 +131,64 @@ impl RawComplianceStage {
                 .map(|j| j.iter().map(|j| j + 1).collect()),
             gravity: Some(settings.gravity.into()),
             payload_com: settings.payload_com.map(Into::into),
+        }
+    }
+}
+
+/// `[joint_errors]` as written: transmission harmonics and self-weight terms identified with the
+/// geometry (the kinematic stage's solver and rows).
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawJointErrorStage {
+    /// Highest harmonic order per joint (default 2; 0: none).
+    pub harmonics: Option<u32>,
+    /// Joints (counted from 1) with harmonics; absent: every joint.
+    pub joints: Option<Vec<usize>>,
+    /// Self-weight terms (default false).
+    pub self_weight: Option<bool>,
+}
+
+/// Highest harmonic order a stage may ask for.
+pub const MAX_HARMONICS: u32 = 8;
+
+impl RawJointErrorStage {
+    /// Validates into settings; errors name the key.
+    pub fn validate(&self) -> Result<JointErrorSettings, (String, String)> {
+        let mut s = JointErrorSettings::default();
+        if let Some(h) = self.harmonics {
+            if h > MAX_HARMONICS {
+                return Err((
+                    "joint_errors.harmonics".into(),
+                    format!("at most {MAX_HARMONICS}"),
+                ));
+            }
+            s.harmonics = h;
+        }
+        if let Some(joints) = &self.joints {
+            if joints.is_empty() || joints.contains(&0) {
+                return Err((
+                    "joint_errors.joints".into(),
+                    "lists joints counted from 1, at least one".into(),
+                ));
+            }
+            let mut sorted = joints.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            if sorted.len() != joints.len() {
+                return Err(("joint_errors.joints".into(), "names a joint twice".into()));
+            }
+            s.harmonic_joints = Some(sorted.iter().map(|j| j - 1).collect());
+        }
+        s.self_weight = self.self_weight.unwrap_or(false);
+        Ok(s)
+    }
+
+    /// The table that gives `settings` back.
+    pub fn from_settings(settings: &JointErrorSettings) -> Self {
+        Self {
+            harmonics: Some(settings.harmonics),
+            joints: (settings.harmonic_joints.as_ref()).map(|j| j.iter().map(|j| j + 1).collect()),
+            self_weight: Some(settings.self_weight),
         }
     }
 }

@@ -18,7 +18,8 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, Sample};
 use robocal_ident::{
-    ComplianceSettings, KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics,
+    ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings, Observations,
+    calibrate_kinematics,
 };
 use robocal_residual::{
     ResidualKind, ResidualModel, ResidualSettings, ResidualStage, Samples, SearchLog, inputs_of,
@@ -367,6 +368,10 @@ pub struct AutoSettings {
     /// Fewest configurations (in the data, or in each fold's training part) for which a
     /// residual model is tried.
     pub min_residual_configurations: usize,
+    /// Transmission harmonics up to this order tried with the geometry (0: not tried).
+    pub harmonics: u32,
+    /// Self-weight terms tried with the geometry.
+    pub self_weight: bool,
     /// The residual models tried, each on top of the best physical model.
     pub residuals: Vec<ResidualStage>,
     /// Seconds the selection may take: a candidate whose folds would run past it (projected
@@ -388,6 +393,8 @@ impl Default for AutoSettings {
             folds: DEFAULT_FOLDS,
             seed,
             min_residual_configurations: 40,
+            harmonics: 2,
+            self_weight: true,
             residuals: vec![
                 ResidualStage {
                     settings: ResidualSettings::gp(seed),
@@ -468,45 +475,132 @@ pub fn folds(rows: &[&Measurement], k: usize, seed: u64) -> (Vec<usize>, usize) 
 
 /// The physical part of a candidate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Physics {
-    /// The nominal table with base and tool fitted.
-    Aligned,
-    /// Kinematic identification (LM).
-    Rigid,
-    /// Kinematic identification with joint compliances.
-    Elastic,
+struct Physics {
+    /// Only base and tool fitted to the nominal table.
+    aligned: bool,
+    /// Joint compliances under the payload.
+    compliance: bool,
+    /// Transmission harmonics up to this order.
+    harmonics: u32,
+    /// Self-weight terms.
+    self_weight: bool,
 }
 
 impl Physics {
-    fn name(self) -> &'static str {
-        match self {
-            Self::Aligned => "nominal (base and tool fitted)",
-            Self::Rigid => "kinematic",
-            Self::Elastic => "kinematic + compliance",
+    const ALIGNED: Self = Self {
+        aligned: true,
+        compliance: false,
+        harmonics: 0,
+        self_weight: false,
+    };
+    const RIGID: Self = Self {
+        aligned: false,
+        ..Self::ALIGNED
+    };
+
+    fn name(self) -> String {
+        if self.aligned {
+            return "nominal (base and tool fitted)".into();
         }
+        let mut name = String::from("kinematic");
+        if self.compliance {
+            name += " + compliance";
+        }
+        if self.harmonics > 0 {
+            name += &format!(" + harmonics {}", self.harmonics);
+        }
+        if self.self_weight {
+            name += " + self-weight";
+        }
+        name
     }
 
     fn settings(self) -> KinematicSettings {
-        match self {
-            Self::Elastic => KinematicSettings {
-                compliance: Some(ComplianceSettings::default()),
-                ..KinematicSettings::default()
-            },
-            _ => KinematicSettings::default(),
+        KinematicSettings {
+            compliance: self.compliance.then(ComplianceSettings::default),
+            joint_errors: (self.harmonics > 0 || self.self_weight).then(|| JointErrorSettings {
+                harmonics: self.harmonics,
+                self_weight: self.self_weight,
+                ..JointErrorSettings::default()
+            }),
+            ..KinematicSettings::default()
         }
     }
 
     /// The predictor of this physics from the identification that made it.
     fn predictor(self, fit: &KinematicCalibration) -> Predictor {
-        match self {
-            Self::Aligned => Predictor {
+        if self.aligned {
+            Predictor {
                 robot: fit.aligned.clone(),
                 compliance: None,
                 residual: None,
-            },
-            _ => Predictor::kinematic(fit),
+            }
+        } else {
+            Predictor::kinematic(fit)
         }
     }
+}
+
+/// A physical candidate scored on every fold.
+struct Scored {
+    physics: Physics,
+    /// Held-out statistics (none when a fold's fit failed).
+    stats: Option<ErrorStats>,
+    /// The fitted model of each fold.
+    fitted: Vec<Option<Predictor>>,
+}
+
+/// Fits `physics` on every fold and scores it on the fold's held-out rows.
+fn score_physics(
+    physics: Physics,
+    nominal: &Robot,
+    splits: &[Fold<'_>],
+    candidates: &mut Vec<Candidate>,
+    say: &mut dyn FnMut(&str),
+) -> Scored {
+    let t = std::time::Instant::now();
+    let kinematic = physics.settings();
+    let mut held = Vec::new();
+    let mut fitted = Vec::new();
+    let mut failure = None;
+    for fold in splits {
+        match fit_kinematic(nominal, &fold.train, &kinematic) {
+            Ok(fit) => {
+                let model = physics.predictor(&fit);
+                held.extend(errors(&model, &fold.test));
+                fitted.push(Some(model));
+            }
+            Err(e) => {
+                failure = Some(format!("skipped: {e}"));
+                fitted.push(None);
+            }
+        }
+    }
+    let stats = failure.is_none().then(|| ErrorStats::from_errors(&held));
+    let c = Candidate {
+        name: physics.name(),
+        held_out: stats,
+        seconds: t.elapsed().as_secs_f64(),
+        status: failure.unwrap_or_else(|| "evaluated".into()),
+    };
+    report(&c, say);
+    candidates.push(c);
+    Scored {
+        physics,
+        stats,
+        fitted,
+    }
+}
+
+/// Says a candidate's held-out numbers, or why it was skipped.
+fn report(c: &Candidate, say: &mut dyn FnMut(&str)) {
+    say(&match &c.held_out {
+        Some(h) => format!(
+            "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({:.1} s)",
+            c.name, h.mean, h.max, c.seconds
+        ),
+        None => format!("candidate {}: {}", c.name, c.status),
+    });
 }
 
 /// One split of the rows: fitted on `train`, scored on `test`.
@@ -598,83 +692,76 @@ pub fn automatic(
     };
     let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
     let mut candidates: Vec<Candidate> = Vec::new();
-    fn report(c: &Candidate, say: &mut dyn FnMut(&str)) {
-        say(&match &c.held_out {
-            Some(h) => format!(
-                "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({:.1} s)",
-                c.name, h.mean, h.max, c.seconds
-            ),
-            None => format!("candidate {}: {}", c.name, c.status),
-        });
-    }
 
-    // The physical models: one rigid identification per fold gives the aligned and the
-    // identified tables; the elastic one needs two loads.
+    // The physical models, each scored on every fold: the nominal table, the identified one,
+    // with compliances (two or more loads); then, on the better identified one, transmission
+    // harmonics, then self-weight terms, each kept for the next step only if it lowers the
+    // held-out error.
     let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
     loads.sort_by(f64::total_cmp);
     loads.dedup();
-    let mut physics = vec![Physics::Aligned, Physics::Rigid];
+    let mut scored = vec![
+        score_physics(Physics::ALIGNED, nominal, &splits, &mut candidates, say),
+        score_physics(Physics::RIGID, nominal, &splits, &mut candidates, say),
+    ];
     let mut compliance_skip = None;
     if loads.len() >= 2 {
-        physics.push(Physics::Elastic);
+        let elastic = Physics {
+            compliance: true,
+            ..Physics::RIGID
+        };
+        scored.push(score_physics(
+            elastic,
+            nominal,
+            &splits,
+            &mut candidates,
+            say,
+        ));
     } else {
         compliance_skip = Some(format!(
             "skipped: the data hold one load ({} kg); compliance needs two or more",
             loads.first().copied().unwrap_or(0.0)
         ));
     }
-    // Per fold, the fitted physical predictors (None: that fit failed on this fold).
-    let mut fitted: Vec<Vec<Option<Predictor>>> = vec![Vec::new(); splits.len()];
-    let mut held: Vec<Vec<f64>> = vec![Vec::new(); physics.len()];
-    let mut failure: Vec<Option<String>> = vec![None; physics.len()];
-    let mut seconds = vec![0.0; physics.len()];
-    for (f, fold) in splits.iter().enumerate() {
-        let t = std::time::Instant::now();
-        let rigid = fit_kinematic(nominal, &fold.train, &Physics::Rigid.settings())?;
-        let rigid_time = t.elapsed().as_secs_f64();
-        for (p, kind) in physics.iter().enumerate() {
-            let t = std::time::Instant::now();
-            let model = match kind {
-                Physics::Aligned | Physics::Rigid => Some(kind.predictor(&rigid)),
-                Physics::Elastic => match fit_kinematic(nominal, &fold.train, &kind.settings()) {
-                    Ok(fit) => Some(kind.predictor(&fit)),
-                    Err(e) => {
-                        failure[p] = Some(format!("skipped: {e}"));
-                        None
-                    }
-                },
-            };
-            seconds[p] +=
-                t.elapsed().as_secs_f64() + rigid_time * f64::from(*kind != Physics::Elastic) / 2.0;
-            if let Some(m) = &model {
-                held[p].extend(errors(m, &fold.test));
-            }
-            fitted[f].push(model);
-        }
-    }
-    let mut physics_stats: Vec<Option<ErrorStats>> = Vec::new();
-    for (p, kind) in physics.iter().enumerate() {
-        let stats = failure[p]
-            .is_none()
-            .then(|| ErrorStats::from_errors(&held[p]));
-        let c = Candidate {
-            name: kind.name().to_string(),
-            held_out: stats,
-            seconds: seconds[p],
-            status: failure[p].clone().unwrap_or_else(|| "evaluated".into()),
-        };
-        report(&c, say);
-        candidates.push(c);
-        physics_stats.push(stats);
-    }
-    let mean_at = |p: usize| physics_stats[p].as_ref().map_or(f64::INFINITY, |s| s.mean);
-    let lowest = |among: &mut dyn Iterator<Item = usize>| {
-        among.min_by(|&a, &b| mean_at(a).total_cmp(&mean_at(b)))
+    let mean_at = |s: &Scored| s.stats.as_ref().map_or(f64::INFINITY, |s| s.mean);
+    let best_identified = |scored: &[Scored]| {
+        (0..scored.len())
+            .filter(|&i| !scored[i].physics.aligned)
+            .min_by(|&a, &b| mean_at(&scored[a]).total_cmp(&mean_at(&scored[b])))
+            .unwrap_or(0)
     };
-    let best_physics = lowest(&mut (0..physics.len())).unwrap_or(0);
+    for step in [
+        Physics {
+            harmonics: settings.harmonics,
+            ..Physics::RIGID
+        },
+        Physics {
+            self_weight: settings.self_weight,
+            ..Physics::RIGID
+        },
+    ] {
+        if step.harmonics == 0 && !step.self_weight {
+            continue;
+        }
+        let base = scored[best_identified(&scored)].physics;
+        let next = Physics {
+            harmonics: base.harmonics.max(step.harmonics),
+            self_weight: base.self_weight || step.self_weight,
+            ..base
+        };
+        scored.push(score_physics(next, nominal, &splits, &mut candidates, say));
+    }
+    let physics: Vec<Physics> = scored.iter().map(|s| s.physics).collect();
+    let physics_stats: Vec<Option<ErrorStats>> = scored.iter().map(|s| s.stats).collect();
+    let fitted: Vec<Vec<Option<Predictor>>> = (0..splits.len())
+        .map(|f| scored.iter().map(|s| s.fitted[f].clone()).collect())
+        .collect();
+    let mean_at = |p: usize| mean_at(&scored[p]);
+    let best_physics = (0..scored.len())
+        .min_by(|&a, &b| mean_at(a).total_cmp(&mean_at(b)))
+        .unwrap_or(0);
     // Residual models learn what an identified model leaves: the best identified one.
-    let base_physics = lowest(&mut (0..physics.len()).filter(|&p| physics[p] != Physics::Aligned))
-        .unwrap_or(best_physics);
+    let base_physics = best_identified(&scored);
 
     // Residual models on top of the best physics.
     let fewest = splits
@@ -757,12 +844,12 @@ pub fn automatic(
         None => (best_physics, physics[best_physics]),
     };
     candidates[winner].status = "chosen".into();
-    let mean_of = |p: Physics| {
-        physics
-            .iter()
-            .position(|k| *k == p)
-            .and_then(|i| physics_stats[i].as_ref())
-            .map(|s| s.mean)
+    // The lowest held-out mean among the physical candidates `which` accepts.
+    let best_where = |which: &dyn Fn(&Physics) -> bool| {
+        (0..physics.len())
+            .filter(|&i| which(&physics[i]))
+            .filter_map(|i| physics_stats[i].as_ref().map(|s| s.mean))
+            .min_by(f64::total_cmp)
     };
     let mut decisions = Vec::new();
     let decision =
@@ -784,34 +871,52 @@ pub fn automatic(
         };
     decisions.push(decision(
         "kinematic",
-        chosen_physics != Physics::Aligned,
-        mean_of(Physics::Aligned),
-        match chosen_physics {
-            Physics::Elastic => mean_of(Physics::Elastic),
-            _ => mean_of(Physics::Rigid),
-        },
+        !chosen_physics.aligned,
+        best_where(&|p| p.aligned),
+        best_where(&|p| !p.aligned),
         "the identified table (LM, identifiable parameters)",
     ));
-    decisions.push(match (&compliance_skip, mean_of(Physics::Elastic)) {
+    let has_errors = |p: &Physics| p.harmonics > 0 || p.self_weight;
+    decisions.push(match (&compliance_skip, best_where(&|p| p.compliance)) {
         (Some(why), _) => decision("compliance", false, None, None, why),
         (None, None) => decision(
             "compliance",
             false,
             None,
             None,
-            physics
-                .iter()
-                .position(|k| *k == Physics::Elastic)
-                .and_then(|i| failure[i].clone())
-                .as_deref()
-                .unwrap_or("skipped"),
+            &(candidates.iter())
+                .find(|c| c.name == "kinematic + compliance")
+                .map_or("skipped".to_string(), |c| c.status.clone()),
         ),
         (None, Some(with)) => decision(
             "compliance",
-            chosen_physics == Physics::Elastic,
-            mean_of(Physics::Rigid).map(|r| r.min(mean_of(Physics::Aligned).unwrap_or(r))),
+            chosen_physics.compliance,
+            best_where(&|p| !p.aligned && !p.compliance),
             Some(with),
             "joint compliances identified with the geometry on every load",
+        ),
+    });
+    decisions.push(match best_where(&has_errors) {
+        None => decision(
+            "joint_errors",
+            false,
+            None,
+            None,
+            "not tried (no harmonics or self-weight in the settings), or every fit failed",
+        ),
+        Some(with) => decision(
+            "joint_errors",
+            has_errors(&chosen_physics),
+            best_where(&|p| !p.aligned && !has_errors(p)),
+            Some(with),
+            &format!(
+                "transmission harmonics{} identified with the geometry",
+                if settings.self_weight {
+                    " and self-weight terms"
+                } else {
+                    ""
+                }
+            ),
         ),
     });
     decisions.push(match best_residual {
@@ -860,7 +965,7 @@ pub fn automatic(
         say("fitting the chosen model again on every row");
     }
     let mut built = configured(&stages, nominal, rows, validation.clone(), bar)?;
-    if chosen_physics == Physics::Aligned {
+    if chosen_physics.aligned {
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
     }

@@ -74,6 +74,9 @@ pub struct RawModel {
     pub kinematic: Option<robocal_ident::RawKinematicStage>,
     /// `[model.compliance]`, as in a stage config (absent: a rigid arm).
     pub compliance: Option<robocal_ident::RawComplianceStage>,
+    /// `[model.joint_errors]`, as in a stage config (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_errors: Option<robocal_ident::RawJointErrorStage>,
     /// `[model.residual]`, as in a stage config (absent: none).
     pub residual: Option<robocal_residual::RawResidualStage>,
 }
@@ -299,6 +302,7 @@ impl RawExperiment {
             let stages = RawStages {
                 kinematic: m.kinematic.clone(),
                 compliance: m.compliance.clone(),
+                joint_errors: m.joint_errors.clone(),
                 residual: m.residual.clone(),
             }
             .validate(Some(seed))
@@ -384,6 +388,10 @@ impl Experiment {
                             .compliance
                             .as_ref()
                             .map(robocal_ident::RawComplianceStage::from_settings),
+                        joint_errors: k
+                            .joint_errors
+                            .as_ref()
+                            .map(robocal_ident::RawJointErrorStage::from_settings),
                         residual: m.stages.residual.as_ref().map(|r| {
                             let s = &r.settings;
                             robocal_residual::RawResidualStage {

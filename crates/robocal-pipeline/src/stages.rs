@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use robocal_ident::{KinematicSettings, RawComplianceStage, RawKinematicStage};
+use robocal_ident::{KinematicSettings, RawComplianceStage, RawJointErrorStage, RawKinematicStage};
 use robocal_residual::{RawResidualStage, ResidualStage};
 use serde::Deserialize;
 
@@ -19,6 +19,9 @@ pub struct RawStages {
     /// `[compliance]`; absent: a rigid arm. Present: joint compliances are identified with the
     /// geometry, on the points of every load.
     pub compliance: Option<RawComplianceStage>,
+    /// `[joint_errors]`; absent: none. Present: transmission harmonics (and, if asked,
+    /// self-weight terms) are identified with the geometry.
+    pub joint_errors: Option<RawJointErrorStage>,
     /// `[residual]`; absent: no residual model.
     pub residual: Option<RawResidualStage>,
 }
@@ -42,6 +45,14 @@ impl RawStages {
             .as_ref()
             .map(RawComplianceStage::validate)
             .transpose()?;
+        kinematic.joint_errors = self
+            .joint_errors
+            .as_ref()
+            .map(RawJointErrorStage::validate)
+            .transpose()?;
+        if let (Some(je), Some(c)) = (&mut kinematic.joint_errors, &kinematic.compliance) {
+            je.gravity = c.gravity;
+        }
         let residual = match &self.residual {
             None => None,
             Some(raw) => {

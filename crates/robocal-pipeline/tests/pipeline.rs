@@ -304,10 +304,12 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         .iter()
         .map(|c| c.name.as_str())
         .collect();
-    assert_eq!(names.len(), 5, "{names:?}");
+    assert_eq!(names.len(), 7, "{names:?}");
     assert_eq!(names[1], "kinematic");
+    assert!(names[3].contains("+ harmonics 2"), "{names:?}");
+    assert!(names[4].ends_with("+ self-weight"), "{names:?}");
     assert!(
-        names[3].ends_with("+ gp") && names[4].ends_with("+ somm"),
+        names[5].ends_with("+ gp") && names[6].ends_with("+ somm"),
         "{names:?}"
     );
     // The kinematic candidate's held-out mean is the rigid identification's error on each
@@ -353,10 +355,25 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     }
     // What was chosen is what the model holds, fitted on every row.
     let with_compliance = chosen[0].name.contains("compliance");
-    assert_eq!(built.kinematic.compliance.is_some(), with_compliance);
+    let with_errors =
+        chosen[0].name.contains("harmonics") || chosen[0].name.contains("self-weight");
+    assert_eq!(
+        built.kinematic.compliance.is_some(),
+        with_compliance || with_errors
+    );
+    assert_eq!(built.kinematic.report.compliance.is_some(), with_compliance);
+    assert_eq!(!built.kinematic.report.joint_errors.is_empty(), with_errors);
     let residual = chosen[0].name.ends_with("gp") || chosen[0].name.ends_with("somm");
     assert_eq!(built.residual.is_some(), residual);
-    assert_eq!(selection.decisions[2].kept, residual);
+    let kept = |stage: &str| {
+        (selection.decisions.iter())
+            .find(|d| d.stage == stage)
+            .unwrap()
+            .kept
+    };
+    assert_eq!(kept("residual"), residual);
+    assert_eq!(kept("joint_errors"), with_errors);
+    assert_eq!(kept("compliance"), with_compliance);
     if with_compliance {
         assert_eq!(built.kinematic.report.points, rows.len());
     }

@@ -1,4 +1,16 @@
-//! Joint compliance under the payload: the elasto-geometric part of a calibrated model.
+//! Joint errors: how far each joint really turns from its reading, the non-geometric physics of
+//! a calibrated model. One family, [`JointErrors`], of terms that are each a known function of
+//! the command and the load times an identified coefficient:
+//!
+//! - **compliance under the payload** (below);
+//! - **transmission error**: Fourier harmonics of the joint's own angle,
+//!   `Δq_i = Σ_k s_ik sin(k q_i) + c_ik cos(k q_i)` ([`Harmonic`]);
+//! - **self-weight compliance**: the joint's deflection under the gravity torque of the links
+//!   beyond it. The links' masses and centres of mass and the joint's compliance combine into
+//!   coefficients of the torques that a unit mass at each link frame's origin, and a unit first
+//!   moment along each of its axes, would put on the joint ([`SelfWeight`]); which of these the
+//!   poses can separate (from each other and from the geometry) the identifiability analysis
+//!   decides. It needs no payload: one load is enough.
 //!
 //! A joint whose gear and bearings give under torque turns by `compliance × torque`. The torque
 //! that changes with the payload is gravity's on the payload's centre of mass,
@@ -6,9 +18,8 @@
 //! centre of mass (world frame). The model's point for a command `q` under `m` kg is the rigid
 //! table's point at `q + compliance ∘ τ(q, m)`: with no load it is the rigid table.
 //!
-//! The torques of the links' own masses do not change with the payload; their deflections are a
-//! smooth function of the configuration that the geometric parameters absorb, so they are not
-//! modelled here.
+//! Every term is evaluated at the command `q`, and the model's point is the rigid table's at
+//! `q + Δq(q, m)`.
 //!
 //! ```
 //! use robocal_robot::{Compliance, Robot};
@@ -39,15 +50,89 @@ use crate::table::{Robot, toml_error};
 /// Degrees per kN·m in radians per N·m: the file unit of a compliance.
 pub const DEG_PER_KNM: f64 = std::f64::consts::PI / 180.0 / 1000.0;
 
-/// Joint compliances under the payload's gravity torque.
+/// The joint-error model: compliances under the payload's gravity torque, transmission
+/// harmonics and self-weight terms.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Compliance {
-    /// Compliance of each joint, rad/(N·m); 0 for a joint taken as rigid.
+pub struct JointErrors {
+    /// Compliance of each joint under the payload, rad/(N·m); 0 for a joint taken as rigid.
     pub values: Vec<f64>,
     /// Gravity in the robot's base frame {0}, m/s².
     pub gravity: Vector3<f64>,
     /// The payload's centre of mass in the flange frame, mm.
     pub payload_com: Vector3<f64>,
+    /// Transmission harmonics.
+    pub harmonics: Vec<Harmonic>,
+    /// Self-weight terms.
+    pub self_weight: Vec<SelfWeight>,
+}
+
+/// The former name of [`JointErrors`], when it held payload compliances only.
+pub type Compliance = JointErrors;
+
+/// One transmission harmonic of one joint: `Δq = sin · sin(k q) + cos · cos(k q)`, rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Harmonic {
+    /// 0-based joint.
+    pub joint: usize,
+    /// Order `k` (1: once per turn of the joint).
+    pub order: u32,
+    /// Sine coefficient, rad.
+    pub sin: f64,
+    /// Cosine coefficient, rad.
+    pub cos: f64,
+}
+
+/// Which unit quantity of a link a self-weight term weighs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MomentPart {
+    /// A unit mass at the link frame's origin: basis N·m per kg.
+    Mass,
+    /// A unit first moment (1 kg·m) along the link frame's x axis: basis N·m per kg·m.
+    X,
+    /// Along y.
+    Y,
+    /// Along z.
+    Z,
+}
+
+impl MomentPart {
+    /// Name in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mass => "mass",
+            Self::X => "x",
+            Self::Y => "y",
+            Self::Z => "z",
+        }
+    }
+}
+
+/// One self-weight term: `Δq_joint = value × φ`, with `φ` the gravity torque about the joint's
+/// axis of the unit quantity `part` of link `body` (N·m per kg, or per kg·m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SelfWeight {
+    /// 0-based joint that deflects.
+    pub joint: usize,
+    /// 0-based link (moved by joint `body`), `body >= joint`.
+    pub body: usize,
+    /// Which unit quantity.
+    pub part: MomentPart,
+    /// Coefficient, rad per basis unit (compliance × the link's mass or moment).
+    pub value: f64,
+}
+
+/// One coefficient of a [`JointErrors`] model, as an unknown of an identification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ErrorParam {
+    /// The payload compliance of a joint (0-based).
+    Compliance(usize),
+    /// The sine coefficient of `harmonics[i]`.
+    HarmonicSin(usize),
+    /// The cosine coefficient of `harmonics[i]`.
+    HarmonicCos(usize),
+    /// The coefficient of `self_weight[i]`.
+    SelfWeight(usize),
 }
 
 impl Robot {
@@ -78,16 +163,224 @@ pub struct RawCompliance {
     pub payload_com: [f64; 3],
     /// One per joint, deg per kN·m (0: rigid).
     pub compliance: Vec<f64>,
+    /// Transmission harmonics.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub harmonic: Vec<RawHarmonic>,
+    /// Self-weight terms.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub self_weight: Vec<RawSelfWeight>,
 }
 
-impl Compliance {
-    /// A compliance model; `values` in rad/(N·m), one per joint.
+/// `[[harmonic]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawHarmonic {
+    /// Joint, counted from 1.
+    pub joint: usize,
+    /// Order k.
+    pub order: u32,
+    /// Sine coefficient, deg.
+    pub sin: f64,
+    /// Cosine coefficient, deg.
+    pub cos: f64,
+}
+
+/// `[[self_weight]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSelfWeight {
+    /// Joint that deflects, counted from 1.
+    pub joint: usize,
+    /// Link whose weight, counted from 1 (link i moves with joint i), at least `joint`.
+    pub body: usize,
+    /// `mass`, `x`, `y` or `z`.
+    pub part: MomentPart,
+    /// Coefficient, deg per basis unit (N·m per kg for `mass`, per kg·m for the moments).
+    pub value: f64,
+}
+
+/// Highest harmonic order a file may give.
+pub const MAX_HARMONIC_ORDER: u32 = 64;
+
+impl JointErrors {
+    /// A compliance model; `values` in rad/(N·m), one per joint; no other term.
     pub fn new(values: Vec<f64>, gravity: Vector3<f64>, payload_com: Vector3<f64>) -> Self {
         Self {
             values,
             gravity,
             payload_com,
+            harmonics: Vec::new(),
+            self_weight: Vec::new(),
         }
+    }
+
+    /// Whether there is any term besides the payload compliances.
+    pub fn has_configuration_terms(&self) -> bool {
+        !self.harmonics.is_empty() || !self.self_weight.is_empty()
+    }
+
+    /// The value of one coefficient (internal units).
+    pub fn param(&self, p: ErrorParam) -> f64 {
+        match p {
+            ErrorParam::Compliance(j) => self.values[j],
+            ErrorParam::HarmonicSin(i) => self.harmonics[i].sin,
+            ErrorParam::HarmonicCos(i) => self.harmonics[i].cos,
+            ErrorParam::SelfWeight(i) => self.self_weight[i].value,
+        }
+    }
+
+    /// Sets one coefficient (internal units).
+    pub fn set_param(&mut self, p: ErrorParam, v: f64) {
+        match p {
+            ErrorParam::Compliance(j) => self.values[j] = v,
+            ErrorParam::HarmonicSin(i) => self.harmonics[i].sin = v,
+            ErrorParam::HarmonicCos(i) => self.harmonics[i].cos = v,
+            ErrorParam::SelfWeight(i) => self.self_weight[i].value = v,
+        }
+    }
+
+    /// The joint a coefficient turns.
+    pub fn joint_of(&self, p: ErrorParam) -> usize {
+        match p {
+            ErrorParam::Compliance(j) => j,
+            ErrorParam::HarmonicSin(i) | ErrorParam::HarmonicCos(i) => self.harmonics[i].joint,
+            ErrorParam::SelfWeight(i) => self.self_weight[i].joint,
+        }
+    }
+
+    /// A stable name for a coefficient: `j2.compliance`, `j3.h2.sin`, `j2.sw4.mass`.
+    pub fn param_name(&self, p: ErrorParam) -> String {
+        match p {
+            ErrorParam::Compliance(j) => format!("j{}.compliance", j + 1),
+            ErrorParam::HarmonicSin(i) | ErrorParam::HarmonicCos(i) => {
+                let h = &self.harmonics[i];
+                let which = if matches!(p, ErrorParam::HarmonicSin(_)) {
+                    "sin"
+                } else {
+                    "cos"
+                };
+                format!("j{}.h{}.{which}", h.joint + 1, h.order)
+            }
+            ErrorParam::SelfWeight(i) => {
+                let t = &self.self_weight[i];
+                format!("j{}.sw{}.{}", t.joint + 1, t.body + 1, t.part.name())
+            }
+        }
+    }
+
+    /// Every coefficient of the model, in order: compliances of every joint, then each
+    /// harmonic's sine and cosine, then the self-weight terms.
+    pub fn params(&self) -> Vec<ErrorParam> {
+        let mut out: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
+        for i in 0..self.harmonics.len() {
+            out.push(ErrorParam::HarmonicSin(i));
+            out.push(ErrorParam::HarmonicCos(i));
+        }
+        out.extend((0..self.self_weight.len()).map(ErrorParam::SelfWeight));
+        out
+    }
+
+    /// Adds harmonics of orders `1..=orders` (coefficients 0) for `joints`.
+    pub fn with_harmonics(mut self, joints: &[usize], orders: u32) -> Self {
+        for &joint in joints {
+            for order in 1..=orders {
+                self.harmonics.push(Harmonic {
+                    joint,
+                    order,
+                    sin: 0.0,
+                    cos: 0.0,
+                });
+            }
+        }
+        self
+    }
+
+    /// Adds self-weight terms (coefficients 0) for `joints`: every link from the joint's own
+    /// outwards, its mass and its three first moments.
+    pub fn with_self_weight(mut self, joints: &[usize], dof: usize) -> Self {
+        for &joint in joints {
+            for body in joint..dof {
+                for part in [
+                    MomentPart::Mass,
+                    MomentPart::X,
+                    MomentPart::Y,
+                    MomentPart::Z,
+                ] {
+                    self.self_weight.push(SelfWeight {
+                        joint,
+                        body,
+                        part,
+                        value: 0.0,
+                    });
+                }
+            }
+        }
+        self
+    }
+
+    /// The basis value `φ` of every self-weight term at command `q` (rad).
+    fn self_weight_basis(&self, robot: &Robot, q: &[f64]) -> Vec<f64> {
+        if self.self_weight.is_empty() {
+            return Vec::new();
+        }
+        let axes = robot.joint_axes(q);
+        let frames = robot.link_frames(q);
+        let g = self.gravity_world(robot);
+        self.self_weight
+            .iter()
+            .map(|t| {
+                let (w, a) = &axes.axes[t.joint];
+                let (r, o) = &frames[t.body];
+                match t.part {
+                    MomentPart::Mass => w.dot(&(o - a).cross(&g)) * 1e-3,
+                    MomentPart::X => w.dot(&r.column(0).cross(&g)),
+                    MomentPart::Y => w.dot(&r.column(1).cross(&g)),
+                    MomentPart::Z => w.dot(&r.column(2).cross(&g)),
+                }
+            })
+            .collect()
+    }
+
+    /// For each of `params`, the joint it turns and its basis value at command `q` (rad) under
+    /// `load` kg: the coefficient's deflection per unit.
+    pub fn basis(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        params: &[ErrorParam],
+    ) -> Vec<(usize, f64)> {
+        let torques = if params
+            .iter()
+            .any(|p| matches!(p, ErrorParam::Compliance(_)))
+        {
+            self.torques(robot, q, load)
+        } else {
+            Vec::new()
+        };
+        let sw = if params
+            .iter()
+            .any(|p| matches!(p, ErrorParam::SelfWeight(_)))
+        {
+            self.self_weight_basis(robot, q)
+        } else {
+            Vec::new()
+        };
+        params
+            .iter()
+            .map(|&p| match p {
+                ErrorParam::Compliance(j) => (j, torques[j]),
+                ErrorParam::HarmonicSin(i) => {
+                    let h = &self.harmonics[i];
+                    (h.joint, (f64::from(h.order) * q[h.joint]).sin())
+                }
+                ErrorParam::HarmonicCos(i) => {
+                    let h = &self.harmonics[i];
+                    (h.joint, (f64::from(h.order) * q[h.joint]).cos())
+                }
+                ErrorParam::SelfWeight(i) => (self.self_weight[i].joint, sw[i]),
+            })
+            .collect()
     }
 
     /// Gravity in the world frame of `robot`, m/s².
@@ -111,20 +404,52 @@ impl Compliance {
             .collect()
     }
 
-    /// How far each joint turns under `load` kg at command `q` (rad), rad: compliance × torque.
+    /// How far each joint turns from command `q` (rad) under `load` kg, rad: compliance ×
+    /// payload torque, plus the harmonics and the self-weight terms.
     pub fn deflection(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
         let t = self.torques(robot, q, load);
-        self.values.iter().zip(&t).map(|(c, t)| c * t).collect()
+        let mut d: Vec<f64> = self.values.iter().zip(&t).map(|(c, t)| c * t).collect();
+        for h in &self.harmonics {
+            let (s, c) = (f64::from(h.order) * q[h.joint]).sin_cos();
+            d[h.joint] += h.sin * s + h.cos * c;
+        }
+        for (t, phi) in self
+            .self_weight
+            .iter()
+            .zip(self.self_weight_basis(robot, q))
+        {
+            d[t.joint] += t.value * phi;
+        }
+        d
     }
 
     /// The joint angles the arm really takes for command `q` (rad) under `load` kg, rad.
     pub fn deflected(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
-        if load == 0.0 {
+        if load == 0.0 && !self.has_configuration_terms() {
             return q.to_vec();
         }
         (q.iter().zip(self.deflection(robot, q, load)))
             .map(|(q, d)| q + d)
             .collect()
+    }
+
+    /// Jacobian of the point with respect to each of `params` (mm per internal unit), and the
+    /// point, at command `q` under `load`: column `k` is the joint Jacobian's column of the
+    /// coefficient's joint, at the deflected angles, times its basis value.
+    pub fn param_jacobian(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        params: &[ErrorParam],
+    ) -> (Vector3<f64>, Matrix3xX<f64>) {
+        let qd = self.deflected(robot, q, load);
+        let joint = robot.joint_jacobian(&qd);
+        let mut jac = Matrix3xX::zeros(params.len());
+        for (k, (j, phi)) in self.basis(robot, q, load, params).into_iter().enumerate() {
+            jac.column_mut(k).copy_from(&(joint.column(j) * phi));
+        }
+        (robot.point(&qd), jac)
     }
 
     /// The model's target point for command `q` (rad) under `load` kg, mm, world frame.
@@ -175,10 +500,59 @@ impl Compliance {
         if raw.gravity.iter().all(|g| *g == 0.0) {
             return Err(invalid("gravity", "must not be zero".into()));
         }
+        let mut harmonics = Vec::with_capacity(raw.harmonic.len());
+        for (i, h) in raw.harmonic.iter().enumerate() {
+            let key = format!("harmonic[{}]", i + 1);
+            if !(1..=dof).contains(&h.joint) {
+                return Err(invalid(
+                    &key,
+                    format!("joint {} of a robot with {dof} joints", h.joint),
+                ));
+            }
+            if !(1..=MAX_HARMONIC_ORDER).contains(&h.order) {
+                return Err(invalid(
+                    &key,
+                    format!("order must lie in 1..={MAX_HARMONIC_ORDER}"),
+                ));
+            }
+            if !(h.sin.is_finite() && h.cos.is_finite()) {
+                return Err(invalid(&key, "sin and cos must be finite numbers".into()));
+            }
+            harmonics.push(Harmonic {
+                joint: h.joint - 1,
+                order: h.order,
+                sin: h.sin.to_radians(),
+                cos: h.cos.to_radians(),
+            });
+        }
+        let mut self_weight = Vec::with_capacity(raw.self_weight.len());
+        for (i, t) in raw.self_weight.iter().enumerate() {
+            let key = format!("self_weight[{}]", i + 1);
+            if !(1..=dof).contains(&t.joint) || !(t.joint..=dof).contains(&t.body) {
+                return Err(invalid(
+                    &key,
+                    format!(
+                        "joint {} and body {}: both 1..={dof}, the body at or beyond the joint",
+                        t.joint, t.body
+                    ),
+                ));
+            }
+            if !t.value.is_finite() {
+                return Err(invalid(&key, "value must be a finite number".into()));
+            }
+            self_weight.push(SelfWeight {
+                joint: t.joint - 1,
+                body: t.body - 1,
+                part: t.part,
+                value: t.value.to_radians(),
+            });
+        }
         Ok(Self {
             values: raw.compliance.iter().map(|c| c * DEG_PER_KNM).collect(),
             gravity: Vector3::from(raw.gravity),
             payload_com: Vector3::from(raw.payload_com),
+            harmonics,
+            self_weight,
         })
     }
 
@@ -198,12 +572,35 @@ impl Compliance {
             gravity: self.gravity.into(),
             payload_com: self.payload_com.into(),
             compliance: self.values.iter().map(|c| c / DEG_PER_KNM).collect(),
+            harmonic: (self.harmonics.iter())
+                .map(|h| RawHarmonic {
+                    joint: h.joint + 1,
+                    order: h.order,
+                    sin: h.sin.to_degrees(),
+                    cos: h.cos.to_degrees(),
+                })
+                .collect(),
+            self_weight: (self.self_weight.iter())
+                .map(|t| RawSelfWeight {
+                    joint: t.joint + 1,
+                    body: t.body + 1,
+                    part: t.part,
+                    value: t.value.to_degrees(),
+                })
+                .collect(),
         };
         let body = toml::to_string(&raw).unwrap_or_default();
+        let more = if self.has_configuration_terms() {
+            "# harmonic: transmission error of a joint, sin · sin(order q) + cos · cos(order q), deg.\n\
+             # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
+             # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n"
+        } else {
+            ""
+        };
         format!(
             "# Joint compliance under the payload, identified by robocal: joint deflection =\n\
              # compliance × gravity torque of the payload (deg per kN·m, one per joint; 0 = rigid).\n\
-             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{body}"
+             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{body}"
         )
     }
 }

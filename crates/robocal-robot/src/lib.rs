@@ -34,7 +34,10 @@ pub mod kinematics;
 pub mod params;
 pub mod table;
 
-pub use compliance::{Compliance, DEG_PER_KNM, RawCompliance};
+pub use compliance::{
+    Compliance, DEG_PER_KNM, ErrorParam, Harmonic, JointErrors, MomentPart, RawCompliance,
+    SelfWeight,
+};
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
 pub use kinematics::JointAxes;

@@ -449,3 +449,102 @@ fn compliance_torques_jacobian_and_file_round_trip() {
         .to_string();
     assert!(err.contains("c.toml") && err.contains("line"), "{err}");
 }
+
+/// The joint-error family: the self-weight basis is gravity's work per radian on a unit mass at a
+/// link frame's origin (or a unit first moment along a frame axis), computed here by turning the
+/// joint; the Jacobian of every coefficient (compliance, harmonic sine and cosine, self-weight)
+/// against central differences; harmonics act with no load; the file round trip keeps every
+/// term, and a term on a joint the robot lacks is refused with its key.
+#[test]
+fn joint_errors_basis_jacobian_and_file_round_trip() {
+    use robocal_robot::{DEG_PER_KNM, ErrorParam, JointErrors, MomentPart};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let robot = Robot::load(root.join("configs/robots/pmc6va030.toml")).unwrap();
+    let mut e = JointErrors::new(
+        [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
+            .iter()
+            .map(|v| v * DEG_PER_KNM)
+            .collect(),
+        Vector3::new(0.1, -0.2, -9.8),
+        Vector3::new(100.0, -20.0, 60.0),
+    )
+    .with_harmonics(&[0, 1, 3], 2)
+    .with_self_weight(&[1, 2], 6);
+    for (k, p) in e.params().into_iter().enumerate() {
+        let v = e.param(p) + 1e-4 * ((k % 7) as f64 - 3.0);
+        e.set_param(p, v);
+    }
+    let q: Vec<f64> = [10.0f64, -40.0, 25.0, 30.0, 50.0, -15.0]
+        .iter()
+        .map(|d| d.to_radians())
+        .collect();
+    let load = 7.0;
+    let g = robot.base_rotation() * e.gravity;
+    let sw: Vec<ErrorParam> = (0..e.self_weight.len())
+        .map(ErrorParam::SelfWeight)
+        .collect();
+    let basis = e.basis(&robot, &q, load, &sw);
+    for (i, (joint, phi)) in basis.iter().enumerate() {
+        let t = e.self_weight[i];
+        assert_eq!(*joint, t.joint);
+        let h = 1e-6;
+        let at = |q: &[f64]| {
+            let (r, o) = robot.link_frames(q)[t.body];
+            match t.part {
+                MomentPart::Mass => o * 1e-3, // a kg at the origin: N·m per (m/s² · m)
+                MomentPart::X => r.column(0).into_owned(),
+                MomentPart::Y => r.column(1).into_owned(),
+                MomentPart::Z => r.column(2).into_owned(),
+            }
+        };
+        let mut qp = q.clone();
+        qp[t.joint] += h;
+        let mut qm = q.clone();
+        qm[t.joint] -= h;
+        let expected = g.dot(&((at(&qp) - at(&qm)) / (2.0 * h)));
+        assert!(
+            (phi - expected).abs() < 1e-6 * (1.0 + expected.abs()),
+            "{}: {phi} vs {expected}",
+            e.param_name(ErrorParam::SelfWeight(i))
+        );
+    }
+    // Harmonics act without a load.
+    assert_ne!(e.deflected(&robot, &q, 0.0), q);
+    let params = e.params();
+    let (p, jac) = e.param_jacobian(&robot, &q, load, &params);
+    assert!((p - e.point(&robot, &q, load)).norm() < 1e-12);
+    for (k, &param) in params.iter().enumerate() {
+        let h = match param {
+            ErrorParam::Compliance(_) => 1e-9,
+            _ => 1e-7,
+        };
+        let (mut up, mut down) = (e.clone(), e.clone());
+        up.set_param(param, e.param(param) + h);
+        down.set_param(param, e.param(param) - h);
+        let fd = (up.point(&robot, &q, load) - down.point(&robot, &q, load)) / (2.0 * h);
+        assert!(
+            (fd - jac.column(k)).norm() < 1e-4 * fd.norm().max(1.0),
+            "{}: {fd} vs {}",
+            e.param_name(param),
+            jac.column(k)
+        );
+    }
+    let text = e.to_toml_string();
+    assert!(text.contains("[[harmonic]]") && text.contains("[[self_weight]]"));
+    let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
+    assert_eq!(back.params(), e.params());
+    for p in e.params() {
+        let (a, b) = (back.param(p), e.param(p));
+        assert!((a - b).abs() <= 1e-15 * b.abs().max(1e-300), "{a} vs {b}");
+    }
+    let point = |m: &JointErrors| m.point(&robot, &q, load);
+    assert!((point(&back) - point(&e)).norm() < 1e-9);
+    let bad = text.replacen("joint = 4", "joint = 9", 1);
+    let err = JointErrors::from_toml_str(&bad, "m/compliance.toml", 6)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("m/compliance.toml") && err.contains("harmonic[5]"),
+        "{err}"
+    );
+}
