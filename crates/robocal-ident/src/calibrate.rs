@@ -258,6 +258,10 @@ pub struct KinematicReport {
     pub warnings: Vec<String>,
 }
 
+/// Largest amplitude (deg) a transmission harmonic may take: gear reducers' kinematic errors
+/// are hundredths of a degree; a harmonic identified beyond this is held at zero.
+pub const HARMONIC_BOUND_DEG: f64 = 0.2;
+
 /// Condition number of the scaled Jacobian above which the report warns.
 pub const ILL_CONDITIONED: f64 = 1e5;
 
@@ -451,9 +455,9 @@ pub fn calibrate_kinematics(
     }
     let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
     let ident = analyse(&jac, &columns, settings.rank_tolerance);
-    let problem = problem.restricted(&ident.identifiable);
-    let kept: Vec<Column> = ident.identifiable.iter().map(|&p| columns[p]).collect();
-    let fixed: Vec<FixedParameter> = ident
+    let mut problem = problem.restricted(&ident.identifiable);
+    let mut kept: Vec<Column> = ident.identifiable.iter().map(|&p| columns[p]).collect();
+    let mut fixed: Vec<FixedParameter> = ident
         .unidentifiable
         .iter()
         .map(|&(p, fraction)| FixedParameter {
@@ -467,14 +471,54 @@ pub fn calibrate_kinematics(
         })
         .collect();
 
-    let u0 = vec![0.0; problem.unknowns()];
-    let (u, iterations, termination) = if kept.is_empty() {
-        (u0, 0, "nothing to identify".to_string())
-    } else {
-        match settings.solver {
-            SolverKind::Lm => run_lm(LeastSquares(&problem), u0, settings.max_iterations)?,
-            SolverKind::Bfgs => run_bfgs(&problem, u0, settings.max_iterations)?,
+    // Solve; a transmission harmonic identified beyond what a gear can have is not one (the
+    // term fits an effect it does not model, or the poses barely determine it, and it would
+    // not extrapolate): it is held at zero and the rest solved again.
+    let (u, iterations, termination) = loop {
+        let u0 = vec![0.0; problem.unknowns()];
+        let solved = if kept.is_empty() {
+            (u0, 0, "nothing to identify".to_string())
+        } else {
+            match settings.solver {
+                SolverKind::Lm => run_lm(LeastSquares(&problem), u0, settings.max_iterations)?,
+                SolverKind::Bfgs => run_bfgs(&problem, u0, settings.max_iterations)?,
+            }
+        };
+        let Some(model) = problem.compliance_at(&solved.0) else {
+            break solved;
+        };
+        let too_large = |joint: usize, order: u32| {
+            model
+                .harmonics
+                .iter()
+                .find(|h| h.joint == joint && h.order == order)
+                .is_some_and(|h| h.sin.hypot(h.cos).to_degrees() > HARMONIC_BOUND_DEG)
+        };
+        let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
+            !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
+        });
+        if drop.is_empty() {
+            break solved;
         }
+        for &p in &drop {
+            let Column::Harmonic { joint, order, .. } = kept[p] else {
+                continue;
+            };
+            let h = model
+                .harmonics
+                .iter()
+                .find(|h| h.joint == joint && h.order == order);
+            fixed.push(FixedParameter {
+                name: kept[p].to_string(),
+                independent_fraction: 1.0,
+                reason: format!(
+                    "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
+                    h.map_or(0.0, |h| h.sin.hypot(h.cos).to_degrees())
+                ),
+            });
+        }
+        problem = problem.restricted(&keep);
+        kept = keep.iter().map(|&p| kept[p]).collect();
     };
     let robot = problem.robot_at(&u);
     let compliance = problem.compliance_at(&u);

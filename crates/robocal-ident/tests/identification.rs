@@ -631,7 +631,7 @@ fn the_report_warns_when_the_data_cannot_determine_or_do_not_fit_the_model() {
 #[test]
 fn elasto_geometric_lm_recovers_injected_harmonics_and_self_weight() {
     use robocal_ident::JointErrorSettings;
-    use robocal_robot::{ErrorParam, JointErrors};
+    use robocal_robot::ErrorParam;
     let nominal = nominal();
     let configs = configurations();
     let truth = injected(&nominal, &configs, 13);
@@ -710,5 +710,44 @@ fn elasto_geometric_lm_recovers_injected_harmonics_and_self_weight() {
         names.contains(&"j5.h2.cos") && names.contains(&"j3.sw4.mass"),
         "{names:?}"
     );
-    let _ = JointErrors::new(vec![0.0; 6], Vector3::zeros(), Vector3::zeros());
+}
+
+/// A joint swept over a limited range, with backlash whose flank changes inside it (the twin's
+/// joint 1): its harmonics would fit the step with degrees of amplitude that the geometry
+/// cancels in range and that do not extrapolate. They are held at zero and said why, and the
+/// other joints' harmonics stay.
+#[test]
+fn harmonics_beyond_a_gears_bound_are_held_at_zero() {
+    use robocal_ident::{HARMONIC_BOUND_DEG, JointErrorSettings};
+    let set = MeasurementSet::read(root().join("datasets/pmc6va030/measurements.csv"), 6).unwrap();
+    let obs = Observations::from_rows(
+        6,
+        set.rows
+            .iter()
+            .filter(|r| r.sample.load == 0.0 && r.sample.joints[0] < 22.4),
+    );
+    let settings = KinematicSettings {
+        joint_errors: Some(JointErrorSettings {
+            harmonics: 2,
+            ..JointErrorSettings::default()
+        }),
+        ..KinematicSettings::default()
+    };
+    let cal = calibrate_kinematics(&nominal(), &obs, &settings).unwrap();
+    let held: Vec<&str> = (cal.report.fixed.iter())
+        .filter(|f| f.reason.starts_with("held at zero"))
+        .map(|f| f.name.as_str())
+        .collect();
+    assert!(held.iter().any(|n| n.starts_with("j1.h")), "{held:?}");
+    let model = cal.compliance.as_ref().unwrap();
+    for h in &model.harmonics {
+        assert!(
+            h.sin.hypot(h.cos).to_degrees() <= HARMONIC_BOUND_DEG,
+            "{h:?}"
+        );
+    }
+    let identified = (cal.report.joint_errors.iter())
+        .filter(|t| t.identified)
+        .count();
+    assert!(identified >= 8, "{:?}", cal.report.joint_errors);
 }
