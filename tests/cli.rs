@@ -804,7 +804,7 @@ fn default_calibrate_on_a_seven_axis_twin_keeps_compliance_and_compensates_throu
     let (kin, why) = decision(&r, "kinematic");
     assert!(kin, "{why}");
     let (compliance, why) = decision(&r, "compliance");
-    assert!(compliance && why.contains("held-out mean"), "{why}");
+    assert!(compliance && why.contains("held-out score"), "{why}");
     let (residual, why) = decision(&r, "residual");
     assert!(!residual && why.contains("at least 40"), "{why}");
     assert!(stderr.contains("stage compliance: kept"), "{stderr}");
@@ -929,7 +929,7 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
     // No payload compliance: a joint-error file only when harmonics or self-weight terms were
     // chosen, and then every compliance in it is zero.
     let (errors_kept, why) = decision(&r, "joint_errors");
-    assert!(why.contains("held-out mean"), "{why}");
+    assert!(why.contains("held-out score"), "{why}");
     assert_eq!(model.join("compliance.toml").exists(), errors_kept);
     if errors_kept {
         let c = robocal_robot::Compliance::load(model.join("compliance.toml"), 5).unwrap();

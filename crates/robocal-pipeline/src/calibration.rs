@@ -310,10 +310,10 @@ pub struct Decision {
     pub stage: &'static str,
     /// Whether the stage is in the model.
     pub kept: bool,
-    /// Held-out mean error of the best candidate without the stage, mm (absent when the stage
-    /// was not tried).
+    /// Held-out score (see [`Candidate::score`]) of the best candidate without the stage, mm
+    /// (absent when the stage was not tried).
     pub held_out_without: Option<f64>,
-    /// Held-out mean error of the best candidate with the stage, mm.
+    /// Held-out score of the best candidate with the stage, mm.
     pub held_out_with: Option<f64>,
     /// Why.
     pub reason: String,
@@ -324,9 +324,15 @@ pub struct Decision {
 pub struct Candidate {
     /// What it stacks, e.g. `kinematic + compliance + gp`.
     pub name: String,
-    /// Statistics of every held-out row's error (each row held out once), mm; absent when
-    /// the candidate was skipped.
+    /// Statistics of every held-out row's error over the random folds (each row held out
+    /// once), or on the validation file, mm; absent when the candidate was skipped.
     pub held_out: Option<ErrorStats>,
+    /// The same over the blocks of joint 1's range (each row held out once), mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_blocks: Option<ErrorStats>,
+    /// What the choice compares, mm: the mean of the two means (the random folds' mean alone
+    /// with a validation file).
+    pub score: Option<f64>,
     /// Seconds its folds took.
     pub seconds: f64,
     /// `chosen`, `evaluated`, or why it was skipped.
@@ -338,11 +344,12 @@ pub struct Candidate {
 pub struct Selection {
     /// Where the held-out poses came from.
     pub held_out: String,
-    /// Folds (1 with a validation file).
+    /// Folds: the random ones and the blocks of joint 1 (1 with a validation file).
     pub folds: usize,
     /// Rows the candidates were fitted on, summed over the folds.
     pub fitted_rows: usize,
-    /// Rows held out, summed over the folds (every row once in cross-validation).
+    /// Rows held out, summed over the folds (every row twice in cross-validation: once in a
+    /// random fold, once in a block).
     pub held_out_rows: usize,
     /// Every candidate, in the order tried.
     pub candidates: Vec<Candidate>,
@@ -544,8 +551,8 @@ impl Physics {
 /// A physical candidate scored on every fold.
 struct Scored {
     physics: Physics,
-    /// Held-out statistics (none when a fold's fit failed).
-    stats: Option<ErrorStats>,
+    /// Selection score (none when a fold's fit failed).
+    score: Option<f64>,
     /// The fitted model of each fold.
     fitted: Vec<Option<Predictor>>,
 }
@@ -560,14 +567,14 @@ fn score_physics(
 ) -> Scored {
     let t = std::time::Instant::now();
     let kinematic = physics.settings();
-    let mut held = Vec::new();
+    let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
     for fold in splits {
         match fit_kinematic(nominal, &fold.train, &kinematic) {
             Ok(fit) => {
                 let model = physics.predictor(&fit);
-                held.extend(errors(&model, &fold.test));
+                held.add(fold, errors(&model, &fold.test));
                 fitted.push(Some(model));
             }
             Err(e) => {
@@ -576,30 +583,40 @@ fn score_physics(
             }
         }
     }
-    let stats = failure.is_none().then(|| ErrorStats::from_errors(&held));
-    let c = Candidate {
+    let mut c = Candidate {
         name: physics.name(),
-        held_out: stats,
+        held_out: None,
+        held_out_blocks: None,
+        score: None,
         seconds: t.elapsed().as_secs_f64(),
-        status: failure.unwrap_or_else(|| "evaluated".into()),
+        status: failure.clone().unwrap_or_else(|| "evaluated".into()),
     };
+    if failure.is_none() {
+        let (random, blocked, score) = held.summary();
+        (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
+    }
     report(&c, say);
+    let score = c.score;
     candidates.push(c);
     Scored {
         physics,
-        stats,
+        score,
         fitted,
     }
 }
 
 /// Says a candidate's held-out numbers, or why it was skipped.
 fn report(c: &Candidate, say: &mut dyn FnMut(&str)) {
-    say(&match &c.held_out {
-        Some(h) => format!(
+    say(&match (&c.held_out, &c.held_out_blocks) {
+        (Some(h), Some(b)) => format!(
+            "candidate {}: held-out mean {:.4} mm (max {:.4}) on random folds, {:.4} mm (max {:.4}) on blocks of joint 1 ({:.1} s)",
+            c.name, h.mean, h.max, b.mean, b.max, c.seconds
+        ),
+        (Some(h), None) => format!(
             "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({:.1} s)",
             c.name, h.mean, h.max, c.seconds
         ),
-        None => format!("candidate {}: {}", c.name, c.status),
+        _ => format!("candidate {}: {}", c.name, c.status),
     });
 }
 
@@ -607,6 +624,86 @@ fn report(c: &Candidate, say: &mut dyn FnMut(&str)) {
 struct Fold<'a> {
     train: Vec<&'a Measurement>,
     test: Vec<&'a Measurement>,
+    /// A block of joint 1's range (extrapolation), not a random fold.
+    blocked: bool,
+}
+
+/// The rows of every fold of `fold_of` (`k` folds) as train/test splits.
+fn splits_of<'a>(
+    rows: &[&'a Measurement],
+    fold_of: &[usize],
+    k: usize,
+    blocked: bool,
+) -> Vec<Fold<'a>> {
+    (0..k)
+        .map(|f| {
+            let (test, train) =
+                (rows.iter().zip(fold_of)).partition::<Vec<_>, _>(|(_, g)| **g == f);
+            Fold {
+                train: train.into_iter().map(|(r, _)| *r).collect(),
+                test: test.into_iter().map(|(r, _)| *r).collect(),
+                blocked,
+            }
+        })
+        .collect()
+}
+
+/// The block (0..k) of every row: configurations sorted by their joint-1 reading and cut into
+/// `k` contiguous blocks of (nearly) equal count, so that each block's poses lie outside the
+/// joint-1 range of the rest — how a cell's working area grows. `k` is capped at the number
+/// of configurations.
+pub fn blocks(rows: &[&Measurement], k: usize) -> (Vec<usize>, usize) {
+    let mut poses: Vec<(&str, f64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r.sample.pose.as_str(),
+                r.sample.joints.first().copied().unwrap_or(0.0),
+            )
+        })
+        .collect();
+    poses.sort_by(|a, b| a.0.cmp(b.0));
+    poses.dedup_by(|a, b| a.0 == b.0);
+    poses.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+    let n = poses.len();
+    let k = k.clamp(1, n.max(1));
+    let block: std::collections::HashMap<&str, usize> = (poses.iter().enumerate())
+        .map(|(i, p)| (p.0, i * k / n.max(1)))
+        .collect();
+    (
+        rows.iter()
+            .map(|r| block.get(r.sample.pose.as_str()).copied().unwrap_or(0))
+            .collect(),
+        k,
+    )
+}
+
+/// Held-out errors of one candidate, split by the kind of fold.
+#[derive(Default)]
+struct Held {
+    random: Vec<f64>,
+    blocked: Vec<f64>,
+}
+
+impl Held {
+    fn add(&mut self, fold: &Fold<'_>, errors: Vec<f64>) {
+        if fold.blocked {
+            self.blocked.extend(errors);
+        } else {
+            self.random.extend(errors);
+        }
+    }
+
+    /// The candidate's statistics: random folds, blocks, and the selection score (the mean of
+    /// the two means; the random folds' mean alone without blocks).
+    fn summary(&self) -> (ErrorStats, Option<ErrorStats>, f64) {
+        let random = ErrorStats::from_errors(&self.random);
+        if self.blocked.is_empty() {
+            return (random, None, random.mean);
+        }
+        let blocked = ErrorStats::from_errors(&self.blocked);
+        (random, Some(blocked), 0.5 * (random.mean + blocked.mean))
+    }
 }
 
 /// Errors of `model` on `rows`, mm.
@@ -618,11 +715,13 @@ fn errors(model: &Predictor, rows: &[&Measurement]) -> Vec<f64> {
 }
 
 /// The default calibration: every candidate model — the nominal table with base and tool
-/// fitted; kinematic identification; with joint compliances (two or more loads); each residual
-/// model of `settings` on top of the best of those — is scored by its error on held-out poses
-/// (k-fold cross-validation over configurations, or the `validation` rows), the one with the
-/// lowest held-out mean is chosen and fitted again on every row. `say` hears a line per
-/// candidate and per decision.
+/// fitted; kinematic identification; with joint compliances (two or more loads); with
+/// transmission harmonics, with self-weight terms; each residual model of `settings` on top of
+/// the best identified one — is scored by its error on held-out poses: the mean of its mean
+/// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
+/// 1's range (extrapolation to a new working area), or its mean on the `validation` rows. The
+/// lowest score is chosen and fitted again on every row. `say` hears a line per candidate and
+/// per decision.
 pub fn automatic(
     settings: &AutoSettings,
     nominal: &Robot,
@@ -638,28 +737,20 @@ pub fn automatic(
             vec![Fold {
                 train: rows.to_vec(),
                 test: v.to_vec(),
+                blocked: false,
             }],
             source.clone(),
             false,
         ),
         None if n_configurations >= 4 => {
             let (fold_of, k) = folds(rows, settings.folds, settings.seed);
-            let splits = (0..k)
-                .map(|f| Fold {
-                    train: (rows.iter().zip(&fold_of))
-                        .filter(|(_, g)| **g != f)
-                        .map(|(r, _)| *r)
-                        .collect(),
-                    test: (rows.iter().zip(&fold_of))
-                        .filter(|(_, g)| **g == f)
-                        .map(|(r, _)| *r)
-                        .collect(),
-                })
-                .collect();
+            let mut splits = splits_of(rows, &fold_of, k, false);
+            let (block_of, kb) = blocks(rows, settings.folds);
+            splits.extend(splits_of(rows, &block_of, kb, true));
             (
                 splits,
                 format!(
-                    "{k}-fold cross-validation over {n_configurations} configurations (seed {})",
+                    "{k}-fold cross-validation over {n_configurations} configurations (seed {}), and {kb} blocks of joint 1's range",
                     settings.seed
                 ),
                 true,
@@ -723,7 +814,7 @@ pub fn automatic(
             loads.first().copied().unwrap_or(0.0)
         ));
     }
-    let mean_at = |s: &Scored| s.stats.as_ref().map_or(f64::INFINITY, |s| s.mean);
+    let mean_at = |s: &Scored| s.score.unwrap_or(f64::INFINITY);
     let best_identified = |scored: &[Scored]| {
         (0..scored.len())
             .filter(|&i| !scored[i].physics.aligned)
@@ -752,7 +843,7 @@ pub fn automatic(
         scored.push(score_physics(next, nominal, &splits, &mut candidates, say));
     }
     let physics: Vec<Physics> = scored.iter().map(|s| s.physics).collect();
-    let physics_stats: Vec<Option<ErrorStats>> = scored.iter().map(|s| s.stats).collect();
+    let physics_scores: Vec<Option<f64>> = scored.iter().map(|s| s.score).collect();
     let fitted: Vec<Vec<Option<Predictor>>> = (0..splits.len())
         .map(|f| scored.iter().map(|s| s.fitted[f].clone()).collect())
         .collect();
@@ -769,7 +860,7 @@ pub fn automatic(
         .map(|f| configurations(&f.train).len())
         .min()
         .unwrap_or(0);
-    let mut residual_stats: Vec<(usize, Option<ErrorStats>)> = Vec::new();
+    let mut residual_scores: Vec<(usize, Option<f64>)> = Vec::new();
     for (r, stage) in settings.residuals.iter().enumerate() {
         let name = format!(
             "{} + {}",
@@ -779,6 +870,8 @@ pub fn automatic(
         let mut c = Candidate {
             name,
             held_out: None,
+            held_out_blocks: None,
+            score: None,
             seconds: 0.0,
             status: String::new(),
         };
@@ -793,7 +886,7 @@ pub fn automatic(
                 settings.budget_seconds
             );
         } else {
-            let mut errs = Vec::new();
+            let mut held = Held::default();
             let mut abandoned = None;
             for (f, fold) in splits.iter().enumerate() {
                 let t = std::time::Instant::now();
@@ -806,7 +899,7 @@ pub fn automatic(
                     residual: Some(model),
                     ..base.clone()
                 };
-                errs.extend(errors(&candidate, &fold.test));
+                held.add(fold, errors(&candidate, &fold.test));
                 let took = t.elapsed().as_secs_f64();
                 c.seconds += took;
                 // The remaining folds and the final fit, at this fold's pace.
@@ -822,18 +915,19 @@ pub fn automatic(
             match abandoned {
                 Some(why) => c.status = why,
                 None => {
-                    c.held_out = Some(ErrorStats::from_errors(&errs));
+                    let (random, blocked, score) = held.summary();
+                    (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
                     c.status = "evaluated".into();
                 }
             }
         }
         report(&c, say);
-        residual_stats.push((r, c.held_out));
+        residual_scores.push((r, c.score));
         candidates.push(c);
     }
-    let best_residual = residual_stats
+    let best_residual = residual_scores
         .iter()
-        .filter_map(|(r, s)| s.as_ref().map(|s| (*r, s.mean)))
+        .filter_map(|(r, s)| s.map(|s| (*r, s)))
         .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
 
     // The winner.
@@ -844,11 +938,11 @@ pub fn automatic(
         None => (best_physics, physics[best_physics]),
     };
     candidates[winner].status = "chosen".into();
-    // The lowest held-out mean among the physical candidates `which` accepts.
+    // The lowest score among the physical candidates `which` accepts.
     let best_where = |which: &dyn Fn(&Physics) -> bool| {
         (0..physics.len())
             .filter(|&i| which(&physics[i]))
-            .filter_map(|i| physics_stats[i].as_ref().map(|s| s.mean))
+            .filter_map(|i| physics_scores[i])
             .min_by(f64::total_cmp)
     };
     let mut decisions = Vec::new();
@@ -856,7 +950,7 @@ pub fn automatic(
         |stage: &'static str, kept: bool, without: Option<f64>, with: Option<f64>, what: &str| {
             let reason = match (without, with) {
                 (Some(w), Some(x)) => format!(
-                    "{}: held-out mean {w:.4} mm without, {x:.4} mm with {what}",
+                    "{}: held-out score {w:.4} mm without, {x:.4} mm with {what}",
                     if kept { "kept" } else { "dropped" }
                 ),
                 _ => what.to_string(),
@@ -947,12 +1041,9 @@ pub fn automatic(
         say(&format!("stage {}: {}", d.stage, d.reason));
     }
     say(&format!(
-        "chosen: {} (held-out mean {:.4} mm)",
+        "chosen: {} (held-out score {:.4} mm)",
         candidates[winner].name,
-        candidates[winner]
-            .held_out
-            .as_ref()
-            .map_or(f64::NAN, |s| s.mean)
+        candidates[winner].score.unwrap_or(f64::NAN)
     ));
 
     // Fit the winner on every row (with a validation file: on the data file's rows, the

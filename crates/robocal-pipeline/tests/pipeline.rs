@@ -296,9 +296,10 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     .unwrap();
     let selection = built.selection.as_ref().unwrap();
     assert!(selection.refitted_on_every_row);
-    assert_eq!(selection.folds, 3);
-    assert_eq!(selection.held_out_rows, rows.len());
-    assert_eq!(selection.fitted_rows, 2 * rows.len());
+    // Three random folds and three blocks of joint 1's range: every row held out twice.
+    assert_eq!(selection.folds, 6);
+    assert_eq!(selection.held_out_rows, 2 * rows.len());
+    assert_eq!(selection.fitted_rows, 4 * rows.len());
     let names: Vec<&str> = selection
         .candidates
         .iter()
@@ -336,15 +337,34 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;
     let kinematic = selection.candidates[1].held_out.as_ref().unwrap().mean;
     assert!((kinematic - mean).abs() < 1e-12, "{kinematic} vs {mean}");
-    // The chosen one has the lowest held-out mean of all evaluated, and it is said.
+    // The blocks: joint 1's readings of one block all lie beyond those of the block before.
+    let (block_of, kb) = robocal_pipeline::calibration::blocks(&rows, 3);
+    assert_eq!(kb, 3);
+    for b in 1..kb {
+        let q1 = |block: usize| {
+            (rows.iter().zip(&block_of))
+                .filter(|(_, g)| **g == block)
+                .map(|(r, _)| r.sample.joints[0])
+                .collect::<Vec<f64>>()
+        };
+        let before = q1(b - 1).into_iter().fold(f64::NEG_INFINITY, f64::max);
+        let after = q1(b).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(before <= after, "block {b}: {before} > {after}");
+    }
+    // Every evaluated candidate's score is the mean of its two means; the chosen one has the
+    // lowest, and it is said.
+    for c in selection.candidates.iter().filter(|c| c.score.is_some()) {
+        let (r, b) = (c.held_out.unwrap().mean, c.held_out_blocks.unwrap().mean);
+        assert!((c.score.unwrap() - 0.5 * (r + b)).abs() < 1e-12, "{c:?}");
+    }
     let chosen: Vec<_> = (selection.candidates.iter())
         .filter(|c| c.status == "chosen")
         .collect();
     assert_eq!(chosen.len(), 1);
     let lowest = (selection.candidates.iter())
-        .filter_map(|c| c.held_out.as_ref().map(|h| h.mean))
+        .filter_map(|c| c.score)
         .fold(f64::INFINITY, f64::min);
-    assert_eq!(chosen[0].held_out.as_ref().unwrap().mean, lowest);
+    assert_eq!(chosen[0].score.unwrap(), lowest);
     assert!(
         said.iter()
             .any(|l| l.contains(&format!("chosen: {}", chosen[0].name))),
