@@ -83,22 +83,7 @@ impl RawComplianceStage {
     pub fn validate(&self) -> Result<ComplianceSettings, (String, String)> {
         let mut s = ComplianceSettings::default();
         if let Some(joints) = &self.joints {
-            if joints.is_empty() {
-                return Err(("compliance.joints".into(), "lists no joint".into()));
-            }
-            if joints.contains(&0) {
-                return Err((
-                    "compliance.joints".into(),
-                    "joints are counted from 1".into(),
-                ));
-            }
-            let mut sorted = joints.clone();
-            sorted.sort_unstable();
-            sorted.dedup();
-            if sorted.len() != joints.len() {
-                return Err(("compliance.joints".into(), "names a joint twice".into()));
-            }
-            s.joints = Some(sorted.iter().map(|j| j - 1).collect());
+            s.joints = Some(joint_list("compliance.joints", joints)?);
         }
         if let Some(g) = self.gravity {
             if g.iter().any(|v| !v.is_finite()) || g.iter().all(|v| *v == 0.0) {
@@ -165,19 +150,7 @@ impl RawJointErrorStage {
             s.harmonics = h;
         }
         if let Some(joints) = &self.joints {
-            if joints.is_empty() || joints.contains(&0) {
-                return Err((
-                    "joint_errors.joints".into(),
-                    "lists joints counted from 1, at least one".into(),
-                ));
-            }
-            let mut sorted = joints.clone();
-            sorted.sort_unstable();
-            sorted.dedup();
-            if sorted.len() != joints.len() {
-                return Err(("joint_errors.joints".into(), "names a joint twice".into()));
-            }
-            s.harmonic_joints = Some(sorted.iter().map(|j| j - 1).collect());
+            s.harmonic_joints = Some(joint_list("joint_errors.joints", joints)?);
         }
         s.self_weight = self.self_weight.unwrap_or(false);
         Ok(s)
@@ -191,4 +164,21 @@ impl RawJointErrorStage {
             self_weight: Some(settings.self_weight),
         }
     }
+}
+
+/// A list of joints counted from 1, as 0-based indices in ascending order; errors name `key`.
+fn joint_list(key: &str, joints: &[usize]) -> Result<Vec<usize>, (String, String)> {
+    if joints.is_empty() {
+        return Err((key.into(), "lists no joint".into()));
+    }
+    if joints.contains(&0) {
+        return Err((key.into(), "joints are counted from 1".into()));
+    }
+    let mut sorted = joints.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    if sorted.len() != joints.len() {
+        return Err((key.into(), "names a joint twice".into()));
+    }
+    Ok(sorted.iter().map(|j| j - 1).collect())
 }

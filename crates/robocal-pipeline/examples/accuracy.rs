@@ -6,6 +6,7 @@
 //!
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
+//!     [--no-compensation] [--verbose]
 //! ```
 //!
 //! Every twin is a twin's; none of these numbers is a real robot's. The ARM6S family is kept
@@ -222,6 +223,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seeds: u64 = value("--seeds").map_or(Ok(2), |s| s.parse())?;
     let aside = args.iter().any(|a| a == "--aside");
     let compensation = !args.iter().any(|a| a == "--no-compensation");
+    let verbose = args.iter().any(|a| a == "--verbose");
     let mut landings: Vec<(String, u64, Landing)> = Vec::new();
     let arms: Vec<String> = match value("--arms") {
         Some(list) => list.split(',').map(str::to_string).collect(),
@@ -301,7 +303,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         &train,
                         None,
                         None,
-                        &mut |_| {},
+                        &mut |line| {
+                            if verbose {
+                                eprintln!("{name} {seed}: {line}");
+                            }
+                        },
                     )?;
                     let secs = t.elapsed().as_secs_f64();
                     let choice = built

@@ -553,9 +553,39 @@ struct Scored {
     physics: Physics,
     /// Selection score (none when a fold's fit failed).
     score: Option<f64>,
+    /// Every held-out error ([`Held::all`]; none when a fold's fit failed).
+    errors: Option<Vec<f64>>,
     /// The fitted model of each fold.
     fitted: Vec<Option<Predictor>>,
 }
+
+/// Whether `new` (held-out errors) lowers `base`'s significantly: the mean over groups (a
+/// configuration in one kind of fold: its rows share one pose; `groups` numbers them from 0)
+/// of base − new is positive and more than [`SIGNIFICANCE`] times its standard error. A stage that helps by less than the spread of the
+/// difference is not worth its parameters: on poses beyond those measured it can do harm.
+pub fn improves(base: &[f64], new: &[f64], groups: &[usize]) -> bool {
+    let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
+    let mut sums = vec![0.0; n_groups];
+    let mut counts = vec![0usize; n_groups];
+    for ((b, n), &g) in base.iter().zip(new).zip(groups) {
+        sums[g] += b - n;
+        counts[g] += 1;
+    }
+    let d: Vec<f64> = (sums.iter().zip(&counts))
+        .filter(|(_, c)| **c > 0)
+        .map(|(s, c)| s / *c as f64)
+        .collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n.max(1.0);
+    if d.len() < 2 {
+        return mean > 0.0;
+    }
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    mean > 0.0 && mean > SIGNIFICANCE * (var / n).sqrt()
+}
+
+/// How many standard errors a stage's held-out improvement must exceed to be kept.
+pub const SIGNIFICANCE: f64 = 2.0;
 
 /// Fits `physics` on every fold and scores it on the fold's held-out rows.
 fn score_physics(
@@ -601,6 +631,7 @@ fn score_physics(
     Scored {
         physics,
         score,
+        errors: score.map(|_| held.all()),
         fitted,
     }
 }
@@ -692,6 +723,13 @@ impl Held {
         } else {
             self.random.extend(errors);
         }
+    }
+
+    /// Every held-out error: the random folds', then the blocks'.
+    fn all(&self) -> Vec<f64> {
+        let mut all = self.random.clone();
+        all.extend(&self.blocked);
+        all
     }
 
     /// The candidate's statistics: random folds, blocks, and the selection score (the mean of
@@ -814,12 +852,37 @@ pub fn automatic(
             loads.first().copied().unwrap_or(0.0)
         ));
     }
-    let mean_at = |s: &Scored| s.score.unwrap_or(f64::INFINITY);
-    let best_identified = |scored: &[Scored]| {
-        (0..scored.len())
-            .filter(|&i| !scored[i].physics.aligned)
-            .min_by(|&a, &b| mean_at(&scored[a]).total_cmp(&mean_at(&scored[b])))
-            .unwrap_or(0)
+    // One group per configuration and kind of fold, in the order the errors are kept.
+    let groups: Vec<usize> = {
+        let mut ids: std::collections::HashMap<(&str, bool), usize> = Default::default();
+        let mut out = Vec::new();
+        for blocked in [false, true] {
+            for fold in splits.iter().filter(|f| f.blocked == blocked) {
+                for r in &fold.test {
+                    let next = ids.len();
+                    out.push(*ids.entry((r.sample.pose.as_str(), blocked)).or_insert(next));
+                }
+            }
+        }
+        out
+    };
+    // The chain: each richer model replaces the current one only if it lowers the held-out
+    // errors significantly.
+    let better = |current: &Scored, next: &Scored| match (&current.errors, &next.errors) {
+        (Some(c), Some(n)) => improves(c, n, &groups),
+        (None, Some(_)) => true,
+        _ => false,
+    };
+    let mut current = usize::from(better(&scored[0], &scored[1]));
+    if scored.len() > 2 && better(&scored[current], &scored[2]) {
+        current = 2;
+    }
+    let identified = |current: usize, scored: &[Scored]| {
+        if scored[current].physics.aligned {
+            1
+        } else {
+            current
+        }
     };
     for step in [
         Physics {
@@ -834,25 +897,25 @@ pub fn automatic(
         if step.harmonics == 0 && !step.self_weight {
             continue;
         }
-        let base = scored[best_identified(&scored)].physics;
+        let base = scored[identified(current, &scored)].physics;
         let next = Physics {
             harmonics: base.harmonics.max(step.harmonics),
             self_weight: base.self_weight || step.self_weight,
             ..base
         };
         scored.push(score_physics(next, nominal, &splits, &mut candidates, say));
+        if better(&scored[current], &scored[scored.len() - 1]) {
+            current = scored.len() - 1;
+        }
     }
     let physics: Vec<Physics> = scored.iter().map(|s| s.physics).collect();
     let physics_scores: Vec<Option<f64>> = scored.iter().map(|s| s.score).collect();
     let fitted: Vec<Vec<Option<Predictor>>> = (0..splits.len())
         .map(|f| scored.iter().map(|s| s.fitted[f].clone()).collect())
         .collect();
-    let mean_at = |p: usize| mean_at(&scored[p]);
-    let best_physics = (0..scored.len())
-        .min_by(|&a, &b| mean_at(a).total_cmp(&mean_at(b)))
-        .unwrap_or(0);
-    // Residual models learn what an identified model leaves: the best identified one.
-    let base_physics = best_identified(&scored);
+    let best_physics = current;
+    // Residual models learn what an identified model leaves.
+    let base_physics = identified(current, &scored);
 
     // Residual models on top of the best physics.
     let fewest = splits
@@ -860,7 +923,7 @@ pub fn automatic(
         .map(|f| configurations(&f.train).len())
         .min()
         .unwrap_or(0);
-    let mut residual_scores: Vec<(usize, Option<f64>)> = Vec::new();
+    let mut residual_scores: Vec<(usize, Option<f64>, bool)> = Vec::new();
     for (r, stage) in settings.residuals.iter().enumerate() {
         let name = format!(
             "{} + {}",
@@ -912,27 +975,43 @@ pub fn automatic(
                     break;
                 }
             }
+            let mut significant = false;
             match abandoned {
                 Some(why) => c.status = why,
                 None => {
                     let (random, blocked, score) = held.summary();
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
-                    c.status = "evaluated".into();
+                    significant = scored[best_physics]
+                        .errors
+                        .as_ref()
+                        .is_some_and(|base| improves(base, &held.all(), &groups));
+                    c.status = if significant {
+                        "evaluated".into()
+                    } else {
+                        "evaluated: not significantly better than the physical model".into()
+                    };
                 }
             }
+            report(&c, say);
+            residual_scores.push((r, c.score, significant));
+            candidates.push(c);
+            continue;
         }
         report(&c, say);
-        residual_scores.push((r, c.score));
+        residual_scores.push((r, c.score, false));
         candidates.push(c);
     }
     let best_residual = residual_scores
         .iter()
-        .filter_map(|(r, s)| s.map(|s| (*r, s)))
-        .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
+        .filter_map(|(r, s, _)| s.map(|s| (*r, s)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
 
-    // The winner.
-    let physics_mean = mean_at(best_physics);
-    let residual_wins = best_residual.filter(|(_, m)| *m < physics_mean);
+    // The winner: the best residual model if it is significantly better than the physical
+    // model, else the physical model the chain ended on.
+    let physics_mean = physics_scores[best_physics].unwrap_or(f64::INFINITY);
+    let residual_wins = best_residual.filter(|(r, m)| {
+        *m < physics_mean && residual_scores.iter().any(|(q, _, sig)| q == r && *sig)
+    });
     let (winner, chosen_physics) = match residual_wins {
         Some((r, _)) => (physics.len() + r, physics[base_physics]),
         None => (best_physics, physics[best_physics]),
@@ -950,8 +1029,13 @@ pub fn automatic(
         |stage: &'static str, kept: bool, without: Option<f64>, with: Option<f64>, what: &str| {
             let reason = match (without, with) {
                 (Some(w), Some(x)) => format!(
-                    "{}: held-out score {w:.4} mm without, {x:.4} mm with {what}",
-                    if kept { "kept" } else { "dropped" }
+                    "{}: held-out score {w:.4} mm without, {x:.4} mm with {what}{}",
+                    if kept { "kept" } else { "dropped" },
+                    if !kept && x < w {
+                        " (lower, but not by more than twice its standard error)"
+                    } else {
+                        ""
+                    }
                 ),
                 _ => what.to_string(),
             };
@@ -963,9 +1047,10 @@ pub fn automatic(
                 reason,
             }
         };
+    let kept_kinematic = !chosen_physics.aligned;
     decisions.push(decision(
         "kinematic",
-        !chosen_physics.aligned,
+        kept_kinematic,
         best_where(&|p| p.aligned),
         best_where(&|p| !p.aligned),
         "the identified table (LM, identifiable parameters)",
@@ -1072,4 +1157,28 @@ pub fn automatic(
         seconds: start.elapsed().as_secs_f64(),
     });
     Ok(built)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::improves;
+
+    /// The paired test by group, computed by hand: differences per group 0.2, 0.1, 0.3 (mean
+    /// 0.2, standard error 0.0577) pass; with a group that got worse, 0.2, 0.1, −0.4 (mean
+    /// −0.033) fail; a small, consistent gain passes and an inconsistent one does not.
+    #[test]
+    fn improvement_must_exceed_twice_its_standard_error() {
+        let groups = [0, 0, 1, 2, 2];
+        let base = [1.0, 1.0, 1.0, 1.0, 1.0];
+        assert!(improves(&base, &[0.8, 0.8, 0.9, 0.7, 0.7], &groups));
+        assert!(!improves(&base, &[0.8, 0.8, 0.9, 1.4, 1.4], &groups));
+        // Mean 0.01, standard error 0.0029: 3.5 standard errors.
+        assert!(improves(
+            &[1.0, 1.0, 1.0],
+            &[0.99, 0.995, 0.985],
+            &[0, 1, 2]
+        ));
+        // Mean 0.01, standard error 0.0173: 0.6 standard errors.
+        assert!(!improves(&[1.0, 1.0, 1.0], &[0.96, 1.02, 0.99], &[0, 1, 2]));
+    }
 }

@@ -1,6 +1,7 @@
 //! Residual-learning benchmarks on synthetic data of the paper's size (1680 samples × 7 inputs):
 //! training one axis network with the paper's settings for a fixed 200 epochs (target < 5 s),
-//! one sample through kinematics + three MLPs (target < 20 µs), and a batch of 10 000.
+//! one sample through kinematics + three MLPs (target < 20 µs), and a batch of 10 000; the GP:
+//! a whole fit on 1000 rows (target: seconds), one prediction (target: microseconds).
 
 use divan::{Bencher, black_box};
 use rand::{RngExt, SeedableRng};
@@ -97,4 +98,39 @@ fn predict_batch_10000_kinematics_plus_somm(b: Bencher) {
             .map(|(q, e)| robot.point(q).x + e[0])
             .sum::<f64>()
     });
+}
+
+/// The GP residual with its default settings on 1000 rows × 7 inputs (13 features after the
+/// periodic encoding): the whole fit (hyper-parameters on 500 rows, 80 Adam steps, three axes).
+#[divan::bench(sample_count = 3, sample_size = 1)]
+fn gp_fit_1000x7(b: Bencher) {
+    let train = samples(1000, 6);
+    let settings = ResidualSettings::gp(1);
+    b.bench_local(|| {
+        ResidualModel::fit(&settings, &train, &Samples::default(), None).expect("fit")
+    });
+}
+
+fn gp_model(rows: usize) -> ResidualModel {
+    let mut settings = ResidualSettings::gp(1);
+    settings.gp.iterations = 5;
+    settings.gp.max_rows = rows;
+    ResidualModel::fit(&settings, &samples(rows, 7), &Samples::default(), None).expect("fit")
+}
+
+/// One sample's correction through a GP conditioned on 1000 and on 2500 rows (three axes).
+#[divan::bench(args = [1000, 2500])]
+fn gp_predict_one_sample(b: Bencher, rows: usize) {
+    let model = gp_model(rows);
+    let input = vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]];
+    b.bench_local(|| model.predict(black_box(&input))[0]);
+}
+
+/// One sample's correction with its standard deviation (the factor made before timing).
+#[divan::bench(args = [1000, 2500])]
+fn gp_predict_one_sample_with_sigma(b: Bencher, rows: usize) {
+    let model = gp_model(rows);
+    let input = vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]];
+    let _ = model.predict_with_std(&input, true);
+    b.bench_local(|| model.predict_with_std(black_box(&input), true).1);
 }
