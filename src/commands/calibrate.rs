@@ -50,12 +50,12 @@ struct Report {
 }
 
 /// A progress bar for residual training.
-fn bar(len: u64) -> ProgressBar {
+fn bar(len: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len);
     bar.set_style(
-        ProgressStyle::with_template(
-            "robocal: residual [{bar:30}] {pos}/{len} epochs (at most) {elapsed}",
-        )
+        ProgressStyle::with_template(&format!(
+            "robocal: {what} [{{bar:30}}] {{pos}}/{{len}} {{elapsed}}"
+        ))
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
@@ -85,11 +85,14 @@ pub fn run(
     let epochs = |s: &robocal_residual::ResidualStage| {
         robocal_residual::ResidualModel::max_epochs(&s.settings)
     };
-    let progress = bar(match &stages {
-        Some(s) => s.residual.as_ref().map_or(0, epochs),
-        // Every residual candidate on every fold, and the final fit.
-        None => (auto.folds as u64 + 1) * auto.residuals.iter().map(epochs).sum::<u64>(),
-    });
+    let progress = match &stages {
+        Some(s) => bar(
+            s.residual.as_ref().map_or(0, epochs),
+            "residual, epochs (at most)",
+        ),
+        // The selection sets the length: every candidate on every fold, and the final fit.
+        None => bar(0, "candidates × folds fitted"),
+    };
     let built = match &stages {
         Some(stages) => configured(stages, &nominal, &rows, val, Some(&progress)),
         None => automatic(&auto, &nominal, &rows, val, Some(&progress), &mut |line| {

@@ -593,6 +593,7 @@ fn score_physics(
     nominal: &Robot,
     splits: &[Fold<'_>],
     candidates: &mut Vec<Candidate>,
+    bar: Option<&ProgressBar>,
     say: &mut dyn FnMut(&str),
 ) -> Scored {
     let t = std::time::Instant::now();
@@ -601,6 +602,9 @@ fn score_physics(
     let mut fitted = Vec::new();
     let mut failure = None;
     for fold in splits {
+        if let Some(bar) = bar {
+            bar.inc(1);
+        }
         match fit_kinematic(nominal, &fold.train, &kinematic) {
             Ok(fit) => {
                 let model = physics.predictor(&fit);
@@ -821,6 +825,11 @@ pub fn automatic(
     };
     let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
     let mut candidates: Vec<Candidate> = Vec::new();
+    // The progress bar counts fits: every candidate on every fold, and the final one.
+    if let Some(bar) = bar {
+        bar.set_length((splits.len() * (5 + settings.residuals.len()) + 1) as u64);
+        bar.set_position(0);
+    }
 
     // The physical models, each scored on every fold: the nominal table, the identified one,
     // with compliances (two or more loads); then, on the better identified one, transmission
@@ -830,8 +839,15 @@ pub fn automatic(
     loads.sort_by(f64::total_cmp);
     loads.dedup();
     let mut scored = vec![
-        score_physics(Physics::ALIGNED, nominal, &splits, &mut candidates, say),
-        score_physics(Physics::RIGID, nominal, &splits, &mut candidates, say),
+        score_physics(
+            Physics::ALIGNED,
+            nominal,
+            &splits,
+            &mut candidates,
+            bar,
+            say,
+        ),
+        score_physics(Physics::RIGID, nominal, &splits, &mut candidates, bar, say),
     ];
     let mut compliance_skip = None;
     if loads.len() >= 2 {
@@ -844,6 +860,7 @@ pub fn automatic(
             nominal,
             &splits,
             &mut candidates,
+            bar,
             say,
         ));
     } else {
@@ -903,7 +920,14 @@ pub fn automatic(
             self_weight: base.self_weight || step.self_weight,
             ..base
         };
-        scored.push(score_physics(next, nominal, &splits, &mut candidates, say));
+        scored.push(score_physics(
+            next,
+            nominal,
+            &splits,
+            &mut candidates,
+            bar,
+            say,
+        ));
         if better(&scored[current], &scored[scored.len() - 1]) {
             current = scored.len() - 1;
         }
@@ -957,7 +981,10 @@ pub fn automatic(
                     abandoned = Some("skipped: its physical model failed on a fold".to_string());
                     break;
                 };
-                let (model, _) = train_residual(stage, base, &fold.train, None, bar)?;
+                if let Some(bar) = bar {
+                    bar.inc(1);
+                }
+                let (model, _) = train_residual(stage, base, &fold.train, None, None)?;
                 let candidate = Predictor {
                     residual: Some(model),
                     ..base.clone()
@@ -1140,7 +1167,10 @@ pub fn automatic(
     if refit {
         say("fitting the chosen model again on every row");
     }
-    let mut built = configured(&stages, nominal, rows, validation.clone(), bar)?;
+    let mut built = configured(&stages, nominal, rows, validation.clone(), None)?;
+    if let Some(bar) = bar {
+        bar.inc(1);
+    }
     if chosen_physics.aligned {
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
