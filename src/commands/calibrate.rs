@@ -144,14 +144,18 @@ pub fn run(
         );
     }
     if let Some((_, r)) = &built.residual {
+        let validation = match (&r.validation_before, &r.validation_after) {
+            (Some(b), Some(a)) => format!(
+                ", validation ({}) {:.4} → {:.4} mm",
+                r.validation_source, b.mean, a.mean
+            ),
+            _ => format!(" (validation: {})", r.validation_source),
+        };
         eprintln!(
-            "robocal: residual ({}): training mean {:.4} → {:.4} mm, validation ({}) {:.4} → {:.4} mm{}",
+            "robocal: residual ({}): training mean {:.4} → {:.4} mm{validation}{}",
             r.model,
             r.training_before.mean,
             r.training_after.mean,
-            r.validation_source,
-            r.validation_before.mean,
-            r.validation_after.mean,
             r.classifier_accuracy_validation
                 .map_or(String::new(), |a| format!(
                     ", classifier accuracy {:.1} %",

@@ -121,7 +121,7 @@ pub struct NetTraining {
 /// The residual stage in `report.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct ResidualReport {
-    /// `somm`, `mosm` or `ca-somm`.
+    /// `somm`, `mosm`, `ca-somm` or `gp`.
     pub model: &'static str,
     /// Seed of the networks and of the hold-out.
     pub seed: u64,
@@ -138,9 +138,11 @@ pub struct ResidualReport {
     /// See `training_before`.
     pub training_after: ErrorStats,
     /// Early-stopping rows, before and after.
-    pub validation_before: ErrorStats,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_before: Option<ErrorStats>,
     /// See `validation_before`.
-    pub validation_after: ErrorStats,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_after: Option<ErrorStats>,
     /// CA-SOMM: share of rows the classifier puts in their true class.
     pub classifier_accuracy_training: Option<f64>,
     /// See `classifier_accuracy_training`.
@@ -282,8 +284,8 @@ pub fn train_residual(
             .collect(),
         training_before: left(&train, None),
         training_after: left(&train, Some(&fitted.predict(&train.inputs))),
-        validation_before: left(&val, None),
-        validation_after: left(&val, Some(&fitted.predict(&val.inputs))),
+        validation_before: (!val.is_empty()).then(|| left(&val, None)),
+        validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val.inputs)))),
         classifier_accuracy_training: fitted.classifier.as_ref().map(|c| c.accuracy(&train)),
         classifier_accuracy_validation: fitted.classifier.as_ref().map(|c| c.accuracy(&val)),
         search: fitted.search.clone(),
