@@ -95,7 +95,7 @@ pub enum Command {
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
     },
-    /// Run an experiment: its data, split and models; write reports/<name>/ (report.md,
+    /// Run an experiment: its data, split and models; write reports/NAME/ (report.md,
     /// results.json, the resolved experiment, plots) and print the tables.
     Run {
         /// Experiment file (TOML), e.g. configs/experiments/paper.toml.

@@ -21,7 +21,7 @@ const RESTARTS: usize = 3;
 ///
 /// Near the minimum of this non-smooth cost, round-off can leave the inverse-Hessian estimate
 /// pointing uphill and the line search then fails. The run goes on from the best point seen with
-/// the estimate reset to the identity (a steepest-descent step), at most [`RESTARTS`] times; when
+/// the estimate reset to the identity (a steepest-descent step), at most 3 times; when
 /// even that step finds no descent, the best point is the answer and the termination says so.
 pub fn run_bfgs(
     problem: &CalibrationProblem<'_>,

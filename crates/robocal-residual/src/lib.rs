@@ -7,7 +7,7 @@
 //!   saved form (`residual.json` + one burn record per network).
 //! - [`gp`]: a Gaussian process per axis (ARD squared-exponential kernel, marginal likelihood),
 //!   with a predictive standard deviation.
-//! - [`search`]: TPE hyper-parameter search (layers, neurons, activation, learning rate).
+//! - [`search`](mod@search): TPE hyper-parameter search (layers, neurons, activation, learning rate).
 
 pub mod error;
 pub mod gp;
