@@ -487,13 +487,13 @@ pub fn calibrate_kinematics(
         let Some(model) = problem.compliance_at(&solved.0) else {
             break solved;
         };
-        let too_large = |joint: usize, order: u32| {
-            model
-                .harmonics
-                .iter()
+        // A harmonic's amplitude, deg.
+        let amplitude = |joint: usize, order: u32| {
+            (model.harmonics.iter())
                 .find(|h| h.joint == joint && h.order == order)
-                .is_some_and(|h| h.sin.hypot(h.cos).to_degrees() > HARMONIC_BOUND_DEG)
+                .map_or(0.0, |h| h.sin.hypot(h.cos).to_degrees())
         };
+        let too_large = |joint: usize, order: u32| amplitude(joint, order) > HARMONIC_BOUND_DEG;
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
         });
@@ -504,16 +504,12 @@ pub fn calibrate_kinematics(
             let Column::Harmonic { joint, order, .. } = kept[p] else {
                 continue;
             };
-            let h = model
-                .harmonics
-                .iter()
-                .find(|h| h.joint == joint && h.order == order);
             fixed.push(FixedParameter {
                 name: kept[p].to_string(),
                 independent_fraction: 1.0,
                 reason: format!(
                     "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
-                    h.map_or(0.0, |h| h.sin.hypot(h.cos).to_degrees())
+                    amplitude(joint, order)
                 ),
             });
         }

@@ -4,7 +4,10 @@
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
-use robocal_robot::{ErrorParam, JointErrors, JointField, MomentPart, ParamId};
+use robocal_robot::{
+    ErrorParam, JointErrors, JointField, MomentPart, ParamId, compliance_name, harmonic_name,
+    self_weight_name,
+};
 
 /// Result of [`analyse`].
 #[derive(Debug, Clone, PartialEq)]
@@ -76,15 +79,12 @@ impl std::fmt::Display for Column {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Param(id) => id.fmt(f),
-            Self::Compliance(j) => write!(f, "j{}.compliance", j + 1),
-            Self::Harmonic { joint, order, cos } => write!(
-                f,
-                "j{}.h{order}.{}",
-                joint + 1,
-                if *cos { "cos" } else { "sin" }
-            ),
+            Self::Compliance(j) => f.write_str(&compliance_name(*j)),
+            Self::Harmonic { joint, order, cos } => {
+                f.write_str(&harmonic_name(*joint, *order, *cos))
+            }
             Self::SelfWeight { joint, body, part } => {
-                write!(f, "j{}.sw{}.{}", joint + 1, body + 1, part.name())
+                f.write_str(&self_weight_name(*joint, *body, *part))
             }
         }
     }

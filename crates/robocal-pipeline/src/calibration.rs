@@ -2,12 +2,13 @@
 //! the default calibration, whose stages are chosen from the data by their error on held-out
 //! poses.
 //!
-//! The default tries, in order: kinematic identification (LM, the identifiable parameters);
-//! joint compliances identified with the geometry, when the data hold two or more loads; a
-//! residual model (SOMM, the paper's settings), when there are enough configurations. Each
-//! stage is kept only if it lowers the mean error on the held-out poses (the `--validate` file,
-//! or a seeded hold-out of whole configurations), and the report says what was kept and why.
-//! When the hold-out was carved from the data, the kept stages are fitted again on every row.
+//! The default ([`automatic`]) scores candidate models — the nominal table with base and tool
+//! fitted; kinematic identification; with joint compliances (two or more loads); with
+//! transmission harmonics; with self-weight terms; residual models (GP, SOMM) on the best
+//! identified one — on random folds of configurations and on blocks of joint 1's range (or the
+//! `--validate` file), takes each richer one only if it lowers the held-out errors
+//! significantly, fits the chosen one again on every row, and reports every candidate and
+//! decision.
 
 use std::collections::HashSet;
 
@@ -58,15 +59,7 @@ impl Predictor {
 
     /// Predicted points for `samples`, mm, world frame (the residual model in one batch).
     pub fn predict<'a>(&self, samples: impl IntoIterator<Item = &'a Sample>) -> Vec<Vector3<f64>> {
-        let samples: Vec<&Sample> = samples.into_iter().collect();
-        let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
-        if let Some(residual) = &self.residual {
-            let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
-            for (p, e) in points.iter_mut().zip(residual.predict(&inputs)) {
-                *p += Vector3::from(e);
-            }
-        }
-        points
+        self.predict_with_sigma(samples, false).0
     }
 
     /// Predicted points for `samples` (mm, world frame) and, with `sigma` and a residual model
@@ -95,13 +88,17 @@ impl Predictor {
         (points, sigmas)
     }
 
+    /// Euclidean errors on measured rows, mm.
+    pub fn errors(&self, rows: &[&Measurement]) -> Vec<f64> {
+        let predicted = self.predict(rows.iter().map(|m| &m.sample));
+        (predicted.iter().zip(rows))
+            .map(|(p, m)| (p - m.position).norm())
+            .collect()
+    }
+
     /// Error statistics on measured rows.
     pub fn stats(&self, rows: &[&Measurement]) -> ErrorStats {
-        let predicted = self.predict(rows.iter().map(|m| &m.sample));
-        let errors: Vec<f64> = (predicted.iter().zip(rows))
-            .map(|(p, m)| (p - m.position).norm())
-            .collect();
-        ErrorStats::from_errors(&errors)
+        ErrorStats::from_errors(&self.errors(rows))
     }
 }
 
@@ -563,8 +560,9 @@ struct Scored {
 
 /// Whether `new` (held-out errors) lowers `base`'s significantly: the mean over groups (a
 /// configuration in one kind of fold: its rows share one pose; `groups` numbers them from 0)
-/// of base − new is positive and more than [`SIGNIFICANCE`] times its standard error. A stage that helps by less than the spread of the
-/// difference is not worth its parameters: on poses beyond those measured it can do harm.
+/// of base − new is positive and more than [`SIGNIFICANCE`] times its standard error. A stage
+/// that helps by less than the spread of the difference is not worth its parameters: on poses
+/// beyond those measured it can do harm.
 pub fn improves(base: &[f64], new: &[f64], groups: &[usize]) -> bool {
     let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
     let mut sums = vec![0.0; n_groups];
@@ -610,7 +608,7 @@ fn score_physics(
         match fit_kinematic(nominal, &fold.train, &kinematic) {
             Ok(fit) => {
                 let model = physics.predictor(&fit);
-                held.add(fold, errors(&model, &fold.test));
+                held.add(fold, model.errors(&fold.test));
                 fitted.push(Some(model));
             }
             Err(e) => {
@@ -750,22 +748,16 @@ impl Held {
     }
 }
 
-/// Errors of `model` on `rows`, mm.
-fn errors(model: &Predictor, rows: &[&Measurement]) -> Vec<f64> {
-    let predicted = model.predict(rows.iter().map(|m| &m.sample));
-    (predicted.iter().zip(rows))
-        .map(|(p, m)| (p - m.position).norm())
-        .collect()
-}
-
 /// The default calibration: every candidate model — the nominal table with base and tool
 /// fitted; kinematic identification; with joint compliances (two or more loads); with
 /// transmission harmonics, with self-weight terms; each residual model of `settings` on top of
 /// the best identified one — is scored by its error on held-out poses: the mean of its mean
 /// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
-/// 1's range (extrapolation to a new working area), or its mean on the `validation` rows. The
-/// lowest score is chosen and fitted again on every row. `say` hears a line per candidate and
-/// per decision.
+/// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
+/// The choice is a chain — identified table, compliance, harmonics, self-weight, the best
+/// residual model — each step taken only if it lowers the held-out errors significantly
+/// ([`improves`]); the model it ends on is fitted again on every row. `say` hears a line per
+/// candidate and per decision.
 pub fn automatic(
     settings: &AutoSettings,
     nominal: &Robot,
@@ -936,9 +928,6 @@ pub fn automatic(
     }
     let physics: Vec<Physics> = scored.iter().map(|s| s.physics).collect();
     let physics_scores: Vec<Option<f64>> = scored.iter().map(|s| s.score).collect();
-    let fitted: Vec<Vec<Option<Predictor>>> = (0..splits.len())
-        .map(|f| scored.iter().map(|s| s.fitted[f].clone()).collect())
-        .collect();
     let best_physics = current;
     // Residual models learn what an identified model leaves.
     let base_physics = identified(current, &scored);
@@ -979,7 +968,7 @@ pub fn automatic(
             let mut abandoned = None;
             for (f, fold) in splits.iter().enumerate() {
                 let t = std::time::Instant::now();
-                let Some(base) = &fitted[f][base_physics] else {
+                let Some(base) = &scored[base_physics].fitted[f] else {
                     abandoned = Some("skipped: its physical model failed on a fold".to_string());
                     break;
                 };
@@ -991,7 +980,7 @@ pub fn automatic(
                     residual: Some(model),
                     ..base.clone()
                 };
-                held.add(fold, errors(&candidate, &fold.test));
+                held.add(fold, candidate.errors(&fold.test));
                 let took = t.elapsed().as_secs_f64();
                 c.seconds += took;
                 // The remaining folds and the final fit, at this fold's pace.

@@ -170,11 +170,7 @@ impl GpResidual {
     }
 
     fn check(&self, features: usize) -> std::result::Result<(), String> {
-        let fits = self.input_scale.mean.len() == features
-            && self.input_scale.std.len() == features
-            && (self.input_scale.mean.iter().chain(&self.input_scale.std)).all(|v| v.is_finite())
-            && self.input_scale.std.iter().all(|v| *v > 0.0);
-        if !fits {
+        if !self.input_scale.fits(features) {
             return Err(format!("gp.input_scale: does not fit {features} features"));
         }
         if self.rows.len() < 2 || self.rows.len() > crate::gp::MAX_GP_ROWS {
@@ -197,12 +193,6 @@ impl GpResidual {
                 .map_err(|m| format!("gp.axes[{a}]: {m}"))?;
         }
         Ok(())
-    }
-}
-
-impl PartialEq for GpResidual {
-    fn eq(&self, other: &Self) -> bool {
-        self.input_scale == other.input_scale && self.rows == other.rows && self.axes == other.axes
     }
 }
 
@@ -287,6 +277,15 @@ impl Standardizer {
             })
             .collect();
         Self { mean, std }
+    }
+
+    /// Whether this scaling fits `n` columns: that many finite means and positive finite
+    /// standard deviations (what a file read back must hold).
+    pub fn fits(&self, n: usize) -> bool {
+        self.mean.len() == n
+            && self.std.len() == n
+            && self.mean.iter().chain(&self.std).all(|v| v.is_finite())
+            && self.std.iter().all(|v| *v > 0.0)
     }
 
     /// The standardised row.
@@ -1206,12 +1205,6 @@ impl ResidualModel {
         }
         let device = Device::flex();
         let mut nets = Vec::new();
-        let fits = |s: &Standardizer, n: usize| {
-            s.mean.len() == n
-                && s.std.len() == n
-                && s.mean.iter().chain(&s.std).all(|v| v.is_finite())
-                && s.std.iter().all(|v| *v > 0.0)
-        };
         if m.inputs == 0 || m.inputs > MAX_INPUTS {
             return Err(format(format!(
                 "inputs {}: a residual model takes 1 to {MAX_INPUTS} inputs",
@@ -1229,8 +1222,8 @@ impl ResidualModel {
                     e.file
                 )));
             }
-            if !fits(&e.input_scale, features)
-                || !fits(&e.output_scale, e.axes.len())
+            if !e.input_scale.fits(features)
+                || !e.output_scale.fits(e.axes.len())
                 || e.axes.is_empty()
                 || e.axes.iter().any(|a| *a > 2)
             {

@@ -122,6 +122,22 @@ pub struct SelfWeight {
     pub value: f64,
 }
 
+/// The name of joint `joint`'s (0-based) payload compliance: `j2.compliance`.
+pub fn compliance_name(joint: usize) -> String {
+    format!("j{}.compliance", joint + 1)
+}
+
+/// The name of a harmonic's sine or cosine coefficient: `j3.h2.sin`, `j3.h2.cos`.
+pub fn harmonic_name(joint: usize, order: u32, cos: bool) -> String {
+    let which = if cos { "cos" } else { "sin" };
+    format!("j{}.h{order}.{which}", joint + 1)
+}
+
+/// The name of a self-weight coefficient: `j2.sw4.mass` (joint and link 0-based here).
+pub fn self_weight_name(joint: usize, body: usize, part: MomentPart) -> String {
+    format!("j{}.sw{}.{}", joint + 1, body + 1, part.name())
+}
+
 /// One coefficient of a [`JointErrors`] model, as an unknown of an identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ErrorParam {
@@ -251,19 +267,14 @@ impl JointErrors {
     /// A stable name for a coefficient: `j2.compliance`, `j3.h2.sin`, `j2.sw4.mass`.
     pub fn param_name(&self, p: ErrorParam) -> String {
         match p {
-            ErrorParam::Compliance(j) => format!("j{}.compliance", j + 1),
+            ErrorParam::Compliance(j) => compliance_name(j),
             ErrorParam::HarmonicSin(i) | ErrorParam::HarmonicCos(i) => {
                 let h = &self.harmonics[i];
-                let which = if matches!(p, ErrorParam::HarmonicSin(_)) {
-                    "sin"
-                } else {
-                    "cos"
-                };
-                format!("j{}.h{}.{which}", h.joint + 1, h.order)
+                harmonic_name(h.joint, h.order, matches!(p, ErrorParam::HarmonicCos(_)))
             }
             ErrorParam::SelfWeight(i) => {
                 let t = &self.self_weight[i];
-                format!("j{}.sw{}.{}", t.joint + 1, t.body + 1, t.part.name())
+                self_weight_name(t.joint, t.body, t.part)
             }
         }
     }
@@ -461,13 +472,8 @@ impl JointErrors {
     /// the point, at command `q` under `load`: column `i` is the joint Jacobian's column at the
     /// deflected angles times the torque on joint `i`.
     pub fn jacobian(&self, robot: &Robot, q: &[f64], load: f64) -> (Vector3<f64>, Matrix3xX<f64>) {
-        let t = self.torques(robot, q, load);
-        let qd = self.deflected(robot, q, load);
-        let mut jac = robot.joint_jacobian(&qd);
-        for (i, t) in t.iter().enumerate() {
-            jac.column_mut(i).scale_mut(*t);
-        }
-        (robot.point(&qd), jac)
+        let every: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
+        self.param_jacobian(robot, q, load, &every)
     }
 
     /// Parses `compliance.toml` for a robot with `dof` joints.

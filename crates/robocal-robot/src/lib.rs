@@ -36,7 +36,7 @@ pub mod table;
 
 pub use compliance::{
     Compliance, DEG_PER_KNM, ErrorParam, Harmonic, JointErrors, MomentPart, RawCompliance,
-    SelfWeight,
+    SelfWeight, compliance_name, harmonic_name, self_weight_name,
 };
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
