@@ -8,14 +8,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use robocal_data::{ErrorStats, Measurement, MeasurementSet, write_dir_atomically, write_text_in};
-use robocal_ident::{KinematicReport, Observations};
+use robocal_data::{ErrorStats, Measurement, MeasurementSet};
+use robocal_ident::KinematicReport;
+use robocal_model::CalibratedModel;
 use robocal_pipeline::calibration::{ResidualReport, Selection};
 use robocal_pipeline::{AutoSettings, Stages, automatic, configured};
 use robocal_robot::Robot;
 use serde::Serialize;
-
-use super::model::{COMPLIANCE_FILE, MODEL_FORMAT};
 
 /// Before/after statistics on the validation file.
 #[derive(Debug, Serialize)]
@@ -29,11 +28,9 @@ struct Validation {
     after: ErrorStats,
 }
 
-/// `report.json`.
+/// `report.json` (after the layout version and robocal's version, which the model writes).
 #[derive(Debug, Serialize)]
 struct Report {
-    model_format: u32,
-    robocal_version: &'static str,
     robot_file: PathBuf,
     data_file: PathBuf,
     /// `config FILE`, or the default calibration.
@@ -163,16 +160,17 @@ pub fn run(
                 ))
         );
     }
-    let model = built.predictor();
+    let mut model = built.model();
     let validation = validation.map(|v| {
-        let obs = Observations::from_set(&v);
         let rows: Vec<&Measurement> = v.rows.iter().collect();
         Validation {
             file: v.source.clone(),
-            before: ErrorStats::from_errors(&obs.errors(&built.kinematic.aligned)),
-            after_kinematic: ErrorStats::from_errors(
-                &obs.errors_with(&model.robot, model.compliance.as_ref()),
-            ),
+            before: CalibratedModel::kinematic(built.kinematic.aligned.clone()).stats(&rows),
+            after_kinematic: CalibratedModel {
+                residual: None,
+                ..model.clone()
+            }
+            .stats(&rows),
             after: model.stats(&rows),
         }
     });
@@ -186,8 +184,6 @@ pub fn run(
         );
     }
     let report = Report {
-        model_format: MODEL_FORMAT,
-        robocal_version: env!("CARGO_PKG_VERSION"),
         robot_file: robot.to_path_buf(),
         data_file: data.to_path_buf(),
         stages_from: match config {
@@ -202,19 +198,7 @@ pub fn run(
         residual: built.residual.as_ref().map(|(_, r)| r.clone()),
         validation,
     };
-    let mut calibrated = model.robot.clone();
-    calibrated.name = format!("{} (calibrated by robocal)", nominal.name);
-    let json = serde_json::to_string_pretty(&report)? + "\n";
-    write_dir_atomically(out, |dir| -> Result<()> {
-        write_text_in(dir, out, "kinematics.toml", &calibrated.to_toml_string())?;
-        if let Some(c) = &model.compliance {
-            write_text_in(dir, out, COMPLIANCE_FILE, &c.to_toml_string())?;
-        }
-        if let Some(residual) = &model.residual {
-            residual.save(dir)?;
-        }
-        write_text_in(dir, out, "report.json", &json)?;
-        Ok(())
-    })?;
+    model.robot.name = format!("{} (calibrated by robocal)", nominal.name);
+    model.save(out, &report)?;
     Ok(())
 }

@@ -4,28 +4,22 @@ use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Result, bail};
-use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
+use robocal_compensate::{CompensationOptions, compensate};
 use robocal_data::{csv_text, fixed6, read_targets, write_atomically};
-
-use super::model;
+use robocal_model::CalibratedModel;
 
 /// Compensates every target, writes the commands of those that converged (atomically) and
 /// fails naming the others.
 pub fn run(model_dir: &Path, targets: &Path, out: &Path) -> Result<()> {
-    let model = model::load_dir(model_dir)?;
+    let model = CalibratedModel::load(model_dir)?;
     let targets = read_targets(targets, model.robot.dof())?;
     let options = CompensationOptions::default();
-    let calibrated = CalibratedModel {
-        robot: &model.robot,
-        compliance: model.compliance.as_ref(),
-        residual: model.residual.as_ref(),
-    };
     let mut rows = Vec::with_capacity(targets.len());
     let mut failed = Vec::new();
     let mut worst: f64 = 0.0;
     for t in &targets {
         match compensate(
-            &calibrated,
+            &model,
             &t.position,
             t.sample.load,
             &t.sample.joints,

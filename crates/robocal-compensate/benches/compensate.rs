@@ -5,7 +5,8 @@ use divan::{Bencher, black_box};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
+use robocal_compensate::{CompensationOptions, compensate};
+use robocal_model::CalibratedModel;
 use robocal_residual::{ResidualKind, ResidualModel, ResidualSettings, Samples};
 use robocal_robot::{Compliance, Robot};
 
@@ -56,16 +57,8 @@ fn one_target_kinematics(b: Bencher) {
     let robot = robot();
     let t = target(&robot);
     let o = CompensationOptions::default();
-    b.bench_local(|| {
-        compensate(
-            &CalibratedModel::kinematic(black_box(&robot)),
-            &t,
-            5.0,
-            &SEED,
-            &o,
-        )
-        .expect("converges")
-    });
+    let m = CalibratedModel::kinematic(robot);
+    b.bench_local(|| compensate(black_box(&m), &t, 5.0, &SEED, &o).expect("converges"));
 }
 
 #[divan::bench]
@@ -74,14 +67,8 @@ fn one_target_kinematics_plus_somm(b: Bencher) {
     let model = somm();
     let t = target(&robot);
     let o = CompensationOptions::default();
-    b.bench_local(|| {
-        let m = CalibratedModel {
-            robot: black_box(&robot),
-            compliance: None,
-            residual: Some(&model),
-        };
-        compensate(&m, &t, 5.0, &SEED, &o).expect("converges")
-    });
+    let m = CalibratedModel::new(robot, None, Some(model));
+    b.bench_local(|| compensate(black_box(&m), &t, 5.0, &SEED, &o).expect("converges"));
 }
 
 #[divan::bench]
@@ -99,12 +86,6 @@ fn one_target_kinematics_plus_compliance(b: Bencher) {
     );
     let t = target(&robot);
     let o = CompensationOptions::default();
-    b.bench_local(|| {
-        let m = CalibratedModel {
-            robot: black_box(&robot),
-            compliance: Some(&compliance),
-            residual: None,
-        };
-        compensate(&m, &t, 15.0, &SEED, &o).expect("converges")
-    });
+    let m = CalibratedModel::new(robot, Some(compliance), None);
+    b.bench_local(|| compensate(black_box(&m), &t, 15.0, &SEED, &o).expect("converges"));
 }

@@ -13,7 +13,8 @@
 //!
 //! ```
 //! use nalgebra::Vector3;
-//! use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
+//! use robocal_compensate::{CompensationOptions, compensate};
+//! use robocal_model::CalibratedModel;
 //! use robocal_robot::Robot;
 //!
 //! let robot = Robot::from_toml_str(
@@ -23,7 +24,7 @@
 //! )?;
 //! let seed = [10.0, 20.0];
 //! let target = Vector3::new(350.0, 120.0, 0.0);
-//! let model = CalibratedModel::kinematic(&robot);
+//! let model = CalibratedModel::kinematic(robot.clone());
 //! let c = compensate(&model, &target, 0.0, &seed, &CompensationOptions::default()).unwrap();
 //! let q: Vec<f64> = c.joints_deg.iter().map(|d| d.to_radians()).collect();
 //! assert!((robot.point(&q) - target).norm() < 1e-3);
@@ -31,8 +32,8 @@
 //! ```
 
 use nalgebra::Vector3;
-use robocal_residual::ResidualModel;
-use robocal_robot::{Compliance, IkOptions, IkTarget, Robot};
+use robocal_model::CalibratedModel;
+use robocal_robot::{IkOptions, IkTarget};
 use serde::Serialize;
 
 /// Settings of [`compensate`].
@@ -97,65 +98,16 @@ impl std::fmt::Display for Failure {
     }
 }
 
-/// A calibrated model as compensation sees it: the identified table, the joint compliances
-/// under the payload (if identified) and the residual model (if learned).
-#[derive(Debug, Clone, Copy)]
-pub struct CalibratedModel<'a> {
-    /// Identified kinematic table.
-    pub robot: &'a Robot,
-    /// Joint compliance under the payload.
-    pub compliance: Option<&'a Compliance>,
-    /// What geometry and compliance leave, learned.
-    pub residual: Option<&'a ResidualModel>,
-}
-
-impl<'a> CalibratedModel<'a> {
-    /// The kinematic table alone.
-    pub fn kinematic(robot: &'a Robot) -> Self {
-        Self {
-            robot,
-            compliance: None,
-            residual: None,
-        }
-    }
-
-    /// The joint deflection under `load` at command `q` (rad), rad.
-    fn deflection(&self, q: &[f64], load: f64) -> Vec<f64> {
-        match self.compliance {
-            Some(c) => c.deflection(self.robot, q, load),
-            None => vec![0.0; q.len()],
-        }
-    }
-
-    /// The residual model's predicted error at command `q` (rad) and `load`, mm (zero without
-    /// one).
-    fn residual_at(&self, q: &[f64], load: f64) -> Vector3<f64> {
-        match self.residual {
-            Some(r) => {
-                let mut row: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-                row.push(load);
-                Vector3::from(r.predict(&[row])[0])
-            }
-            None => Vector3::zeros(),
-        }
-    }
-
-    /// The whole model's predicted point at command `q` (rad) and `load`, mm, world frame.
-    pub fn point(&self, q: &[f64], load: f64) -> Vector3<f64> {
-        self.robot.point_under_load(self.compliance, q, load) + self.residual_at(q, load)
-    }
-}
-
 /// The joint command (deg) near `seed_deg` for which `model` puts the target point at `target`
 /// (mm, world frame) under `load` (kg).
 pub fn compensate(
-    model: &CalibratedModel<'_>,
+    model: &CalibratedModel,
     target: &Vector3<f64>,
     load: f64,
     seed_deg: &[f64],
     options: &CompensationOptions,
 ) -> Result<Compensation, Failure> {
-    let robot = model.robot;
+    let robot = &model.robot;
     if seed_deg.len() != robot.dof() {
         return Err(Failure::BadSeed(format!(
             "{} joint values for a robot with {} joints",

@@ -4,9 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
-use robocal_compensate::{CalibratedModel, CompensationOptions, Failure, compensate};
+use robocal_compensate::{CompensationOptions, Failure, compensate};
 use robocal_data::MeasurementSet;
 use robocal_ident::{ComplianceSettings, KinematicSettings, Observations, calibrate_kinematics};
+use robocal_model::CalibratedModel;
 use robocal_robot::{IkOptions, IkTarget, Robot};
 use robocal_twin::TwinConfig;
 
@@ -48,7 +49,7 @@ fn compensated_commands_put_the_model_on_the_target_and_the_twin_near_it() {
         // The program's command for this target: the nominal table puts the point there.
         let target = nominal.point(&rad(seed));
         let c = compensate(
-            &CalibratedModel::kinematic(&calibrated),
+            &CalibratedModel::kinematic(calibrated.clone()),
             &target,
             load,
             seed,
@@ -86,7 +87,7 @@ fn path(
     twin: &TwinConfig,
     data: &MeasurementSet,
     nominal: &Robot,
-    model: &CalibratedModel<'_>,
+    model: &CalibratedModel,
     load: f64,
 ) -> (f64, f64) {
     let start = rad(&data.rows[0].sample.joints);
@@ -138,18 +139,14 @@ fn the_compliance_model_takes_the_loads_deflection_out_of_a_compensated_path() {
         ..KinematicSettings::default()
     };
     let cal = calibrate_kinematics(&twin.nominal, &obs, &settings).unwrap();
-    let compliance = cal.compliance.as_ref().unwrap();
-    let elastic = CalibratedModel {
-        robot: &cal.robot,
-        compliance: Some(compliance),
-        residual: None,
-    };
+    let elastic = CalibratedModel::new(cal.robot.clone(), cal.compliance.clone(), None);
+    assert!(elastic.joint_errors.is_some());
     for load in [5.0, 15.0] {
         let (b, r) = path(
             &twin,
             &data,
             &nominal,
-            &CalibratedModel::kinematic(&rigid),
+            &CalibratedModel::kinematic(rigid.clone()),
             load,
         );
         let (_, e) = path(&twin, &data, &nominal, &elastic, load);
@@ -164,7 +161,7 @@ fn the_compliance_model_takes_the_loads_deflection_out_of_a_compensated_path() {
 #[test]
 fn a_straight_path_at_several_loads_is_compensated_point_by_point() {
     let (twin, data, nominal, calibrated) = setup();
-    let model = CalibratedModel::kinematic(&calibrated);
+    let model = CalibratedModel::kinematic(calibrated.clone());
     for load in [0.0, 5.0, 15.0] {
         let (mb, ma) = path(&twin, &data, &nominal, &model, load);
         eprintln!("path at {load} kg: mean {mb:.3} → {ma:.3} mm");
@@ -180,7 +177,7 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
     let seed = [0.0, 10.0, 10.0, 0.0, 30.0, 0.0];
     assert!(matches!(
         compensate(
-            &CalibratedModel::kinematic(&calibrated),
+            &CalibratedModel::kinematic(calibrated.clone()),
             &far,
             0.0,
             &seed,
@@ -190,7 +187,7 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
     ));
     assert!(matches!(
         compensate(
-            &CalibratedModel::kinematic(&calibrated),
+            &CalibratedModel::kinematic(calibrated.clone()),
             &far,
             0.0,
             &seed[..5],
@@ -202,7 +199,7 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
     let near = calibrated.point(&q);
     assert!(matches!(
         compensate(
-            &CalibratedModel::kinematic(&calibrated),
+            &CalibratedModel::kinematic(calibrated.clone()),
             &near,
             f64::NAN,
             &seed,
@@ -212,7 +209,7 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
     ));
     // A target the robot already reaches needs no change.
     let c = compensate(
-        &CalibratedModel::kinematic(&calibrated),
+        &CalibratedModel::kinematic(calibrated.clone()),
         &near,
         0.0,
         &seed,
@@ -220,7 +217,8 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
     )
     .unwrap();
     assert!(
-        (CalibratedModel::kinematic(&calibrated).point(&rad(&c.joints_deg), 0.0) - near).norm()
+        (CalibratedModel::kinematic(calibrated.clone()).point(&rad(&c.joints_deg), 0.0) - near)
+            .norm()
             < 1e-3
     );
     for (a, b) in c.joints_deg.iter().zip(seed) {
@@ -236,7 +234,7 @@ fn a_seed_at_the_wrist_singularity_still_gets_a_command() {
     let seed = [10.0, 15.0, 5.0, 30.0, 0.0, -20.0];
     let axes = robot.joint_axes(&rad(&seed));
     assert!(axes.axes[3].0.cross(&axes.axes[5].0).norm() < 1e-12);
-    let model = CalibratedModel::kinematic(robot);
+    let model = CalibratedModel::kinematic(robot.clone());
     let options = CompensationOptions::default();
     let start = robot.point(&rad(&seed));
     // Small moves in every direction, one of them along the lost direction's neighbourhood:

@@ -20,8 +20,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement};
 use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
+use robocal_pipeline::CalibratedModel;
 use robocal_pipeline::calibration::{
-    Predictor, configured, fit_kinematic, hold_out, train_residual,
+    configured, fit_kinematic, hold_out, physical_model, train_residual,
 };
 use robocal_pipeline::{AutoSettings, Stages, automatic};
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
@@ -133,7 +134,7 @@ fn split<'a>(
 
 /// Mean error of `model` against the noise-free points of `test` (`truth`: pose/load → point).
 fn versus_truth(
-    model: &Predictor,
+    model: &CalibratedModel,
     test: &[&Measurement],
     truth: &std::collections::HashMap<(String, u64), Vector3<f64>>,
 ) -> ErrorStats {
@@ -151,22 +152,18 @@ fn versus_truth(
 fn previous_default(
     nominal: &robocal_robot::Robot,
     rows: &[&Measurement],
-) -> Result<Predictor, Box<dyn std::error::Error>> {
+) -> Result<CalibratedModel, Box<dyn std::error::Error>> {
     let rigid = KinematicSettings::default();
     let Some((fit, held, _)) = hold_out(rows, 0.2, 2020) else {
-        return Ok(configured(&Stages::default(), nominal, rows, None, None)?.predictor());
+        return Ok(configured(&Stages::default(), nominal, rows, None, None)?.model());
     };
-    let mean = |m: &Predictor| m.stats(&held).mean;
+    let mean = |m: &CalibratedModel| m.stats(&held).mean;
     let kin = fit_kinematic(nominal, &fit, &rigid)?;
-    let aligned = Predictor {
-        robot: kin.aligned.clone(),
-        compliance: None,
-        residual: None,
-    };
+    let aligned = CalibratedModel::kinematic(kin.aligned.clone());
     let mut best = aligned.clone();
     let mut chosen = Stages::default();
     let mut identified = false;
-    let k = Predictor::kinematic(&kin);
+    let k = physical_model(&kin);
     if mean(&k) < mean(&best) {
         best = k;
         identified = true;
@@ -181,7 +178,7 @@ fn previous_default(
     if loads.len() >= 2
         && let Ok(e) = fit_kinematic(nominal, &fit, &elastic)
     {
-        let e = Predictor::kinematic(&e);
+        let e = physical_model(&e);
         if mean(&e) < mean(&best) {
             best = e;
             identified = true;
@@ -197,7 +194,7 @@ fn previous_default(
             holdout: 0.2,
         };
         let (model, _) = train_residual(&stage, &best, &fit, None, None)?;
-        let with = Predictor {
+        let with = CalibratedModel {
             residual: Some(model),
             ..best.clone()
         };
@@ -210,7 +207,7 @@ fn previous_default(
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
     }
-    Ok(built.predictor())
+    Ok(built.model())
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -285,7 +282,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     let score = |stages: &Stages| -> String {
                         match configured(stages, &twin.nominal, &train, None, None) {
                             Ok(b) => {
-                                format!("{:.4}", versus_truth(&b.predictor(), &test, &truth).mean)
+                                format!("{:.4}", versus_truth(&b.model(), &test, &truth).mean)
                             }
                             Err(e) => format!("failed ({e})"),
                         }
@@ -315,7 +312,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .as_ref()
                         .and_then(|s| s.candidates.iter().find(|c| c.status == "chosen"))
                         .map_or("?".to_string(), |c| c.name.clone());
-                    let model = built.predictor();
+                    let model = built.model();
                     let default = versus_truth(&model, &test, &truth).mean;
                     if compensation && effects == Effects::All && how == Split::Configurations {
                         landings.push((name.to_string(), seed, land(&twin, &model, &test)));
@@ -358,13 +355,8 @@ type Landing = (usize, f64, f64, f64);
 /// Compensation through `model`: every test row's true point is a target, the row's reading the
 /// seed; where the twin really puts the point at the command, against the target. Returns
 /// (targets reached, mean distance at the seed, mean after, max after), mm.
-fn land(twin: &TwinConfig, model: &Predictor, test: &[&Measurement]) -> Landing {
-    use robocal_compensate::{CalibratedModel, CompensationOptions, compensate};
-    let calibrated = CalibratedModel {
-        robot: &model.robot,
-        compliance: model.compliance.as_ref(),
-        residual: model.residual.as_ref(),
-    };
+fn land(twin: &TwinConfig, model: &CalibratedModel, test: &[&Measurement]) -> Landing {
+    use robocal_compensate::{CompensationOptions, compensate};
     let options = CompensationOptions::default();
     let (mut before, mut after) = (Vec::new(), Vec::new());
     for m in test {
@@ -372,13 +364,7 @@ fn land(twin: &TwinConfig, model: &Predictor, test: &[&Measurement]) -> Landing 
         let target = twin.true_point(&q, m.sample.load);
         // Aim at a point 2 mm off the one the reading reaches, so that the command must move.
         let target = target + Vector3::new(1.2, -1.0, 1.2);
-        if let Ok(c) = compensate(
-            &calibrated,
-            &target,
-            m.sample.load,
-            &m.sample.joints,
-            &options,
-        ) {
+        if let Ok(c) = compensate(model, &target, m.sample.load, &m.sample.joints, &options) {
             let q: Vec<f64> = c.joints_deg.iter().map(|d| d.to_radians()).collect();
             before.push((twin.true_point(&m.sample.joints_rad(), m.sample.load) - target).norm());
             after.push((twin.true_point(&q, m.sample.load) - target).norm());

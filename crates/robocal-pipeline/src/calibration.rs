@@ -13,7 +13,6 @@
 use std::collections::HashSet;
 
 use indicatif::ProgressBar;
-use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -22,84 +21,23 @@ use robocal_ident::{
     ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings, Observations,
     calibrate_kinematics,
 };
+use robocal_model::CalibratedModel;
 use robocal_residual::{
-    ResidualKind, ResidualModel, ResidualSettings, ResidualStage, Samples, SearchLog, inputs_of,
+    ResidualKind, ResidualModel, ResidualSettings, ResidualStage, Samples, SearchLog,
 };
-use robocal_robot::{Compliance, Robot};
+use robocal_robot::Robot;
 use serde::Serialize;
 
 use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
 
-/// A model that predicts the target point: a table, joint compliances, a residual model.
-#[derive(Debug, Clone)]
-pub struct Predictor {
-    /// Kinematic table.
-    pub robot: Robot,
-    /// Joint compliance under the payload.
-    pub compliance: Option<Compliance>,
-    /// What the rest leaves, learned.
-    pub residual: Option<ResidualModel>,
-}
-
-impl Predictor {
-    /// The geometric (and elastic) model of an identification, without a residual model.
-    pub fn kinematic(calibration: &KinematicCalibration) -> Self {
-        Self {
-            robot: calibration.robot.clone(),
-            compliance: calibration.compliance.clone(),
-            residual: None,
-        }
-    }
-
-    /// The table and compliance part of the prediction, mm, world frame.
-    pub fn base_point(&self, s: &Sample) -> Vector3<f64> {
-        (self.robot).point_under_load(self.compliance.as_ref(), &s.joints_rad(), s.load)
-    }
-
-    /// Predicted points for `samples`, mm, world frame (the residual model in one batch).
-    pub fn predict<'a>(&self, samples: impl IntoIterator<Item = &'a Sample>) -> Vec<Vector3<f64>> {
-        self.predict_with_sigma(samples, false).0
-    }
-
-    /// Predicted points for `samples` (mm, world frame) and, with `sigma` and a residual model
-    /// that knows how sure it is (the GP), each point's standard deviation: the root sum of the
-    /// axes' variances, mm.
-    pub fn predict_with_sigma<'a>(
-        &self,
-        samples: impl IntoIterator<Item = &'a Sample>,
-        sigma: bool,
-    ) -> (Vec<Vector3<f64>>, Option<Vec<f64>>) {
-        let samples: Vec<&Sample> = samples.into_iter().collect();
-        let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
-        let Some(residual) = &self.residual else {
-            return (points, None);
-        };
-        let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
-        let (mean, std) = residual.predict_with_std(&inputs, sigma);
-        for (p, e) in points.iter_mut().zip(mean) {
-            *p += Vector3::from(e);
-        }
-        let sigmas = std.map(|sd| {
-            sd.iter()
-                .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
-                .collect()
-        });
-        (points, sigmas)
-    }
-
-    /// Euclidean errors on measured rows, mm.
-    pub fn errors(&self, rows: &[&Measurement]) -> Vec<f64> {
-        let predicted = self.predict(rows.iter().map(|m| &m.sample));
-        (predicted.iter().zip(rows))
-            .map(|(p, m)| (p - m.position).norm())
-            .collect()
-    }
-
-    /// Error statistics on measured rows.
-    pub fn stats(&self, rows: &[&Measurement]) -> ErrorStats {
-        ErrorStats::from_errors(&self.errors(rows))
-    }
+/// The geometric (and elastic) model of an identification, without a residual model.
+pub fn physical_model(calibration: &KinematicCalibration) -> CalibratedModel {
+    CalibratedModel::new(
+        calibration.robot.clone(),
+        calibration.compliance.clone(),
+        None,
+    )
 }
 
 /// One network's training, in the report.
@@ -227,7 +165,7 @@ pub fn fit_kinematic(
 /// (rows and where they came from), or on a hold-out of whole configurations of `train`.
 pub fn train_residual(
     stage: &ResidualStage,
-    base: &Predictor,
+    base: &CalibratedModel,
     train: &[&Measurement],
     validation: Option<(&[&Measurement], String)>,
     bar: Option<&ProgressBar>,
@@ -430,11 +368,11 @@ pub struct Built {
 }
 
 impl Built {
-    /// The model.
-    pub fn predictor(&self) -> Predictor {
-        Predictor {
+    /// The calibrated model.
+    pub fn model(&self) -> CalibratedModel {
+        CalibratedModel {
             residual: self.residual.as_ref().map(|(m, _)| m.clone()),
-            ..Predictor::kinematic(&self.kinematic)
+            ..physical_model(&self.kinematic)
         }
     }
 }
@@ -448,7 +386,7 @@ pub fn configured(
     bar: Option<&ProgressBar>,
 ) -> Result<Built> {
     let kinematic = fit_kinematic(nominal, rows, &stages.kinematic)?;
-    let base = Predictor::kinematic(&kinematic);
+    let base = physical_model(&kinematic);
     let residual = stages
         .residual
         .as_ref()
@@ -533,16 +471,12 @@ impl Physics {
         }
     }
 
-    /// The predictor of this physics from the identification that made it.
-    fn predictor(self, fit: &KinematicCalibration) -> Predictor {
+    /// The model of this physics from the identification that made it.
+    fn model(self, fit: &KinematicCalibration) -> CalibratedModel {
         if self.aligned {
-            Predictor {
-                robot: fit.aligned.clone(),
-                compliance: None,
-                residual: None,
-            }
+            CalibratedModel::kinematic(fit.aligned.clone())
         } else {
-            Predictor::kinematic(fit)
+            physical_model(fit)
         }
     }
 }
@@ -555,7 +489,7 @@ struct Scored {
     /// Every held-out error ([`Held::all`]; none when a fold's fit failed).
     errors: Option<Vec<f64>>,
     /// The fitted model of each fold.
-    fitted: Vec<Option<Predictor>>,
+    fitted: Vec<Option<CalibratedModel>>,
 }
 
 /// Whether `new` (held-out errors) lowers `base`'s significantly: the mean over groups (a
@@ -607,7 +541,7 @@ fn score_physics(
         }
         match fit_kinematic(nominal, &fold.train, &kinematic) {
             Ok(fit) => {
-                let model = physics.predictor(&fit);
+                let model = physics.model(&fit);
                 held.add(fold, model.errors(&fold.test));
                 fitted.push(Some(model));
             }
@@ -976,7 +910,7 @@ pub fn automatic(
                     bar.inc(1);
                 }
                 let (model, _) = train_residual(stage, base, &fold.train, None, None)?;
-                let candidate = Predictor {
+                let candidate = CalibratedModel {
                     residual: Some(model),
                     ..base.clone()
                 };

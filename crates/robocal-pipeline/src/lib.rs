@@ -22,10 +22,11 @@ pub mod run;
 pub mod split;
 pub mod stages;
 
-pub use calibration::{AutoSettings, Built, Predictor, automatic, configured};
+pub use calibration::{AutoSettings, Built, automatic, configured, physical_model};
 pub use error::{PipelineError, Result};
 pub use experiment::{Experiment, ModelPlan, RawExperiment, SplitDesign};
 pub use report::{Written, write_report};
+pub use robocal_model::CalibratedModel;
 pub use run::{Outcome, Summary, run};
 pub use split::{Set, Splits};
 pub use stages::{RawStages, Stages};

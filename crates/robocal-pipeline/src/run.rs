@@ -11,11 +11,13 @@ use robocal_ident::{
     KinematicCalibration, KinematicReport, KinematicSettings, Observations, align,
     calibrate_kinematics,
 };
+use robocal_model::CalibratedModel;
 use robocal_residual::{ResidualModel, Samples, inputs_of};
-use robocal_robot::{Compliance, ParamId, Robot};
+use robocal_robot::{ParamId, Robot};
 use robocal_twin::TwinConfig;
 use serde::Serialize;
 
+use crate::calibration::physical_model;
 use crate::error::{PipelineError, Result};
 use crate::experiment::Experiment;
 use crate::split::{Set, Splits};
@@ -74,20 +76,6 @@ fn samples(data: &[Measurement], errors: &[Vector3<f64>], rows: &[usize]) -> Sam
         inputs: rows.iter().map(|&i| inputs_of(&data[i].sample)).collect(),
         errors: rows.iter().map(|&i| errors[i].into()).collect(),
     }
-}
-
-/// Measured − predicted position of every row, mm, world frame: `robot`, deflected by
-/// `compliance` under each row's load when there is one.
-fn errors_of(
-    robot: &Robot,
-    compliance: Option<&Compliance>,
-    rows: &[Measurement],
-) -> Vec<Vector3<f64>> {
-    rows.iter()
-        .map(|m| {
-            m.position - robot.point_under_load(compliance, &m.sample.joints_rad(), m.sample.load)
-        })
-        .collect()
 }
 
 /// One kinematic identification (shared by every model with the same kinematic settings).
@@ -224,7 +212,7 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
         .collect();
     let obs = Observations::from_rows(nominal.dof(), kin_rows.iter().copied());
     let aligned = align(&nominal, &obs)?;
-    let before = errors_of(&aligned, None, &data.rows);
+    let before = CalibratedModel::kinematic(aligned.clone()).residuals(&data.rows);
 
     // Elasto-geometric identifications see every load of the trained configurations (GA10).
     let train_rows = group_rows(&splits, "GA10");
@@ -274,11 +262,7 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
             calibration.report.iterations,
             seconds
         ));
-        let errors = errors_of(
-            &calibration.robot,
-            calibration.compliance.as_ref(),
-            &data.rows,
-        );
+        let errors = physical_model(&calibration).residuals(&data.rows);
         model_kin.push(kinematics.len());
         kinematics.push(KinematicRun {
             label,

@@ -1,0 +1,139 @@
+//! The calibrated model and its predictions.
+
+use nalgebra::Vector3;
+use robocal_data::{ErrorStats, Measurement, Sample};
+use robocal_residual::{ResidualModel, inputs_of};
+use robocal_robot::{JointErrors, Robot};
+
+/// A calibrated model: the identified table, the joint-error physics identified with it and the
+/// residual model learned on what they leave. Each part beyond the table is optional; a nominal
+/// robot file is a model with the table alone ([`Self::kinematic`]).
+#[derive(Debug, Clone)]
+pub struct CalibratedModel {
+    /// Identified kinematic table (MDH, β, base, tool).
+    pub robot: Robot,
+    /// Joint errors: payload compliance, transmission harmonics, self-weight terms.
+    pub joint_errors: Option<JointErrors>,
+    /// What the table and the joint errors leave, learned.
+    pub residual: Option<ResidualModel>,
+}
+
+impl CalibratedModel {
+    /// A model of its parts.
+    pub fn new(
+        robot: Robot,
+        joint_errors: Option<JointErrors>,
+        residual: Option<ResidualModel>,
+    ) -> Self {
+        Self {
+            robot,
+            joint_errors,
+            residual,
+        }
+    }
+
+    /// The kinematic table alone.
+    pub fn kinematic(robot: Robot) -> Self {
+        Self::new(robot, None, None)
+    }
+
+    /// Joints of the robot.
+    pub fn dof(&self) -> usize {
+        self.robot.dof()
+    }
+
+    /// The joint deflection under `load` (kg) at command `q` (rad), rad (zeros without joint
+    /// errors).
+    pub fn deflection(&self, q: &[f64], load: f64) -> Vec<f64> {
+        match &self.joint_errors {
+            Some(e) => e.deflection(&self.robot, q, load),
+            None => vec![0.0; q.len()],
+        }
+    }
+
+    /// The table and joint-error part of the prediction at command `q` (rad) under `load`, mm,
+    /// world frame.
+    pub fn physical_point(&self, q: &[f64], load: f64) -> Vector3<f64> {
+        self.robot
+            .point_under_load(self.joint_errors.as_ref(), q, load)
+    }
+
+    /// The residual model's predicted error at command `q` (rad) and `load`, mm (zero without
+    /// one).
+    pub fn residual_at(&self, q: &[f64], load: f64) -> Vector3<f64> {
+        match &self.residual {
+            Some(r) => {
+                let mut row: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+                row.push(load);
+                Vector3::from(r.predict(&[row])[0])
+            }
+            None => Vector3::zeros(),
+        }
+    }
+
+    /// The whole model's predicted point at command `q` (rad) and `load`, mm, world frame.
+    pub fn point(&self, q: &[f64], load: f64) -> Vector3<f64> {
+        self.physical_point(q, load) + self.residual_at(q, load)
+    }
+
+    /// The table and joint-error part of the prediction for a sample, mm, world frame.
+    pub fn base_point(&self, s: &Sample) -> Vector3<f64> {
+        self.physical_point(&s.joints_rad(), s.load)
+    }
+
+    /// Predicted points for `samples`, mm, world frame (the residual model in one batch).
+    pub fn predict<'a>(&self, samples: impl IntoIterator<Item = &'a Sample>) -> Vec<Vector3<f64>> {
+        self.predict_with_sigma(samples, false).0
+    }
+
+    /// Predicted points for `samples` (mm, world frame) and, with `sigma` and a residual model
+    /// that knows how sure it is (the GP), each point's standard deviation: the root sum of the
+    /// axes' variances, mm.
+    pub fn predict_with_sigma<'a>(
+        &self,
+        samples: impl IntoIterator<Item = &'a Sample>,
+        sigma: bool,
+    ) -> (Vec<Vector3<f64>>, Option<Vec<f64>>) {
+        let samples: Vec<&Sample> = samples.into_iter().collect();
+        let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
+        let Some(residual) = &self.residual else {
+            return (points, None);
+        };
+        let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
+        let (mean, std) = residual.predict_with_std(&inputs, sigma);
+        for (p, e) in points.iter_mut().zip(mean) {
+            *p += Vector3::from(e);
+        }
+        let sigmas = std.map(|sd| {
+            sd.iter()
+                .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
+                .collect()
+        });
+        (points, sigmas)
+    }
+
+    /// Measured − predicted position of every row, mm, world frame.
+    pub fn residuals<'a>(
+        &self,
+        rows: impl IntoIterator<Item = &'a Measurement>,
+    ) -> Vec<Vector3<f64>> {
+        let rows: Vec<&Measurement> = rows.into_iter().collect();
+        let predicted = self.predict(rows.iter().map(|m| &m.sample));
+        (predicted.iter().zip(rows))
+            .map(|(p, m)| m.position - p)
+            .collect()
+    }
+
+    /// Euclidean errors on measured rows, mm.
+    pub fn errors(&self, rows: &[&Measurement]) -> Vec<f64> {
+        let predicted = self.predict(rows.iter().map(|m| &m.sample));
+        (predicted.iter().zip(rows))
+            .map(|(p, m)| (p - m.position).norm())
+            .collect()
+    }
+
+    /// Error statistics on measured rows.
+    pub fn stats(&self, rows: &[&Measurement]) -> ErrorStats {
+        ErrorStats::from_errors(&self.errors(rows))
+    }
+}
