@@ -7,7 +7,6 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use robocal_data::{ErrorStats, Measurement, MeasurementSet};
 use robocal_ident::KinematicReport;
 use robocal_model::CalibratedModel;
@@ -15,6 +14,8 @@ use robocal_pipeline::calibration::{ResidualReport, Selection};
 use robocal_pipeline::{AutoSettings, Stages, automatic, configured};
 use robocal_robot::Robot;
 use serde::Serialize;
+
+use super::terminal::Terminal;
 
 /// Before/after statistics on the validation file.
 #[derive(Debug, Serialize)]
@@ -46,18 +47,6 @@ struct Report {
     validation: Option<Validation>,
 }
 
-/// A progress bar for residual training.
-fn bar(len: u64, what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template(&format!(
-            "robocal: {what} [{{bar:30}}] {{pos}}/{{len}} {{elapsed}}"
-        ))
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar
-}
-
 /// Runs the calibration and writes `out` atomically.
 pub fn run(
     robot: &Path,
@@ -79,25 +68,12 @@ pub fn run(
         .zip(validation.as_ref())
         .map(|(r, v)| (r, v.source.display().to_string()));
     let auto = AutoSettings::default();
-    let epochs = |s: &robocal_residual::ResidualStage| {
-        robocal_residual::ResidualModel::max_epochs(&s.settings)
-    };
-    let progress = match &stages {
-        Some(s) => bar(
-            s.residual.as_ref().map_or(0, epochs),
-            "residual, epochs (at most)",
-        ),
-        // The selection sets the length: every candidate on every fold, and the final fit.
-        None => bar(0, "candidates × folds fitted"),
-    };
+    let terminal = Terminal::default();
     let built = match &stages {
-        Some(stages) => configured(stages, &nominal, &rows, val, Some(&progress)),
-        None => automatic(&auto, &nominal, &rows, val, Some(&progress), &mut |line| {
-            progress.suspend(|| eprintln!("robocal: {line}"))
-        }),
+        Some(stages) => configured(stages, &nominal, &rows, val, &terminal),
+        None => automatic(&auto, &nominal, &rows, val, &terminal),
     }
     .with_context(|| format!("{}: calibration failed", data.display()))?;
-    progress.finish_and_clear();
     let lightest = set.loads().first().copied().unwrap_or(0.0);
     let r = &built.kinematic.report;
     eprintln!(

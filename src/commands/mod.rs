@@ -7,6 +7,7 @@ mod model;
 mod predict;
 mod run;
 mod simulate;
+mod terminal;
 
 use anyhow::Result;
 

@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robocal_compensate::{CompensationOptions, compensate};
+use robocal_data::Silent;
 use robocal_model::CalibratedModel;
 use robocal_residual::{ResidualKind, ResidualModel, ResidualSettings, Samples};
 use robocal_robot::{Compliance, Robot};
@@ -42,7 +43,7 @@ fn somm() -> ResidualModel {
     for n in &mut settings.axes {
         n.max_epochs = 5;
     }
-    ResidualModel::fit(&settings, &train, &train, None).expect("fit")
+    ResidualModel::fit(&settings, &train, &train, &Silent).expect("fit")
 }
 
 const SEED: [f64; 6] = [10.0, 15.0, -20.0, 30.0, 40.0, -25.0];

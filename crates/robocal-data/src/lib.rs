@@ -14,6 +14,7 @@
 pub mod atomic;
 pub mod csvio;
 pub mod error;
+pub mod observe;
 pub mod stats;
 
 pub use atomic::{write_atomically, write_dir_atomically, write_text_in};
@@ -22,4 +23,5 @@ pub use csvio::{
     read_targets, write_predictions,
 };
 pub use error::{DataError, Result};
+pub use observe::{Lines, Observer, Silent};
 pub use stats::ErrorStats;

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robocal_data::Sample;
+use robocal_data::{Sample, Silent};
 use robocal_model::{CalibratedModel, JointErrors, ModelError};
 use robocal_residual::{ResidualModel, ResidualSettings, Samples};
 use robocal_robot::Robot;
@@ -60,7 +60,7 @@ fn full_model() -> CalibratedModel {
     };
     let mut settings = ResidualSettings::gp(7);
     settings.gp.iterations = 10;
-    let residual = ResidualModel::fit(&settings, &set, &Samples::default(), None).unwrap();
+    let residual = ResidualModel::fit(&settings, &set, &Samples::default(), &Silent).unwrap();
     CalibratedModel::new(robot, Some(errors), Some(residual))
 }
 

@@ -18,7 +18,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robocal_data::{ErrorStats, Measurement};
+use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
 use robocal_pipeline::CalibratedModel;
 use robocal_pipeline::calibration::{
@@ -155,7 +155,7 @@ fn previous_default(
 ) -> Result<CalibratedModel, Box<dyn std::error::Error>> {
     let rigid = KinematicSettings::default();
     let Some((fit, held, _)) = hold_out(rows, 0.2, 2020) else {
-        return Ok(configured(&Stages::default(), nominal, rows, None, None)?.model());
+        return Ok(configured(&Stages::default(), nominal, rows, None, &Silent)?.model());
     };
     let mean = |m: &CalibratedModel| m.stats(&held).mean;
     let kin = fit_kinematic(nominal, &fit, &rigid)?;
@@ -193,7 +193,7 @@ fn previous_default(
             settings: ResidualSettings::paper(ResidualKind::Somm, 2020),
             holdout: 0.2,
         };
-        let (model, _) = train_residual(&stage, &best, &fit, None, None)?;
+        let (model, _) = train_residual(&stage, &best, &fit, None, &Silent)?;
         let with = CalibratedModel {
             residual: Some(model),
             ..best.clone()
@@ -202,7 +202,7 @@ fn previous_default(
             chosen.residual = Some(stage);
         }
     }
-    let mut built = configured(&chosen, nominal, rows, None, None)?;
+    let mut built = configured(&chosen, nominal, rows, None, &Silent)?;
     if !identified {
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
@@ -280,7 +280,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         }),
                     };
                     let score = |stages: &Stages| -> String {
-                        match configured(stages, &twin.nominal, &train, None, None) {
+                        match configured(stages, &twin.nominal, &train, None, &Silent) {
                             Ok(b) => {
                                 format!("{:.4}", versus_truth(&b.model(), &test, &truth).mean)
                             }
@@ -299,11 +299,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         &twin.nominal,
                         &train,
                         None,
-                        None,
-                        &mut |line| {
-                            if verbose {
-                                eprintln!("{name} {seed}: {line}");
-                            }
+                        &Prefixed {
+                            prefix: format!("{name} {seed}"),
+                            verbose,
                         },
                     )?;
                     let secs = t.elapsed().as_secs_f64();
@@ -347,6 +345,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// The default calibration's lines on stderr, prefixed with the twin and seed (`--verbose`).
+struct Prefixed {
+    prefix: String,
+    verbose: bool,
+}
+
+impl Observer for Prefixed {
+    fn message(&self, line: &str) {
+        if self.verbose {
+            eprintln!("{}: {line}", self.prefix);
+        }
+    }
 }
 
 /// Targets reached, mean distance at the seed, mean and max after compensation, mm.

@@ -12,11 +12,10 @@
 
 use std::collections::HashSet;
 
-use indicatif::ProgressBar;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
-use robocal_data::{ErrorStats, Measurement, Sample};
+use robocal_data::{ErrorStats, Measurement, Observer, Sample, Silent};
 use robocal_ident::{
     ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings, Observations,
     calibrate_kinematics,
@@ -168,7 +167,7 @@ pub fn train_residual(
     base: &CalibratedModel,
     train: &[&Measurement],
     validation: Option<(&[&Measurement], String)>,
-    bar: Option<&ProgressBar>,
+    observer: &dyn Observer,
 ) -> Result<(ResidualModel, ResidualReport)> {
     let seed = stage.settings.seed;
     let model = |s: &Sample| base.base_point(s);
@@ -199,7 +198,13 @@ pub fn train_residual(
             )
         }
     };
-    let fitted = ResidualModel::fit(&stage.settings, &train, &val, bar)?;
+    observer.start(
+        "residual, epochs (at most)",
+        ResidualModel::max_epochs(&stage.settings),
+    );
+    let fitted = ResidualModel::fit(&stage.settings, &train, &val, observer);
+    observer.finish();
+    let fitted = fitted?;
     let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
         ErrorStats::from_errors(&s.remaining(predicted))
     };
@@ -383,14 +388,14 @@ pub fn configured(
     nominal: &Robot,
     rows: &[&Measurement],
     validation: Option<(&[&Measurement], String)>,
-    bar: Option<&ProgressBar>,
+    observer: &dyn Observer,
 ) -> Result<Built> {
     let kinematic = fit_kinematic(nominal, rows, &stages.kinematic)?;
     let base = physical_model(&kinematic);
     let residual = stages
         .residual
         .as_ref()
-        .map(|stage| train_residual(stage, &base, rows, validation, bar))
+        .map(|stage| train_residual(stage, &base, rows, validation, observer))
         .transpose()?;
     Ok(Built {
         kinematic,
@@ -527,8 +532,7 @@ fn score_physics(
     nominal: &Robot,
     splits: &[Fold<'_>],
     candidates: &mut Vec<Candidate>,
-    bar: Option<&ProgressBar>,
-    say: &mut dyn FnMut(&str),
+    observer: &dyn Observer,
 ) -> Scored {
     let t = std::time::Instant::now();
     let kinematic = physics.settings();
@@ -536,9 +540,7 @@ fn score_physics(
     let mut fitted = Vec::new();
     let mut failure = None;
     for fold in splits {
-        if let Some(bar) = bar {
-            bar.inc(1);
-        }
+        observer.advance(1);
         match fit_kinematic(nominal, &fold.train, &kinematic) {
             Ok(fit) => {
                 let model = physics.model(&fit);
@@ -563,7 +565,7 @@ fn score_physics(
         let (random, blocked, score) = held.summary();
         (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
     }
-    report(&c, say);
+    report(&c, observer);
     let score = c.score;
     candidates.push(c);
     Scored {
@@ -575,8 +577,8 @@ fn score_physics(
 }
 
 /// Says a candidate's held-out numbers, or why it was skipped.
-fn report(c: &Candidate, say: &mut dyn FnMut(&str)) {
-    say(&match (&c.held_out, &c.held_out_blocks) {
+fn report(c: &Candidate, observer: &dyn Observer) {
+    observer.message(&match (&c.held_out, &c.held_out_blocks) {
         (Some(h), Some(b)) => format!(
             "candidate {}: held-out mean {:.4} mm (max {:.4}) on random folds, {:.4} mm (max {:.4}) on blocks of joint 1 ({:.1} s)",
             c.name, h.mean, h.max, b.mean, b.max, c.seconds
@@ -697,8 +699,7 @@ pub fn automatic(
     nominal: &Robot,
     rows: &[&Measurement],
     validation: Option<(&[&Measurement], String)>,
-    bar: Option<&ProgressBar>,
-    say: &mut dyn FnMut(&str),
+    observer: &dyn Observer,
 ) -> Result<Built> {
     let start = std::time::Instant::now();
     let n_configurations = configurations(rows).len();
@@ -728,9 +729,10 @@ pub fn automatic(
         }
         None => {
             // Too few poses to hold any out: the kinematic stage alone, on everything.
-            say("too few configurations to hold any out: kinematic identification only");
+            observer
+                .message("too few configurations to hold any out: kinematic identification only");
             let stages = Stages::default();
-            let mut built = configured(&stages, nominal, rows, None, bar)?;
+            let mut built = configured(&stages, nominal, rows, None, observer)?;
             built.selection = Some(Selection {
                 held_out: "none: fewer than 4 configurations".into(),
                 folds: 0,
@@ -754,10 +756,10 @@ pub fn automatic(
     let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
     let mut candidates: Vec<Candidate> = Vec::new();
     // The progress bar counts fits: every candidate on every fold, and the final one.
-    if let Some(bar) = bar {
-        bar.set_length((splits.len() * (5 + settings.residuals.len()) + 1) as u64);
-        bar.set_position(0);
-    }
+    observer.start(
+        "candidates × folds fitted",
+        (splits.len() * (5 + settings.residuals.len()) + 1) as u64,
+    );
 
     // The physical models, each scored on every fold: the nominal table, the identified one,
     // with compliances (two or more loads); then, on the better identified one, transmission
@@ -772,10 +774,9 @@ pub fn automatic(
             nominal,
             &splits,
             &mut candidates,
-            bar,
-            say,
+            observer,
         ),
-        score_physics(Physics::RIGID, nominal, &splits, &mut candidates, bar, say),
+        score_physics(Physics::RIGID, nominal, &splits, &mut candidates, observer),
     ];
     let mut compliance_skip = None;
     if loads.len() >= 2 {
@@ -788,8 +789,7 @@ pub fn automatic(
             nominal,
             &splits,
             &mut candidates,
-            bar,
-            say,
+            observer,
         ));
     } else {
         compliance_skip = Some(format!(
@@ -853,8 +853,7 @@ pub fn automatic(
             nominal,
             &splits,
             &mut candidates,
-            bar,
-            say,
+            observer,
         ));
         if better(&scored[current], &scored[scored.len() - 1]) {
             current = scored.len() - 1;
@@ -906,10 +905,8 @@ pub fn automatic(
                     abandoned = Some("skipped: its physical model failed on a fold".to_string());
                     break;
                 };
-                if let Some(bar) = bar {
-                    bar.inc(1);
-                }
-                let (model, _) = train_residual(stage, base, &fold.train, None, None)?;
+                observer.advance(1);
+                let (model, _) = train_residual(stage, base, &fold.train, None, &Silent)?;
                 let candidate = CalibratedModel {
                     residual: Some(model),
                     ..base.clone()
@@ -944,12 +941,12 @@ pub fn automatic(
                     };
                 }
             }
-            report(&c, say);
+            report(&c, observer);
             residual_scores.push((r, c.score, significant));
             candidates.push(c);
             continue;
         }
-        report(&c, say);
+        report(&c, observer);
         residual_scores.push((r, c.score, false));
         candidates.push(c);
     }
@@ -1075,9 +1072,9 @@ pub fn automatic(
         ),
     });
     for d in &decisions {
-        say(&format!("stage {}: {}", d.stage, d.reason));
+        observer.message(&format!("stage {}: {}", d.stage, d.reason));
     }
-    say(&format!(
+    observer.message(&format!(
         "chosen: {} (held-out score {:.4} mm)",
         candidates[winner].name,
         candidates[winner].score.unwrap_or(f64::NAN)
@@ -1090,12 +1087,11 @@ pub fn automatic(
         residual: residual_wins.map(|(r, _)| settings.residuals[r].clone()),
     };
     if refit {
-        say("fitting the chosen model again on every row");
+        observer.message("fitting the chosen model again on every row");
     }
-    let mut built = configured(&stages, nominal, rows, validation.clone(), None)?;
-    if let Some(bar) = bar {
-        bar.inc(1);
-    }
+    let mut built = configured(&stages, nominal, rows, validation.clone(), &Silent)?;
+    observer.advance(1);
+    observer.finish();
     if chosen_physics.aligned {
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;

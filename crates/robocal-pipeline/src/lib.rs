@@ -3,10 +3,11 @@
 //! and its figures redrawn.
 //!
 //! ```no_run
+//! use robocal_data::Silent;
 //! use robocal_pipeline::{Experiment, run, write_report};
 //!
 //! let experiment = Experiment::load("configs/experiments/paper.toml".as_ref())?;
-//! let mut outcome = run(&experiment)?;
+//! let mut outcome = run(&experiment, &Silent)?;
 //! let written = write_report(&mut outcome, None)?;
 //! println!("{}\nreport in {}", written.tables, written.dir.display());
 //! # Ok::<(), robocal_pipeline::PipelineError>(())

@@ -4,9 +4,8 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
-use robocal_data::{ErrorStats, Measurement, MeasurementSet};
+use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer};
 use robocal_ident::{
     KinematicCalibration, KinematicReport, KinematicSettings, Observations, align,
     calibrate_kinematics,
@@ -156,13 +155,10 @@ fn key_error(e: &Experiment, (key, message): (String, String)) -> PipelineError 
     }
 }
 
-/// Prints a progress line on stderr.
-fn say(text: &str) {
-    eprintln!("robocal: {text}");
-}
-
-/// Runs every stage of every model of `experiment`.
-pub fn run(experiment: &Experiment) -> Result<Outcome> {
+/// Runs every stage of every model of `experiment`; `observer` hears a line per step and the
+/// epochs of each residual model's training.
+pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> {
+    let say = |line: &str| observer.message(line);
     let start = Instant::now();
     let twin = experiment
         .data
@@ -305,22 +301,19 @@ pub fn run(experiment: &Experiment) -> Result<Outcome> {
                 ),
             ));
         }
-        let bar = ProgressBar::new(ResidualModel::max_epochs(&stage.settings));
-        bar.set_style(
-            ProgressStyle::with_template(
-                "robocal: {msg} [{bar:30}] {pos}/{len} epochs (at most) {elapsed}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        observer.start(
+            &format!(
+                "[{}/{}] {}, epochs (at most)",
+                i + 1,
+                experiment.models.len(),
+                m.name
+            ),
+            ResidualModel::max_epochs(&stage.settings),
         );
-        bar.set_message(format!(
-            "[{}/{}] {}",
-            i + 1,
-            experiment.models.len(),
-            m.name
-        ));
         let r0 = Instant::now();
-        let model = ResidualModel::fit(&stage.settings, &train, &val, Some(&bar))?;
-        bar.finish_and_clear();
+        let model = ResidualModel::fit(&stage.settings, &train, &val, observer);
+        observer.finish();
+        let model = model?;
         let residual_seconds = r0.elapsed().as_secs_f64();
         let inputs: Vec<Vec<f64>> = data.rows.iter().map(|m| inputs_of(&m.sample)).collect();
         let predicted = model.predict(&inputs);

@@ -4,7 +4,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use robocal_data::MeasurementSet;
+use robocal_data::{Lines, MeasurementSet};
 use robocal_pipeline::{Experiment, PipelineError, RawExperiment, Set, Splits, Stages};
 use robocal_robot::Robot;
 use robocal_twin::TwinConfig;
@@ -289,11 +289,9 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         ],
         ..AutoSettings::default()
     };
-    let mut said = Vec::new();
-    let built = automatic(&settings, &twin.nominal, &rows, None, None, &mut |l| {
-        said.push(l.to_string())
-    })
-    .unwrap();
+    let lines = Lines::default();
+    let built = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
+    let said = lines.take();
     let selection = built.selection.as_ref().unwrap();
     assert!(selection.refitted_on_every_row);
     // Three random folds and three blocks of joint 1's range: every row held out twice.

@@ -6,6 +6,7 @@
 use divan::{Bencher, black_box};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use robocal_data::Silent;
 use robocal_residual::{NetSettings, ResidualKind, ResidualModel, ResidualSettings, Samples};
 use robocal_robot::Robot;
 
@@ -56,7 +57,7 @@ fn train_one_axis_1680x7_200_epochs(b: Bencher, axis: &str) {
         },
         ..fixed_epochs(ResidualKind::Mosm)
     };
-    b.bench_local(|| ResidualModel::fit(&settings, &train, &val, None).expect("fit"));
+    b.bench_local(|| ResidualModel::fit(&settings, &train, &val, &Silent).expect("fit"));
 }
 
 fn model() -> (Robot, ResidualModel) {
@@ -67,7 +68,7 @@ fn model() -> (Robot, ResidualModel) {
         n.max_epochs = 2;
     }
     let model =
-        ResidualModel::fit(&settings, &samples(400, 3), &samples(100, 4), None).expect("fit");
+        ResidualModel::fit(&settings, &samples(400, 3), &samples(100, 4), &Silent).expect("fit");
     (robot, model)
 }
 
@@ -107,7 +108,7 @@ fn gp_fit_1000x7(b: Bencher) {
     let train = samples(1000, 6);
     let settings = ResidualSettings::gp(1);
     b.bench_local(|| {
-        ResidualModel::fit(&settings, &train, &Samples::default(), None).expect("fit")
+        ResidualModel::fit(&settings, &train, &Samples::default(), &Silent).expect("fit")
     });
 }
 
@@ -115,7 +116,7 @@ fn gp_model(rows: usize) -> ResidualModel {
     let mut settings = ResidualSettings::gp(1);
     settings.gp.iterations = 5;
     settings.gp.max_rows = rows;
-    ResidualModel::fit(&settings, &samples(rows, 7), &Samples::default(), None).expect("fit")
+    ResidualModel::fit(&settings, &samples(rows, 7), &Samples::default(), &Silent).expect("fit")
 }
 
 /// One sample's correction through a GP conditioned on 1000 and on 2500 rows (three axes).

@@ -7,10 +7,10 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::prelude::*;
 use burn::tensor::TensorData;
 use burn::tensor::activation::{relu, tanh};
-use indicatif::ProgressBar;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
+use robocal_data::Observer;
 use serde::{Deserialize, Serialize};
 
 /// The activation between hidden layers (the output layer is linear).
@@ -269,7 +269,7 @@ pub fn train(
     train: Split<'_>,
     validation: Split<'_>,
     seed: u64,
-    progress: Option<&ProgressBar>,
+    progress: &dyn Observer,
 ) -> (Mlp, TrainReport) {
     let device = Device::flex().autodiff();
     device.seed(seed);
@@ -326,9 +326,7 @@ pub fn train(
         report.epochs = epoch;
         report.train_loss.push(train_loss);
         report.validation_loss.push(val);
-        if let Some(bar) = progress {
-            bar.inc(1);
-        }
+        progress.advance(1);
         if val < best.0 {
             best = (val, epoch, current);
         } else if epoch - best.1 >= settings.patience {

@@ -7,12 +7,12 @@ use std::path::{Path, PathBuf};
 
 use burn::module::Module;
 use burn::prelude::Device;
-use indicatif::ProgressBar;
 use linfa::prelude::*;
 use linfa_trees::DecisionTree;
 use nalgebra::Vector3;
 use ndarray::{Array1, Array2};
 use robocal_data::{Measurement, Sample};
+use robocal_data::{Observer, Silent};
 use robocal_robot::Robot;
 use serde::{Deserialize, Serialize};
 
@@ -339,7 +339,7 @@ impl AxisNet {
         train_set: &Samples,
         validation: &Samples,
         seed: u64,
-        progress: Option<&ProgressBar>,
+        progress: &dyn Observer,
     ) -> Self {
         let input_scale = Standardizer::fit(&train_set.inputs);
         let targets = |s: &Samples| -> Vec<Vec<f64>> {
@@ -810,7 +810,7 @@ impl ResidualModel {
         settings: &ResidualSettings,
         train_set: &Samples,
         validation: &Samples,
-        progress: Option<&ProgressBar>,
+        progress: &dyn Observer,
     ) -> Result<Self> {
         settings.check()?;
         let inputs = match train_set.inputs.first() {
@@ -986,8 +986,14 @@ impl ResidualModel {
         let seed = settings.seed;
         let score = |axes: Vec<usize>, offset: u64| {
             move |ns: &NetSettings| {
-                let net =
-                    AxisNet::fit(axes.clone(), ns, train_set, validation, seed + offset, None);
+                let net = AxisNet::fit(
+                    axes.clone(),
+                    ns,
+                    train_set,
+                    validation,
+                    seed + offset,
+                    &Silent,
+                );
                 net.report
                     .validation_loss
                     .iter()

@@ -2,6 +2,7 @@
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use robocal_data::Silent;
 use robocal_residual::{
     Activation, Gate, NetSettings, PerClass, ResidualKind, ResidualModel, ResidualSettings,
     Samples, Split, two_means_threshold,
@@ -63,7 +64,7 @@ fn an_mlp_learns_a_smooth_function_of_seven_inputs() {
     let mut s = somm(settings(vec![32, 32], 5e-3, 80), 7);
     s.kind = ResidualKind::Mosm;
     s.mosm = settings(vec![32, 32], 5e-3, 80);
-    let model = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let model = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     let (err, spread) = (rms(&model, &test, 0), std_of(&test, 0));
     // Stated tolerance: held-out RMS error under 10 % of the target's spread.
     assert!(err < 0.1 * spread, "rms {err} vs spread {spread}");
@@ -74,8 +75,8 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
     let f = |x: &[f64]| [smooth(x), x[0] - x[1], 0.3 * x[2]];
     let (train, val) = (samples(300, 4, f), samples(100, 5, f));
     let s = somm(settings(vec![8, 8], 3e-3, 4), 11);
-    let a = ResidualModel::fit(&s, &train, &val, None).unwrap();
-    let b = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let a = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let b = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     let (pa, pb) = (a.predict(&val.inputs), b.predict(&val.inputs));
     assert_eq!(pa, pb, "same seed, same model");
     let dir = tempfile::tempdir().unwrap();
@@ -97,7 +98,7 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
         }
     }
     // A different seed gives a different model.
-    let c = ResidualModel::fit(&ResidualSettings { seed: 12, ..s }, &train, &val, None).unwrap();
+    let c = ResidualModel::fit(&ResidualSettings { seed: 12, ..s }, &train, &val, &Silent).unwrap();
     assert_ne!(c.predict(&val.inputs), pa);
 }
 
@@ -112,7 +113,7 @@ fn early_stopping_stops_and_keeps_the_best_epoch() {
     let mut s = somm(net.clone(), 3);
     s.kind = ResidualKind::Mosm;
     s.mosm = net;
-    let model = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let model = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     let r = &model.nets[0].report;
     assert!(r.stopped_early, "{r:?}");
     assert_eq!(r.epochs, r.best_epoch + 3);
@@ -153,11 +154,11 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     let t = two_means_threshold(&train.errors.iter().map(|e| e[0]).collect::<Vec<_>>()).unwrap();
     assert!(t.abs() < 0.6, "the split falls between the modes: {t}");
     let net = settings(vec![16, 16], 5e-3, 30);
-    let plain = ResidualModel::fit(&somm(net.clone(), 5), &train, &val, None).unwrap();
+    let plain = ResidualModel::fit(&somm(net.clone(), 5), &train, &val, &Silent).unwrap();
     let mut s = somm(net, 5);
     s.kind = ResidualKind::CaSomm;
-    let gated = ResidualModel::fit(&s, &train, &val, None).unwrap();
-    let again = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let gated = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let again = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     assert_eq!(
         again.predict(&test.inputs),
         gated.predict(&test.inputs),
@@ -182,7 +183,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     // as the hard gate.
     let mut soft = s.clone();
     soft.classifier.gate = Gate::Soft;
-    let soft = ResidualModel::fit(&soft, &train, &val, None).unwrap();
+    let soft = ResidualModel::fit(&soft, &train, &val, &Silent).unwrap();
     let c = soft.classifier.as_ref().unwrap();
     let labels: Vec<usize> = train
         .errors
@@ -227,7 +228,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     // Per class on the classifier's axis only: Y and Z come from one network both sets share.
     let mut axis_only = s.clone();
     axis_only.classifier.per_class = PerClass::Axis;
-    let m = ResidualModel::fit(&axis_only, &train, &val, None).unwrap();
+    let m = ResidualModel::fit(&axis_only, &train, &val, &Silent).unwrap();
     let plain_p = plain.predict(&test.inputs);
     let m_p = m.predict(&test.inputs);
     for (a, b) in m_p.iter().zip(&plain_p) {
@@ -258,10 +259,10 @@ fn refused_after(dir: &std::path::Path, needle: &str, edit: impl Fn(&mut serde_j
 fn bad_settings_and_bad_files_are_refused() {
     let train = samples(50, 1, |x| [x[0], 0.0, 0.0]);
     let mut s = somm(settings(vec![0], 1e-3, 2), 1);
-    let err = ResidualModel::fit(&s, &train, &train, None).unwrap_err();
+    let err = ResidualModel::fit(&s, &train, &train, &Silent).unwrap_err();
     assert!(err.to_string().contains("x.hidden"), "{err}");
     s.axes[0] = settings(vec![4], -1.0, 2);
-    let err = ResidualModel::fit(&s, &train, &train, None).unwrap_err();
+    let err = ResidualModel::fit(&s, &train, &train, &Silent).unwrap_err();
     assert!(err.to_string().contains("x.learning_rate"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let err = ResidualModel::load(dir.path()).unwrap_err();
@@ -274,7 +275,7 @@ fn bad_settings_and_bad_files_are_refused() {
     // Fields of a written model that would allocate without bound, read outside the model
     // directory, or divide by zero: each refused by the loader, naming the field.
     let s = somm(settings(vec![4], 1e-3, 2), 1);
-    let model = ResidualModel::fit(&s, &train, &train, None).unwrap();
+    let model = ResidualModel::fit(&s, &train, &train, &Silent).unwrap();
     model.save(dir.path()).unwrap();
     refused_after(dir.path(), "nets[0].settings.hidden", |m| {
         m["nets"][0]["settings"]["hidden"] = serde_json::json!([1_000_000_000u64]);
@@ -290,7 +291,7 @@ fn bad_settings_and_bad_files_are_refused() {
         m["nets"][0]["output_scale"]["std"] = serde_json::json!([]);
     });
     let huge = settings(vec![5000], 1e-3, 2);
-    let err = ResidualModel::fit(&somm(huge, 1), &train, &train, None).unwrap_err();
+    let err = ResidualModel::fit(&somm(huge, 1), &train, &train, &Silent).unwrap_err();
     assert!(err.to_string().contains("x.hidden"), "{err}");
 }
 
@@ -307,8 +308,8 @@ fn tpe_search_tries_the_asked_trials_within_bounds_and_keeps_the_best() {
         neurons: [4, 16],
         learning_rate: [1e-3, 1e-2],
     });
-    let a = ResidualModel::fit(&s, &train, &val, None).unwrap();
-    let b = ResidualModel::fit(&s, &train, &val, None).unwrap();
+    let a = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let b = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     assert_eq!(a.search, b.search, "seeded: the same trials");
     let log = &a.search[0];
     assert_eq!(log.trials.len(), 5);
@@ -368,7 +369,7 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
         iterations: 40,
         ..GpSettings::default()
     };
-    let model = ResidualModel::fit(&s, &train, &Samples::default(), None).unwrap();
+    let model = ResidualModel::fit(&s, &train, &Samples::default(), &Silent).unwrap();
     for axis in 0..3 {
         let (left, spread) = (rms(&model, &test, axis), std_of(&test, axis));
         assert!(left < 0.25 * spread, "axis {axis}: {left} left of {spread}");
