@@ -214,7 +214,7 @@ pub fn train_residual(
         validation_source: source,
         training_rows: train.len(),
         validation_rows: val.len(),
-        networks: (fitted.nets.iter())
+        networks: (fitted.nets().into_iter())
             .map(|n| NetTraining {
                 axes: n.axes_name(),
                 epochs: n.report.epochs,
@@ -226,10 +226,10 @@ pub fn train_residual(
         training_after: left(&train, Some(&fitted.predict(&train.inputs))),
         validation_before: (!val.is_empty()).then(|| left(&val, None)),
         validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val.inputs)))),
-        classifier_accuracy_training: fitted.classifier.as_ref().map(|c| c.accuracy(&train)),
-        classifier_accuracy_validation: fitted.classifier.as_ref().map(|c| c.accuracy(&val)),
+        classifier_accuracy_training: fitted.classifier().map(|c| c.accuracy(&train)),
+        classifier_accuracy_validation: fitted.classifier().map(|c| c.accuracy(&val)),
         search: fitted.search.clone(),
-        gp: fitted.gp.as_ref().map_or_else(Vec::new, |g| {
+        gp: fitted.gp().map_or_else(Vec::new, |g| {
             (g.axes.iter().zip(["x", "y", "z"]))
                 .map(|(a, axis)| GpSummary {
                     axis,

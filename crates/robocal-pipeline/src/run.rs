@@ -535,7 +535,7 @@ impl Outcome {
 
     /// Classifier accuracy of a model on a group.
     fn accuracy(&self, model: &ModelRun, group: &str) -> Option<f64> {
-        let c = model.residual.as_ref()?.classifier.as_ref()?;
+        let c = model.residual.as_ref()?.classifier()?;
         let errors = &self.kinematics[model.kinematic].errors;
         Some(c.accuracy(&samples(&self.data.rows, errors, &self.rows(group))))
     }
@@ -642,7 +642,7 @@ impl Outcome {
                     ModelSummary {
                         name: m.name.clone(),
                         kinematic: kin.label.clone(),
-                        residual: m.residual.as_ref().map(|r| r.kind.name()),
+                        residual: m.residual.as_ref().map(|r| r.kind().name()),
                         after_kinematic: self.by_group(&kin.errors),
                         after: self.by_group(&m.errors),
                         table6_axis_rms: [
@@ -653,7 +653,7 @@ impl Outcome {
                         networks: m
                             .residual
                             .iter()
-                            .flat_map(|r| &r.nets)
+                            .flat_map(|r| r.nets())
                             .map(|n| NetworkSummary {
                                 axes: n.axes_name(),
                                 hidden: n.settings.hidden.clone(),
@@ -661,15 +661,15 @@ impl Outcome {
                                 best_epoch: n.report.best_epoch,
                             })
                             .collect(),
-                        classifier: m.residual.as_ref().and_then(|r| r.classifier.as_ref()).map(
-                            |c| ClassifierSummary {
+                        classifier: m.residual.as_ref().and_then(|r| r.classifier()).map(|c| {
+                            ClassifierSummary {
                                 threshold: c.threshold,
                                 accuracy: ["GA10", "GB20", "test"]
                                     .iter()
                                     .filter_map(|g| Some((g.to_string(), self.accuracy(m, g)?)))
                                     .collect(),
-                            },
-                        ),
+                            }
+                        }),
                         residual_seconds: m.residual_seconds,
                         paper_table6: plan.paper_row(),
                     }

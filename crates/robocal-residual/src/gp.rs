@@ -1,6 +1,7 @@
 //! A Gaussian-process residual: one GP per world axis over the encoded inputs, with an ARD
 //! squared-exponential kernel and Gaussian noise whose hyper-parameters maximise the marginal
-//! likelihood; it gives a predictive standard deviation with every correction.
+//! likelihood; it gives a predictive standard deviation with every correction ([`GpResidual`],
+//! the residual model; [`GpAxis`], one axis).
 //!
 //! For axis `a` with standardised targets `y` (mean 0, variance 1 on the training rows) and
 //! standardised features `x`:
@@ -33,6 +34,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
+use crate::model::Residual;
+use crate::samples::{Samples, Standardizer};
 
 /// How a Gaussian process is fitted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -362,6 +365,107 @@ impl GpAxis {
             );
         }
         Ok(())
+    }
+}
+
+/// The Gaussian-process residual: one [`GpAxis`] per world axis over standardised features,
+/// conditioned on the same rows.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GpResidual {
+    /// Feature scaling (of the encoded inputs).
+    pub input_scale: Standardizer,
+    /// The standardised feature rows the model conditions on.
+    pub rows: Vec<Vec<f64>>,
+    /// X, Y, Z.
+    pub axes: Vec<GpAxis>,
+    /// Cholesky factors for the variances, made on first use.
+    #[serde(skip)]
+    factors: std::sync::OnceLock<Vec<Option<faer::linalg::solvers::Llt<f64>>>>,
+}
+
+impl GpResidual {
+    /// Fits one GP per axis on `train_set` (encoded inputs), on one seeded subset of rows.
+    pub fn fit(settings: &GpSettings, train_set: &Samples, seed: u64) -> Result<Self> {
+        let input_scale = Standardizer::fit(&train_set.inputs);
+        let x: Vec<Vec<f64>> = (train_set.inputs.iter())
+            .map(|r| input_scale.apply(r))
+            .collect();
+        let mut axes = Vec::with_capacity(3);
+        let mut rows = Vec::new();
+        for a in 0..3 {
+            let y: Vec<f64> = train_set.errors.iter().map(|e| e[a]).collect();
+            // One seed for every axis: the same conditioning rows.
+            let (gp, kept) = GpAxis::fit_rows(&x, &y, settings, seed)?;
+            axes.push(gp);
+            rows = kept;
+        }
+        Ok(Self {
+            input_scale,
+            rows: rows.iter().map(|&i| x[i].clone()).collect(),
+            axes,
+            factors: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// Predicted error (mm) per encoded row, and with `std` the latent standard deviation of
+    /// each axis's correction (mm).
+    fn predict_rows(
+        &self,
+        encoded: &[Vec<f64>],
+        std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+        let factors = std.then(|| {
+            self.factors
+                .get_or_init(|| self.axes.iter().map(|a| a.factor(&self.rows)).collect())
+        });
+        let mut mean = vec![[0.0; 3]; encoded.len()];
+        let mut sd = std.then(|| vec![[f64::NAN; 3]; encoded.len()]);
+        for (i, row) in encoded.iter().enumerate() {
+            let x = self.input_scale.apply(row);
+            for (a, gp) in self.axes.iter().enumerate() {
+                let f = factors.and_then(|f| f[a].as_ref());
+                let (m, s) = gp.predict_one(&self.rows, &x, f);
+                mean[i][a] = m;
+                if let (Some(sd), Some(s)) = (sd.as_mut(), s) {
+                    sd[i][a] = s;
+                }
+            }
+        }
+        (mean, sd)
+    }
+
+    /// Checks a model read from a file against the feature count.
+    pub(crate) fn check(&self, features: usize) -> std::result::Result<(), String> {
+        if !self.input_scale.fits(features) {
+            return Err(format!("gp.input_scale: does not fit {features} features"));
+        }
+        if self.rows.len() < 2 || self.rows.len() > crate::gp::MAX_GP_ROWS {
+            return Err(format!(
+                "gp.rows: {} rows; a model conditions on 2 to {}",
+                self.rows.len(),
+                crate::gp::MAX_GP_ROWS
+            ));
+        }
+        if (self.rows.iter()).any(|r| r.len() != features || r.iter().any(|v| !v.is_finite())) {
+            return Err(format!(
+                "gp.rows: every row must hold {features} finite values"
+            ));
+        }
+        if self.axes.len() != 3 {
+            return Err("gp.axes: one per world axis (3)".into());
+        }
+        for (a, gp) in self.axes.iter().enumerate() {
+            gp.check(features, self.rows.len())
+                .map_err(|m| format!("gp.axes[{a}]: {m}"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Residual for GpResidual {
+    fn predict(&self, encoded: &[Vec<f64>], std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+        self.predict_rows(encoded, std)
     }
 }
 

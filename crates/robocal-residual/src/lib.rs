@@ -1,28 +1,45 @@
 //! Residual learning (paper section III-B, V-B): what kinematic calibration leaves, learned as a
 //! function of the joint angles and the load.
 //!
-//! - [`mlp`]: one burn MLP on the CPU `flex` backend, Adam, mini-batches, early stopping.
-//! - [`model`]: SOMM (one network per world axis), MOSM (one three-output network) and CA-SOMM
-//!   (a linfa decision tree picks one of two SOMM sets), standardised inputs and outputs, and the
-//!   saved form (`residual.json` + one burn record per network).
-//! - [`gp`]: a Gaussian process per axis (ARD squared-exponential kernel, marginal likelihood),
-//!   with a predictive standard deviation.
-//! - [`search`](mod@search): TPE hyper-parameter search (layers, neurons, activation, learning rate).
+//! - [`model`]: [`ResidualModel`], the [`Residual`] trait every kind implements, training and
+//!   prediction on raw input rows; [`persist`]: its saved form (`residual.json` + one burn
+//!   record per network).
+//! - The kinds, one module each: [`somm`] (one network per world axis), [`mosm`] (one
+//!   three-output network), [`casomm`] (a linfa decision tree, [`classifier`], picks one of two
+//!   SOMM sets), [`gp`] (a Gaussian process per axis, ARD squared-exponential kernel, marginal
+//!   likelihood, with a predictive standard deviation).
+//! - [`settings`]: which kind and its settings; [`stage`]: the `[residual]` table of a stage
+//!   file.
+//! - [`samples`]: samples, input encoding, standardisation; [`net`]: one network with its
+//!   scaling; [`mlp`]: one burn MLP on the CPU `flex` backend, Adam, mini-batches, early
+//!   stopping; [`search`](mod@search): TPE hyper-parameter search.
 
+pub mod casomm;
+pub mod classifier;
 pub mod error;
 pub mod gp;
 pub mod mlp;
 pub mod model;
+pub mod mosm;
+pub mod net;
+pub mod persist;
+pub mod samples;
 pub mod search;
+pub mod settings;
+pub mod somm;
 pub mod stage;
 
+pub use casomm::CaSomm;
+pub use classifier::{Axis, Classifier, ClassifierSettings, Gate, PerClass, two_means_threshold};
 pub use error::{ResidualError, Result};
-pub use gp::{GpAxis, GpSettings};
+pub use gp::{GpAxis, GpResidual, GpSettings};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Split, TrainReport, train};
-pub use model::{
-    AxisNet, Classifier, ClassifierSettings, Encoding, Gate, GpResidual, MANIFEST, PerClass,
-    RESIDUAL_FORMAT, ResidualKind, ResidualModel, ResidualSettings, Samples, Standardizer,
-    inputs_of, two_means_threshold,
-};
+pub use model::{Fitted, Residual, ResidualModel};
+pub use mosm::Mosm;
+pub use net::AxisNet;
+pub use persist::{MANIFEST, MAX_INPUTS, RESIDUAL_FORMAT};
+pub use samples::{Encoding, Samples, Standardizer, inputs_of};
 pub use search::{SearchLog, SearchSettings, Trial, search};
+pub use settings::{ResidualKind, ResidualSettings};
+pub use somm::Somm;
 pub use stage::{DEFAULT_SEED, RawResidualStage, ResidualStage};

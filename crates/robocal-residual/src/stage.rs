@@ -2,10 +2,12 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::classifier::ClassifierSettings;
 use crate::gp::GpSettings;
 use crate::mlp::NetSettings;
-use crate::model::{ClassifierSettings, Encoding, ResidualKind, ResidualSettings};
+use crate::samples::Encoding;
 use crate::search::SearchSettings;
+use crate::settings::{ResidualKind, ResidualSettings};
 
 /// `[residual]` as written. Absent networks get the paper's settings (Tables 2 and 3).
 #[derive(Debug, Clone, Serialize, Deserialize)]

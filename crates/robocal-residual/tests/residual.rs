@@ -87,7 +87,7 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
         assert_eq!(x.to_bits(), y.to_bits());
     }
     // The plain-matrix inference agrees with burn's forward pass.
-    for net in &a.nets {
+    for net in a.nets() {
         let x: Vec<f32> = (0..70)
             .map(|i| ((i * 37 % 23) as f32 - 11.0) / 7.0)
             .collect();
@@ -114,7 +114,7 @@ fn early_stopping_stops_and_keeps_the_best_epoch() {
     s.kind = ResidualKind::Mosm;
     s.mosm = net;
     let model = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
-    let r = &model.nets[0].report;
+    let r = &model.nets()[0].report;
     assert!(r.stopped_early, "{r:?}");
     assert_eq!(r.epochs, r.best_epoch + 3);
     let best = r
@@ -125,7 +125,7 @@ fn early_stopping_stops_and_keeps_the_best_epoch() {
     assert_eq!(r.validation_loss[r.best_epoch - 1], best);
     // The model returned is the best epoch's: its validation loss (standardised MSE over all
     // three outputs, recomputed here) equals the best recorded.
-    let net = &model.nets[0];
+    let net = &model.nets()[0];
     let p = model.predict(&val.inputs);
     let mse: f64 = p
         .iter()
@@ -164,7 +164,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
         gated.predict(&test.inputs),
         "CA-SOMM training is deterministic too"
     );
-    let classifier = gated.classifier.as_ref().unwrap();
+    let classifier = gated.classifier().unwrap();
     let accuracy = classifier.accuracy(&test);
     assert!(accuracy > 0.95, "classification accuracy {accuracy}");
     let (e_plain, e_gated) = (rms(&plain, &test, 0), rms(&gated, &test, 0));
@@ -184,7 +184,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     let mut soft = s.clone();
     soft.classifier.gate = Gate::Soft;
     let soft = ResidualModel::fit(&soft, &train, &val, &Silent).unwrap();
-    let c = soft.classifier.as_ref().unwrap();
+    let c = soft.classifier().unwrap();
     let labels: Vec<usize> = train
         .errors
         .iter()
@@ -325,8 +325,8 @@ fn tpe_search_tries_the_asked_trials_within_bounds_and_keeps_the_best() {
             .all(|t| t.validation_loss >= best.validation_loss)
     );
     // The final network is trained with the best trial's settings, and the log is saved.
-    assert_eq!(a.nets[0].settings.hidden, best.hidden);
-    assert_eq!(a.nets[0].settings.learning_rate, best.learning_rate);
+    assert_eq!(a.nets()[0].settings.hidden, best.hidden);
+    assert_eq!(a.nets()[0].settings.learning_rate, best.learning_rate);
     let dir = tempfile::tempdir().unwrap();
     a.save(dir.path()).unwrap();
     assert_eq!(ResidualModel::load(dir.path()).unwrap().search, a.search);

@@ -1,0 +1,149 @@
+//! CA-SOMM: a classifier picks one of two SOMM sets (the paper's CA-SOMM-ANN, section V-B3).
+//!
+//! The training rows are split in two classes at the two-means threshold of one axis's error;
+//! a decision tree learns the class from the inputs; each class gets its own per-axis networks
+//! (or, with `per_class = "axis"`, only the classifier's axis does).
+
+use std::collections::BTreeMap;
+
+use linfa::prelude::*;
+use linfa_trees::DecisionTree;
+use ndarray::{Array1, Array2};
+use robocal_data::Observer;
+
+use crate::classifier::{Classifier, ClassifierSettings, PerClass, two_means_threshold};
+use crate::error::{ResidualError, Result};
+use crate::mlp::NetSettings;
+use crate::model::Residual;
+use crate::net::AxisNet;
+use crate::samples::Samples;
+use crate::somm::Somm;
+
+/// The gate and the two model sets.
+#[derive(Debug, Clone)]
+pub struct CaSomm {
+    /// The gate.
+    pub classifier: Classifier,
+    /// The networks of class A (X, Y, Z) and of class B.
+    pub sets: [Somm; 2],
+}
+
+impl CaSomm {
+    /// Splits the training rows into classes, fits the tree on `features`-long encoded rows and
+    /// trains each class's networks (class A seeded like a SOMM, class B with offset 10).
+    pub fn fit(
+        c: &ClassifierSettings,
+        axes: &[NetSettings; 3],
+        train_set: &Samples,
+        validation: &Samples,
+        seed: u64,
+        progress: &dyn Observer,
+    ) -> Result<Self> {
+        let axis = c.axis.index();
+        let values: Vec<f64> = train_set.errors.iter().map(|e| e[axis]).collect();
+        let threshold = two_means_threshold(&values).ok_or_else(|| {
+            ResidualError::Data(format!(
+                "the {} error has fewer than two distinct values: nothing to classify",
+                c.axis
+            ))
+        })?;
+        let labels: Vec<usize> = values
+            .iter()
+            .map(|v| usize::from(*v >= threshold))
+            .collect();
+        let features = train_set.inputs.first().map_or(0, Vec::len);
+        let x = Array2::from_shape_fn((train_set.len(), features), |(i, j)| train_set.inputs[i][j]);
+        let data = Dataset::new(x, Array1::from_vec(labels.clone()));
+        let tree = DecisionTree::params()
+            .max_depth(Some(c.max_depth))
+            .min_weight_leaf(c.min_samples_leaf as f32)
+            .fit(&data)
+            .map_err(|e| ResidualError::Data(format!("classifier: {e}")))?;
+        let mut classifier = Classifier {
+            axis,
+            threshold,
+            tree,
+            gate: c.gate,
+            leaf_share_b: BTreeMap::new(),
+        };
+        let mut counts: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+        for (row, label) in train_set.inputs.iter().zip(&labels) {
+            let n = counts.entry(classifier.leaf_path(row)).or_default();
+            n.0 += 1;
+            n.1 += label;
+        }
+        classifier.leaf_share_b = counts
+            .into_iter()
+            .map(|(leaf, (n, b))| (leaf, b as f64 / n as f64))
+            .collect();
+        let in_b: Vec<bool> = labels.iter().map(|l| *l == 1).collect();
+        let in_a: Vec<bool> = in_b.iter().map(|b| !b).collect();
+        let val_b: Vec<bool> = classifier
+            .truth(validation)
+            .iter()
+            .map(|l| *l == 1)
+            .collect();
+        let val_a: Vec<bool> = val_b.iter().map(|b| !b).collect();
+        for (name, keep) in [("A", &in_a), ("B", &in_b)] {
+            if keep.iter().filter(|k| **k).count() < 2 {
+                return Err(ResidualError::Data(format!(
+                    "class {name} has fewer than two training samples"
+                )));
+            }
+        }
+        let (train_a, val_a) = (train_set.subset(&in_a), validation.subset(&val_a));
+        let (train_b, val_b) = (train_set.subset(&in_b), validation.subset(&val_b));
+        let sets = match c.per_class {
+            PerClass::All => [
+                Somm::fit(axes, &train_a, &val_a, seed, 0, progress),
+                Somm::fit(axes, &train_b, &val_b, seed, 10, progress),
+            ],
+            PerClass::Axis => {
+                // The other axes: one network on every row, which both sets share.
+                let shared: Vec<Option<AxisNet>> = (0..3)
+                    .map(|a| {
+                        (a != axis).then(|| {
+                            Somm::fit_axis(axes, a, train_set, validation, seed, 0, progress)
+                        })
+                    })
+                    .collect();
+                let set = |set: &Samples, val: &Samples, offset: u64| Somm {
+                    nets: std::array::from_fn(|a| match &shared[a] {
+                        Some(n) => n.clone(),
+                        None => Somm::fit_axis(axes, a, set, val, seed, offset, progress),
+                    }),
+                };
+                [set(&train_a, &val_a, 0), set(&train_b, &val_b, 10)]
+            }
+        };
+        Ok(Self { classifier, sets })
+    }
+}
+
+impl Residual for CaSomm {
+    fn predict(&self, inputs: &[Vec<f64>], _std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+        let mut out = vec![[0.0; 3]; inputs.len()];
+        let share = self.classifier.share_b(inputs);
+        for (class, set) in self.sets.iter().enumerate() {
+            let weight = |i: usize| if class == 1 { share[i] } else { 1.0 - share[i] };
+            let keep: Vec<usize> = (0..inputs.len()).filter(|&i| weight(i) > 0.0).collect();
+            if keep.is_empty() {
+                continue;
+            }
+            let rows: Vec<Vec<f64>> = keep.iter().map(|&i| inputs[i].clone()).collect();
+            let mut part = vec![[0.0; 3]; rows.len()];
+            set.predict_into(&rows, &mut part);
+            for (&i, p) in keep.iter().zip(part) {
+                let w = weight(i);
+                for a in 0..3 {
+                    out[i][a] += w * p[a];
+                }
+            }
+        }
+        (out, None)
+    }
+
+    fn nets(&self) -> Vec<&AxisNet> {
+        self.sets.iter().flat_map(|s| &s.nets).collect()
+    }
+}

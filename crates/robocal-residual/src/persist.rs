@@ -1,0 +1,259 @@
+//! The saved form of a residual model: `residual.json` (the manifest: kind, input length,
+//! encoding, each network's settings, scaling and training report, the classifier, the GP) and
+//! one burn record per network, written into a directory the model crate owns.
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::prelude::Device;
+use serde::{Deserialize, Serialize};
+
+use crate::casomm::CaSomm;
+use crate::classifier::Classifier;
+use crate::error::{ResidualError, Result};
+use crate::gp::GpResidual;
+use crate::mlp::{Mlp, NetSettings, TrainReport};
+use crate::model::{Fitted, ResidualModel};
+use crate::mosm::Mosm;
+use crate::net::{AxisNet, SequentialIds};
+use crate::samples::{Encoding, Standardizer};
+use crate::search::SearchLog;
+use crate::settings::ResidualKind;
+use crate::somm::Somm;
+
+/// Version of the saved residual model (`residual.json`).
+pub const RESIDUAL_FORMAT: u32 = 1;
+
+/// A model file's manifest entry for one network.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NetEntry {
+    file: String,
+    axes: Vec<usize>,
+    settings: NetSettings,
+    input_scale: Standardizer,
+    output_scale: Standardizer,
+    report: TrainReport,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    residual_format: u32,
+    kind: ResidualKind,
+    inputs: usize,
+    nets: Vec<NetEntry>,
+    classifier: Option<Classifier>,
+    #[serde(default)]
+    search: Vec<SearchLog>,
+    #[serde(default, skip_serializing_if = "Encoding::is_raw")]
+    encoding: Encoding,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    gp: Option<GpResidual>,
+}
+
+/// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
+pub const MAX_INPUTS: usize = 64;
+
+/// Manifest file name inside a model directory.
+pub const MANIFEST: &str = "residual.json";
+
+impl ResidualModel {
+    fn net_file(&self, i: usize) -> String {
+        let axis = ["x", "y", "z"];
+        match self.kind() {
+            ResidualKind::Somm | ResidualKind::Gp => format!("residual-{}.bpk", axis[i]),
+            ResidualKind::Mosm => "residual-xyz.bpk".into(),
+            ResidualKind::CaSomm => {
+                format!("residual-{}-{}.bpk", ["a", "b"][i / 3], axis[i % 3])
+            }
+        }
+    }
+
+    /// Writes `residual.json` and one burn record per network into `dir` (an existing
+    /// directory; the caller makes the whole directory atomic).
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let io = |path: PathBuf| move |source| ResidualError::Io { path, source };
+        let mut entries = Vec::new();
+        for (i, net) in self.nets().into_iter().enumerate() {
+            let file = self.net_file(i);
+            let path = dir.join(&file);
+            // Burn draws parameter ids at random; numbered in order, the same network is the
+            // same file.
+            net.net
+                .clone()
+                .map(&mut SequentialIds(0))
+                .save_file(&path)
+                .map_err(|e| ResidualError::Format {
+                    path: path.clone(),
+                    message: format!("cannot write the network: {e}"),
+                })?;
+            entries.push(NetEntry {
+                file,
+                axes: net.axes.clone(),
+                settings: net.settings.clone(),
+                input_scale: net.input_scale.clone(),
+                output_scale: net.output_scale.clone(),
+                report: net.report.clone(),
+            });
+        }
+        let manifest = Manifest {
+            residual_format: RESIDUAL_FORMAT,
+            kind: self.kind(),
+            inputs: self.inputs,
+            nets: entries,
+            classifier: self.classifier().cloned(),
+            search: self.search.clone(),
+            encoding: self.encoding,
+            gp: self.gp().cloned(),
+        };
+        let path = dir.join(MANIFEST);
+        let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(&path, text + "\n").map_err(io(path))
+    }
+
+    /// Reads a model written by [`Self::save`] from `dir`.
+    pub fn load(dir: &Path) -> Result<Self> {
+        let path = dir.join(MANIFEST);
+        let text = std::fs::read_to_string(&path).map_err(|source| ResidualError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let format = |message: String| ResidualError::Format {
+            path: path.clone(),
+            message,
+        };
+        let version: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| format(e.to_string()))?;
+        match version
+            .get("residual_format")
+            .and_then(serde_json::Value::as_u64)
+        {
+            Some(v) if v == u64::from(RESIDUAL_FORMAT) => {}
+            Some(v) => {
+                return Err(format(format!(
+                    "residual_format {v}: this robocal reads format {RESIDUAL_FORMAT}"
+                )));
+            }
+            None => return Err(format("no residual_format field".into())),
+        }
+        let m: Manifest = serde_json::from_value(version).map_err(|e| format(e.to_string()))?;
+        let expected = match m.kind {
+            ResidualKind::Somm => 3,
+            ResidualKind::Mosm => 1,
+            ResidualKind::CaSomm => 6,
+            ResidualKind::Gp => 0,
+        };
+        if (m.kind == ResidualKind::Gp) != m.gp.is_some() {
+            return Err(format(format!(
+                "a {} model {} a `gp` section",
+                m.kind.name(),
+                if m.kind == ResidualKind::Gp {
+                    "needs"
+                } else {
+                    "has no"
+                }
+            )));
+        }
+        if m.nets.len() != expected || (m.kind == ResidualKind::CaSomm) != m.classifier.is_some() {
+            return Err(format(format!(
+                "a {} model has {expected} networks{}",
+                m.kind.name(),
+                if m.kind == ResidualKind::CaSomm {
+                    " and a classifier"
+                } else {
+                    ""
+                }
+            )));
+        }
+        let features = m.encoding.features(m.inputs);
+        if let Some(c) = &m.classifier {
+            c.check(features).map_err(format)?;
+        }
+        if let Some(gp) = &m.gp {
+            gp.check(features).map_err(format)?;
+        }
+        let device = Device::flex();
+        let mut nets = Vec::new();
+        if m.inputs == 0 || m.inputs > MAX_INPUTS {
+            return Err(format(format!(
+                "inputs {}: a residual model takes 1 to {MAX_INPUTS} inputs",
+                m.inputs
+            )));
+        }
+        for (i, e) in m.nets.into_iter().enumerate() {
+            if let Err((field, message)) = e.settings.check() {
+                return Err(format(format!("nets[{i}].settings.{field}: {message}")));
+            }
+            // The network file sits beside the manifest: a bare file name, nothing else.
+            if std::path::Path::new(&e.file).file_name() != Some(std::ffi::OsStr::new(&e.file)) {
+                return Err(format(format!(
+                    "nets[{i}].file {:?}: must be a file name in the model directory",
+                    e.file
+                )));
+            }
+            if !e.input_scale.fits(features)
+                || !e.output_scale.fits(e.axes.len())
+                || e.axes.is_empty()
+                || e.axes.iter().any(|a| *a > 2)
+            {
+                return Err(format(format!(
+                    "{}: scaling does not fit the network",
+                    e.file
+                )));
+            }
+            let file = dir.join(&e.file);
+            let net = Mlp::new(
+                features,
+                &e.settings.hidden,
+                e.axes.len(),
+                e.settings.activation,
+                &device,
+            )
+            .try_load_file(&file)
+            .map_err(|err| ResidualError::Format {
+                path: file.clone(),
+                message: format!("cannot read the network: {err}"),
+            })?;
+            nets.push(AxisNet {
+                axes: e.axes,
+                settings: e.settings,
+                input_scale: e.input_scale,
+                output_scale: e.output_scale,
+                report: e.report,
+                dense: net.dense(),
+                net,
+            });
+        }
+        let shape = || format(format!("a {} model has other networks", m.kind.name()));
+        let three = |v: Vec<AxisNet>| -> Result<Somm> {
+            Ok(Somm {
+                nets: v.try_into().map_err(|_| shape())?,
+            })
+        };
+        let fitted = match (m.kind, m.classifier, m.gp) {
+            (ResidualKind::Somm, _, _) => Fitted::Somm(three(nets)?),
+            (ResidualKind::Mosm, _, _) => Fitted::Mosm(Mosm {
+                net: nets.pop().ok_or_else(shape)?,
+            }),
+            (ResidualKind::CaSomm, Some(classifier), _) => {
+                let b = nets.split_off(3.min(nets.len()));
+                Fitted::CaSomm(CaSomm {
+                    classifier,
+                    sets: [three(nets)?, three(b)?],
+                })
+            }
+            (ResidualKind::Gp, _, Some(gp)) => Fitted::Gp(gp),
+            _ => return Err(shape()),
+        };
+        Ok(Self {
+            inputs: m.inputs,
+            encoding: m.encoding,
+            search: m.search,
+            fitted,
+        })
+    }
+}

@@ -1,0 +1,177 @@
+//! What every residual model learns from and how it sees it: samples (an input row and the
+//! error to learn), the input encoding, and per-column standardisation.
+
+use nalgebra::Vector3;
+use robocal_data::{Measurement, Sample};
+use serde::{Deserialize, Serialize};
+
+/// Residual samples: one input row (joint angles in degrees, then the load in kg) and the
+/// position error (measured − kinematic prediction, mm, world X/Y/Z) per sample.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Samples {
+    /// Input rows, all of one length.
+    pub inputs: Vec<Vec<f64>>,
+    /// Errors, mm.
+    pub errors: Vec<[f64; 3]>,
+}
+
+/// The residual model's input row for a sample: joint angles (deg), then the load (kg).
+pub fn inputs_of(sample: &Sample) -> Vec<f64> {
+    let mut row = sample.joints.clone();
+    row.push(sample.load);
+    row
+}
+
+/// How an input row (joint angles in degrees, then the load) is presented to a model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Encoding {
+    /// As read: angles in degrees, then the load (the paper's inputs, eq. (24)).
+    #[default]
+    Raw,
+    /// `sin q, cos q` of every joint angle, then the load: an error that is periodic in the
+    /// angles is a smooth function of these, and ±180° are one angle.
+    Periodic,
+}
+
+impl Encoding {
+    /// Whether this is [`Encoding::Raw`] (the default, left out of saved files).
+    pub fn is_raw(&self) -> bool {
+        *self == Self::Raw
+    }
+
+    /// Features of an encoded row of `inputs` raw inputs (the last one the load).
+    pub fn features(self, inputs: usize) -> usize {
+        match self {
+            Self::Raw => inputs,
+            Self::Periodic => 2 * inputs.saturating_sub(1) + usize::from(inputs > 0),
+        }
+    }
+
+    /// The encoded row.
+    pub fn encode(self, row: &[f64]) -> Vec<f64> {
+        match self {
+            Self::Raw => row.to_vec(),
+            Self::Periodic => {
+                let Some((load, joints)) = row.split_last() else {
+                    return Vec::new();
+                };
+                let mut out = Vec::with_capacity(2 * joints.len() + 1);
+                for q in joints {
+                    let (s, c) = q.to_radians().sin_cos();
+                    out.push(s);
+                    out.push(c);
+                }
+                out.push(*load);
+                out
+            }
+        }
+    }
+
+    /// Every row encoded.
+    pub fn encode_all(self, rows: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        rows.iter().map(|r| self.encode(r)).collect()
+    }
+}
+
+impl Samples {
+    /// Residual samples of measured rows: inputs, and measured − `model`'s predicted point
+    /// (e.g. an elasto-geometric model's, which depends on the load).
+    pub fn from_model<'a>(
+        model: impl Fn(&Sample) -> Vector3<f64>,
+        rows: impl IntoIterator<Item = &'a Measurement>,
+    ) -> Self {
+        let mut samples = Self::default();
+        for m in rows {
+            samples.inputs.push(inputs_of(&m.sample));
+            let e = m.position - model(&m.sample);
+            samples.errors.push([e.x, e.y, e.z]);
+        }
+        samples
+    }
+
+    /// Length of each sample's error left after subtracting `predicted` (`None`: the error
+    /// itself), mm.
+    pub fn remaining(&self, predicted: Option<&[[f64; 3]]>) -> Vec<f64> {
+        self.errors
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let p = predicted.map_or([0.0; 3], |p| p[i]);
+                ((e[0] - p[0]).powi(2) + (e[1] - p[1]).powi(2) + (e[2] - p[2]).powi(2)).sqrt()
+            })
+            .collect()
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.errors.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.errors.is_empty()
+    }
+
+    pub(crate) fn subset(&self, keep: &[bool]) -> Self {
+        let pick = |i: &usize| keep[*i];
+        let idx: Vec<usize> = (0..self.len()).filter(pick).collect();
+        Self {
+            inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
+            errors: idx.iter().map(|&i| self.errors[i]).collect(),
+        }
+    }
+}
+
+/// Per-column mean and standard deviation from training data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Standardizer {
+    /// Column means.
+    pub mean: Vec<f64>,
+    /// Column standard deviations (1 where a column is constant).
+    pub std: Vec<f64>,
+}
+
+impl Standardizer {
+    /// Fits the columns of `rows`.
+    pub fn fit(rows: &[Vec<f64>]) -> Self {
+        let cols = rows.first().map_or(0, Vec::len);
+        let n = rows.len().max(1) as f64;
+        let mean: Vec<f64> = (0..cols)
+            .map(|c| rows.iter().map(|r| r[c]).sum::<f64>() / n)
+            .collect();
+        let std = (0..cols)
+            .map(|c| {
+                let v = rows.iter().map(|r| (r[c] - mean[c]).powi(2)).sum::<f64>() / n;
+                if v > 1e-24 { v.sqrt() } else { 1.0 }
+            })
+            .collect();
+        Self { mean, std }
+    }
+
+    /// Whether this scaling fits `n` columns: that many finite means and positive finite
+    /// standard deviations (what a file read back must hold).
+    pub fn fits(&self, n: usize) -> bool {
+        self.mean.len() == n
+            && self.std.len() == n
+            && self.mean.iter().chain(&self.std).all(|v| v.is_finite())
+            && self.std.iter().all(|v| *v > 0.0)
+    }
+
+    /// The standardised row.
+    pub fn apply(&self, row: &[f64]) -> Vec<f64> {
+        (row.iter().zip(&self.mean).zip(&self.std))
+            .map(|((v, m), s)| (v - m) / s)
+            .collect()
+    }
+
+    pub(crate) fn forward(&self, row: &[f64], out: &mut Vec<f32>) {
+        for ((v, m), s) in row.iter().zip(&self.mean).zip(&self.std) {
+            out.push(((v - m) / s) as f32);
+        }
+    }
+
+    pub(crate) fn back(&self, col: usize, v: f32) -> f64 {
+        f64::from(v) * self.std[col] + self.mean[col]
+    }
+}

@@ -1,0 +1,123 @@
+//! Which residual model, and every setting its training takes.
+
+use serde::{Deserialize, Serialize};
+
+use crate::classifier::ClassifierSettings;
+use crate::error::{ResidualError, Result};
+use crate::gp::GpSettings;
+use crate::mlp::NetSettings;
+use crate::samples::Encoding;
+use crate::search::SearchSettings;
+
+/// Which residual model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ResidualKind {
+    /// One network per axis (the paper's SOMM-ANN).
+    Somm,
+    /// One network with three outputs (the paper's "traditional" MOSM-ANN baseline).
+    Mosm,
+    /// A classifier picks one of two SOMM sets (the paper's CA-SOMM-ANN).
+    CaSomm,
+    /// A Gaussian process per axis (ARD squared-exponential kernel), with predictive
+    /// standard deviations.
+    Gp,
+}
+
+impl ResidualKind {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Somm => "somm",
+            Self::Mosm => "mosm",
+            Self::CaSomm => "ca-somm",
+            Self::Gp => "gp",
+        }
+    }
+
+    /// Whether training early-stops on a validation set (the networks; the GP does not).
+    pub fn early_stops(self) -> bool {
+        self != Self::Gp
+    }
+}
+
+/// Everything that defines how a residual model is trained.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResidualSettings {
+    /// Which model.
+    pub kind: ResidualKind,
+    /// Per-axis networks (SOMM, and each CA-SOMM set).
+    pub axes: [NetSettings; 3],
+    /// The multi-output network (MOSM).
+    pub mosm: NetSettings,
+    /// The CA-SOMM classifier.
+    pub classifier: ClassifierSettings,
+    /// A TPE search of each network's architecture and learning rate before training, if asked.
+    pub search: Option<SearchSettings>,
+    /// The Gaussian process (GP).
+    pub gp: GpSettings,
+    /// How input rows are presented to the networks, the classifier and the GP.
+    pub encoding: Encoding,
+    /// Seed of weight initialisation and batch order.
+    pub seed: u64,
+}
+
+impl ResidualSettings {
+    /// The paper's settings (Tables 2 and 3) for `kind`. The MOSM network has no published
+    /// architecture; it gets the Z network's (the largest tanh one) with three outputs.
+    pub fn paper(kind: ResidualKind, seed: u64) -> Self {
+        Self {
+            kind,
+            axes: [
+                NetSettings::paper_x(),
+                NetSettings::paper_y(),
+                NetSettings::paper_z(),
+            ],
+            mosm: NetSettings::paper_z(),
+            classifier: ClassifierSettings::default(),
+            search: None,
+            gp: GpSettings::default(),
+            encoding: Encoding::Raw,
+            seed,
+        }
+    }
+
+    /// A Gaussian process per axis on the periodic encoding (robocal's default residual).
+    pub fn gp(seed: u64) -> Self {
+        Self {
+            encoding: Encoding::Periodic,
+            ..Self::paper(ResidualKind::Gp, seed)
+        }
+    }
+
+    /// The first invalid setting as (key relative to `[residual]`, message), e.g.
+    /// (`x.learning_rate`, …); every network is checked, used by this kind or not.
+    pub fn invalid(&self) -> Option<(String, String)> {
+        let [x, y, z] = &self.axes;
+        for (name, s) in [("x", x), ("y", y), ("z", z), ("mosm", &self.mosm)] {
+            if let Err((field, m)) = s.check() {
+                return Some((format!("{name}.{field}"), m));
+            }
+        }
+        if let Some(search) = &self.search
+            && let Err((field, m)) = search.check()
+        {
+            return Some((format!("search.{field}"), m));
+        }
+        if let Err((field, m)) = self.gp.check() {
+            return Some((format!("gp.{field}"), m));
+        }
+        if self.classifier.max_depth == 0 {
+            return Some(("classifier.max_depth".into(), "must be at least 1".into()));
+        }
+        None
+    }
+
+    /// Checks every setting; the error names the key.
+    pub fn check(&self) -> Result<()> {
+        match self.invalid() {
+            Some((key, m)) => Err(ResidualError::Settings(format!("{key}: {m}"))),
+            None => Ok(()),
+        }
+    }
+}
