@@ -680,7 +680,7 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
     assert_eq!(resolved.seed, 11);
     assert_eq!(resolved.models, original.models);
     assert_eq!(resolved.split.validation_loads, 3);
-    assert_eq!(resolved.data.twin, original.data.twin);
+    assert_eq!(resolved.data.twin(), original.data.twin());
 
     // The same experiment again: the same numbers and the same plots, byte for byte (only the
     // wall-clock fields may differ).

@@ -31,6 +31,9 @@
 //! # Ok::<(), robocal_robot::RobotError>(())
 //! ```
 
+mod error;
+
+pub use error::Failure;
 use nalgebra::Vector3;
 use robocal_model::CalibratedModel;
 use robocal_robot::{IkOptions, IkTarget};
@@ -63,39 +66,6 @@ pub struct Compensation {
     pub model_error: f64,
     /// Fixed-point iterations used.
     pub iterations: usize,
-}
-
-/// Why a target could not be compensated.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub enum Failure {
-    /// The seed has the wrong number of joints or a non-finite value.
-    BadSeed(String),
-    /// The kinematic solve did not reach the point (unreachable, or only beyond the limits).
-    Unreachable {
-        /// Error of the model's point after the last attempt, mm.
-        model_error: f64,
-    },
-    /// The fixed-point iteration did not bring the model's error below the tolerance.
-    NotConverged {
-        /// Error of the model's point after the last iteration, mm.
-        model_error: f64,
-    },
-}
-
-impl std::fmt::Display for Failure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::BadSeed(m) => write!(f, "bad seed: {m}"),
-            Self::Unreachable { model_error } => write!(
-                f,
-                "not reachable within the joint limits (model error {model_error:.4} mm)"
-            ),
-            Self::NotConverged { model_error } => write!(
-                f,
-                "did not converge (model error {model_error:.4} mm after the last iteration)"
-            ),
-        }
-    }
 }
 
 /// The joint command (deg) near `seed_deg` for which `model` puts the target point at `target`

@@ -148,3 +148,34 @@ pub enum DataError {
 
 /// Result with [`DataError`].
 pub type Result<T> = std::result::Result<T, DataError>;
+
+/// A setting with an unacceptable value: its dotted key (`kinematic.solver`,
+/// `residual.x.learning_rate`) and why. Validation of settings returns it; the caller that knows
+/// the file adds the path.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("key `{key}`: {message}")]
+pub struct Invalid {
+    /// Dotted key.
+    pub key: String,
+    /// What is wrong, and what would be right.
+    pub message: String,
+}
+
+impl Invalid {
+    /// The key and message.
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The same error one table down: `prefix.key`.
+    #[must_use]
+    pub fn within(self, prefix: &str) -> Self {
+        Self {
+            key: format!("{prefix}.{}", self.key),
+            ..self
+        }
+    }
+}

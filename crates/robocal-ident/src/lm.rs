@@ -38,12 +38,6 @@ impl Default for LevenbergMarquardt {
 }
 
 impl LevenbergMarquardt {
-    /// Relative cost decrease below which the solver stops (must be ≥ 0).
-    pub fn with_cost_tolerance(mut self, tol: f64) -> Self {
-        self.cost_tolerance = tol.max(0.0);
-        self
-    }
-
     /// Why the solver stopped, when it converged.
     pub fn converged(&self) -> Option<&'static str> {
         self.converged

@@ -1,5 +1,6 @@
 //! The kinematic stage of a stage config (`robocal calibrate --config FILE`), raw and validated.
 
+use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::calibrate::{ComplianceSettings, JointErrorSettings, KinematicSettings, SolverKind};
@@ -20,15 +21,15 @@ pub struct RawKinematicStage {
 
 impl RawKinematicStage {
     /// Validates into settings; errors name the key.
-    pub fn validate(&self) -> Result<KinematicSettings, (String, String)> {
+    pub fn validate(&self) -> Result<KinematicSettings, Invalid> {
         let mut s = KinematicSettings::default();
         if let Some(solver) = &self.solver {
             s.solver = match solver.as_str() {
                 "lm" => SolverKind::Lm,
                 "bfgs" => SolverKind::Bfgs,
                 other => {
-                    return Err((
-                        "kinematic.solver".into(),
+                    return Err(Invalid::new(
+                        "kinematic.solver",
                         format!("`{other}` is not a solver; use \"lm\" or \"bfgs\""),
                     ));
                 }
@@ -36,24 +37,24 @@ impl RawKinematicStage {
         }
         if let Some(params) = &self.parameters {
             if params.is_empty() {
-                return Err(("kinematic.parameters".into(), "lists no parameter".into()));
+                return Err(Invalid::new("kinematic.parameters", "lists no parameter"));
             }
             s.parameters = Some(params.clone());
         }
         if let Some(n) = self.max_iterations {
             if n == 0 {
-                return Err((
-                    "kinematic.max_iterations".into(),
-                    "must be at least 1".into(),
+                return Err(Invalid::new(
+                    "kinematic.max_iterations",
+                    "must be at least 1",
                 ));
             }
             s.max_iterations = n;
         }
         if let Some(t) = self.rank_tolerance {
             if !(t.is_finite() && t > 0.0 && t < 1.0) {
-                return Err((
-                    "kinematic.rank_tolerance".into(),
-                    "must lie between 0 and 1".into(),
+                return Err(Invalid::new(
+                    "kinematic.rank_tolerance",
+                    "must lie between 0 and 1",
                 ));
             }
             s.rank_tolerance = t;
@@ -80,25 +81,25 @@ pub struct RawComplianceStage {
 
 impl RawComplianceStage {
     /// Validates into settings; errors name the key.
-    pub fn validate(&self) -> Result<ComplianceSettings, (String, String)> {
+    pub fn validate(&self) -> Result<ComplianceSettings, Invalid> {
         let mut s = ComplianceSettings::default();
         if let Some(joints) = &self.joints {
             s.joints = Some(joint_list("compliance.joints", joints)?);
         }
         if let Some(g) = self.gravity {
             if g.iter().any(|v| !v.is_finite()) || g.iter().all(|v| *v == 0.0) {
-                return Err((
-                    "compliance.gravity".into(),
-                    "must be a finite, non-zero vector (m/s², robot base frame)".into(),
+                return Err(Invalid::new(
+                    "compliance.gravity",
+                    "must be a finite, non-zero vector (m/s², robot base frame)",
                 ));
             }
             s.gravity = g.into();
         }
         if let Some(c) = self.payload_com {
             if c.iter().any(|v| !v.is_finite()) {
-                return Err((
-                    "compliance.payload_com".into(),
-                    "must be finite (mm, flange frame)".into(),
+                return Err(Invalid::new(
+                    "compliance.payload_com",
+                    "must be finite (mm, flange frame)",
                 ));
             }
             s.payload_com = Some(c.into());
@@ -138,12 +139,12 @@ pub const MAX_HARMONICS: u32 = 8;
 
 impl RawJointErrorStage {
     /// Validates into settings; errors name the key.
-    pub fn validate(&self) -> Result<JointErrorSettings, (String, String)> {
+    pub fn validate(&self) -> Result<JointErrorSettings, Invalid> {
         let mut s = JointErrorSettings::default();
         if let Some(h) = self.harmonics {
             if h > MAX_HARMONICS {
-                return Err((
-                    "joint_errors.harmonics".into(),
+                return Err(Invalid::new(
+                    "joint_errors.harmonics",
                     format!("at most {MAX_HARMONICS}"),
                 ));
             }
@@ -167,18 +168,18 @@ impl RawJointErrorStage {
 }
 
 /// A list of joints counted from 1, as 0-based indices in ascending order; errors name `key`.
-fn joint_list(key: &str, joints: &[usize]) -> Result<Vec<usize>, (String, String)> {
+fn joint_list(key: &str, joints: &[usize]) -> Result<Vec<usize>, Invalid> {
     if joints.is_empty() {
-        return Err((key.into(), "lists no joint".into()));
+        return Err(Invalid::new(key, "lists no joint"));
     }
     if joints.contains(&0) {
-        return Err((key.into(), "joints are counted from 1".into()));
+        return Err(Invalid::new(key, "joints are counted from 1"));
     }
     let mut sorted = joints.to_vec();
     sorted.sort_unstable();
     sorted.dedup();
     if sorted.len() != joints.len() {
-        return Err((key.into(), "names a joint twice".into()));
+        return Err(Invalid::new(key, "names a joint twice"));
     }
     Ok(sorted.iter().map(|j| j - 1).collect())
 }

@@ -24,6 +24,18 @@ pub enum PipelineError {
         /// Why.
         message: String,
     },
+    /// A config file is not valid TOML, or has an unknown, missing or mistyped key.
+    #[error("{path}: line {line}, column {column}: {message}")]
+    Toml {
+        /// File at fault.
+        path: PathBuf,
+        /// 1-based line of the offending text.
+        line: usize,
+        /// 1-based column of the offending text.
+        column: usize,
+        /// What the TOML parser said.
+        message: String,
+    },
     /// A plot could not be drawn or written.
     #[error("{path}: cannot draw the plot: {message}")]
     Plot {
@@ -35,7 +47,7 @@ pub enum PipelineError {
     /// A stage cannot run on these data.
     #[error("{0}")]
     Stage(String),
-    /// A robot table is bad (or a TOML file does not parse).
+    /// A robot table is bad.
     #[error(transparent)]
     Robot(#[from] robocal_robot::RobotError),
     /// A measurement file is bad, or an output could not be written.
@@ -61,4 +73,26 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
         path: path.to_path_buf(),
         source,
     })
+}
+
+impl PipelineError {
+    /// The TOML error `err` of the file at `path`, whose text is `text`.
+    pub fn toml(path: &std::path::Path, text: &str, err: &toml::de::Error) -> Self {
+        let f = robocal_robot::TomlFault::of(text, err);
+        Self::Toml {
+            path: path.to_path_buf(),
+            line: f.line,
+            column: f.column,
+            message: f.message,
+        }
+    }
+
+    /// A setting of the file at `path` with an unacceptable value.
+    pub fn invalid(path: &std::path::Path, invalid: robocal_data::Invalid) -> Self {
+        Self::Key {
+            path: path.to_path_buf(),
+            key: invalid.key,
+            message: invalid.message,
+        }
+    }
 }

@@ -91,14 +91,51 @@ pub struct RawTables {
 }
 
 /// Where the data come from, paths resolved.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DataSource {
-    /// Twin description.
-    pub twin: Option<PathBuf>,
-    /// Nominal robot table.
-    pub robot: Option<PathBuf>,
-    /// Measurement CSV.
-    pub measurements: Option<PathBuf>,
+#[derive(Debug, Clone, PartialEq)]
+pub enum DataSource {
+    /// A twin: its nominal table unless `robot` is given, measurements generated from it in
+    /// memory unless `measurements` is given; its truth fills Table 4.
+    Twin {
+        /// Twin description.
+        twin: PathBuf,
+        /// Nominal robot table, instead of the twin's.
+        robot: Option<PathBuf>,
+        /// Measurement CSV, instead of generated ones.
+        measurements: Option<PathBuf>,
+    },
+    /// A robot table and its measurements.
+    Files {
+        /// Nominal robot table.
+        robot: PathBuf,
+        /// Measurement CSV.
+        measurements: PathBuf,
+    },
+}
+
+impl DataSource {
+    /// The twin description, if the data come from one.
+    pub fn twin(&self) -> Option<&Path> {
+        match self {
+            Self::Twin { twin, .. } => Some(twin),
+            Self::Files { .. } => None,
+        }
+    }
+
+    /// The nominal robot table, if a file gives it.
+    pub fn robot(&self) -> Option<&Path> {
+        match self {
+            Self::Twin { robot, .. } => robot.as_deref(),
+            Self::Files { robot, .. } => Some(robot),
+        }
+    }
+
+    /// The measurement CSV, if a file gives them.
+    pub fn measurements(&self) -> Option<&Path> {
+        match self {
+            Self::Twin { measurements, .. } => measurements.as_deref(),
+            Self::Files { measurements, .. } => Some(measurements),
+        }
+    }
 }
 
 /// The split design; sizes are checked against the data when it runs.
@@ -161,8 +198,8 @@ pub struct Experiment {
     pub table5: Option<usize>,
 }
 
-/// Default seed of an experiment.
-pub const DEFAULT_SEED: u64 = 2020;
+/// Default seed of an experiment: the one seed robocal uses wherever none is given.
+pub use robocal_residual::DEFAULT_SEED;
 
 fn key(path: &Path, key: impl Into<String>, message: impl Into<String>) -> PipelineError {
     PipelineError::Key {
@@ -197,7 +234,7 @@ impl Experiment {
     pub fn load(path: &Path) -> Result<Self> {
         let text = read_text(path)?;
         let raw: RawExperiment =
-            toml::from_str(&text).map_err(|e| robocal_robot::toml_error(path, &text, &e))?;
+            toml::from_str(&text).map_err(|e| PipelineError::toml(path, &text, &e))?;
         raw.validate(path)
     }
 }
@@ -225,20 +262,30 @@ impl RawExperiment {
             ));
         }
         let seed = self.seed.unwrap_or(DEFAULT_SEED);
-        let data = DataSource {
-            twin: resolve(&self.data.twin),
-            robot: resolve(&self.data.robot),
-            measurements: resolve(&self.data.measurements),
+        let data = match (
+            resolve(&self.data.twin),
+            resolve(&self.data.robot),
+            resolve(&self.data.measurements),
+        ) {
+            (Some(twin), robot, measurements) => DataSource::Twin {
+                twin,
+                robot,
+                measurements,
+            },
+            (None, Some(robot), Some(measurements)) => DataSource::Files {
+                robot,
+                measurements,
+            },
+            _ => {
+                return Err(key(
+                    path,
+                    "data",
+                    "give a `twin`, or a `robot` and its `measurements`",
+                ));
+            }
         };
-        if data.twin.is_none() && (data.robot.is_none() || data.measurements.is_none()) {
-            return Err(key(
-                path,
-                "data",
-                "give a `twin`, or a `robot` and its `measurements`",
-            ));
-        }
         let split = self.split.clone().unwrap_or_default();
-        if data.twin.is_none() && split.untrained_loads.is_none() {
+        if data.twin().is_none() && split.untrained_loads.is_none() {
             return Err(key(
                 path,
                 "split.untrained_loads",
@@ -306,7 +353,7 @@ impl RawExperiment {
                 residual: m.residual.clone(),
             }
             .validate(Some(seed))
-            .map_err(|(k, message)| key(path, format!("{at}.{k}"), message))?;
+            .map_err(|e| PipelineError::invalid(path, e.within(&at)))?;
             models.push(ModelPlan {
                 name: m.name.clone(),
                 stages,
@@ -361,9 +408,9 @@ impl Experiment {
             // The report is where it is; a rerun chooses its own place.
             output: None,
             data: RawData {
-                twin: absolute(&self.data.twin),
-                robot: absolute(&self.data.robot),
-                measurements: absolute(&self.data.measurements),
+                twin: absolute(&self.data.twin().map(Path::to_path_buf)),
+                robot: absolute(&self.data.robot().map(Path::to_path_buf)),
+                measurements: absolute(&self.data.measurements().map(Path::to_path_buf)),
             },
             split: Some(RawSplit {
                 trained_configurations: Some(self.split.trained_configurations),

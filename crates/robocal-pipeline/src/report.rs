@@ -465,8 +465,7 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
                 format!(
                     "read from `{}`",
                     e.data
-                        .measurements
-                        .as_ref()
+                        .measurements()
                         .map_or(String::new(), |p| p.display().to_string())
                 )
             };
@@ -476,8 +475,7 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
                  The paper's numbers, printed beside ours, were measured on its real PMC6VA030 robot with a laser tracker; they are a reference for scale, not results of this run.\n",
                 t.name,
                 e.data
-                    .twin
-                    .as_ref()
+                    .twin()
                     .map_or(String::new(), |p| p.display().to_string()),
                 t.seed,
                 o.data.len(),
@@ -491,13 +489,11 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
                 w,
                 "Data: `{}` ({} rows), robot table `{}`. The paper's numbers beside ours are from its own robot, for scale only.\n",
                 e.data
-                    .measurements
-                    .as_ref()
+                    .measurements()
                     .map_or(String::new(), |p| p.display().to_string()),
                 o.data.len(),
                 e.data
-                    .robot
-                    .as_ref()
+                    .robot()
                     .map_or(String::new(), |p| p.display().to_string()),
             );
         }

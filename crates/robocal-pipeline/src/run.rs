@@ -2,10 +2,11 @@
 //! the plots need.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer};
+use robocal_data::{ErrorStats, Invalid, Measurement, MeasurementSet, Observer};
 use robocal_ident::{
     KinematicCalibration, KinematicReport, KinematicSettings, Observations, align,
     calibrate_kinematics,
@@ -18,7 +19,7 @@ use serde::Serialize;
 
 use crate::calibration::physical_model;
 use crate::error::{PipelineError, Result};
-use crate::experiment::Experiment;
+use crate::experiment::{DataSource, Experiment};
 use crate::split::{Set, Splits};
 
 /// Named groups of rows that the statistics are given for.
@@ -147,12 +148,8 @@ pub struct Timings {
     pub total_s: f64,
 }
 
-fn key_error(e: &Experiment, (key, message): (String, String)) -> PipelineError {
-    PipelineError::Key {
-        path: e.source.clone(),
-        key,
-        message,
-    }
+fn key_error(e: &Experiment, invalid: Invalid) -> PipelineError {
+    PipelineError::invalid(&e.source, invalid)
 }
 
 /// Runs every stage of every model of `experiment`; `observer` hears a line per step and the
@@ -160,24 +157,37 @@ fn key_error(e: &Experiment, (key, message): (String, String)) -> PipelineError 
 pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> {
     let say = |line: &str| observer.message(line);
     let start = Instant::now();
-    let twin = experiment
-        .data
-        .twin
-        .as_ref()
-        .map(TwinConfig::load)
-        .transpose()?;
-    let nominal = match (&experiment.data.robot, &twin) {
-        (Some(path), _) => Robot::load(path)?,
-        (None, Some(t)) => t.nominal.clone(),
-        (None, None) => unreachable!("validated: a robot or a twin"),
-    };
-    let (data, generated) = match (&experiment.data.measurements, &twin) {
-        (Some(path), _) => (MeasurementSet::read(path, nominal.dof())?, false),
-        (None, Some(t)) => {
-            say(&format!("generating the twin's measurements ({})", t.name));
-            (t.generate()?.measurements, true)
+    let (nominal, twin, data, generated) = match &experiment.data {
+        DataSource::Files {
+            robot,
+            measurements,
+        } => {
+            let nominal = Robot::load(robot)?;
+            let data = MeasurementSet::read(measurements, nominal.dof())?;
+            (nominal, None, data, false)
         }
-        (None, None) => unreachable!("validated: measurements or a twin"),
+        DataSource::Twin {
+            twin,
+            robot,
+            measurements,
+        } => {
+            let twin = TwinConfig::load(twin)?;
+            let nominal = match robot {
+                Some(path) => Robot::load(path)?,
+                None => twin.nominal.clone(),
+            };
+            let (data, generated) = match measurements {
+                Some(path) => (MeasurementSet::read(path, nominal.dof())?, false),
+                None => {
+                    say(&format!(
+                        "generating the twin's measurements ({})",
+                        twin.name
+                    ));
+                    (twin.generate()?.measurements, true)
+                }
+            };
+            (nominal, Some(twin), data, generated)
+        }
     };
     let data_s = start.elapsed().as_secs_f64();
     let splits = Splits::new(
@@ -290,8 +300,8 @@ pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> 
         if train.is_empty() || val.is_empty() {
             return Err(key_error(
                 experiment,
-                (
-                    "split".into(),
+                Invalid::new(
+                    "split",
                     format!(
                         "model `{}` needs training (GA10) and validation (GB20) rows; this split has {} and {}",
                         m.name,
@@ -597,10 +607,10 @@ impl Outcome {
             robocal_version: env!("CARGO_PKG_VERSION"),
             seed: e.seed,
             data: DataSummary {
-                twin: e.data.twin.clone(),
+                twin: e.data.twin().map(Path::to_path_buf),
                 twin_seed: self.twin.as_ref().map(|t| t.seed),
                 generated_from_twin: self.generated,
-                measurements: e.data.measurements.clone(),
+                measurements: e.data.measurements().map(Path::to_path_buf),
                 rows: self.data.len(),
                 configurations,
                 loads,

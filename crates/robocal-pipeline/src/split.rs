@@ -1,6 +1,7 @@
 //! The split of section IV-E and Fig. 9 of the paper: configurations trained/untrained, loads
 //! trained/untrained, and the five sets GA10, GA20, GB20, GB10, GB30.
 
+use robocal_data::Invalid;
 use std::collections::HashSet;
 
 use rand::SeedableRng;
@@ -77,8 +78,8 @@ impl Splits {
         design: &SplitDesign,
         default_untrained: Option<&[f64]>,
         seed: u64,
-    ) -> Result<Self, (String, String)> {
-        let err = |k: &str, m: String| (format!("split.{k}"), m);
+    ) -> Result<Self, Invalid> {
+        let err = |k: &str, m: String| Invalid::new(k, m).within("split");
         let mut configurations: Vec<&str> = Vec::new();
         let mut seen = HashSet::new();
         for r in rows {

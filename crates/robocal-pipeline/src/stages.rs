@@ -2,6 +2,7 @@
 //! kinematic stage (with joint compliances when `[compliance]` is present), then an optional
 //! residual stage, raw and validated.
 
+use robocal_data::Invalid;
 use std::path::Path;
 
 use robocal_ident::{KinematicSettings, RawComplianceStage, RawJointErrorStage, RawKinematicStage};
@@ -38,7 +39,7 @@ pub struct Stages {
 impl RawStages {
     /// Validates; errors give the key relative to the stage table (`kinematic.solver`,
     /// `residual.x.learning_rate`). `seed` is the residual seed when the stage gives none.
-    pub fn validate(&self, seed: Option<u64>) -> std::result::Result<Stages, (String, String)> {
+    pub fn validate(&self, seed: Option<u64>) -> std::result::Result<Stages, Invalid> {
         let mut kinematic = self.kinematic.clone().unwrap_or_default().validate()?;
         kinematic.compliance = self
             .compliance
@@ -75,12 +76,8 @@ impl Stages {
     pub fn load(path: &Path) -> Result<Self> {
         let text = read_text(path)?;
         let raw: RawStages =
-            toml::from_str(&text).map_err(|e| robocal_robot::toml_error(path, &text, &e))?;
+            toml::from_str(&text).map_err(|e| PipelineError::toml(path, &text, &e))?;
         raw.validate(None)
-            .map_err(|(key, message)| PipelineError::Key {
-                path: path.to_path_buf(),
-                key,
-                message,
-            })
+            .map_err(|e| PipelineError::invalid(path, e))
     }
 }

@@ -43,7 +43,7 @@ fn every_toml_under_configs_parses_and_validates() {
             "stages" => drop(Stages::load(file).unwrap_or_else(|e| panic!("{e}"))),
             "experiments" => {
                 let e = Experiment::load(file).unwrap_or_else(|e| panic!("{e}"));
-                for p in [&e.data.twin, &e.data.robot, &e.data.measurements]
+                for p in [e.data.twin(), e.data.robot(), e.data.measurements()]
                     .into_iter()
                     .flatten()
                 {
@@ -72,8 +72,8 @@ fn every_toml_under_configs_parses_and_validates() {
 
 fn paper() -> (Experiment, MeasurementSet, TwinConfig) {
     let e = Experiment::load(&root().join("configs/experiments/paper.toml")).unwrap();
-    let twin = TwinConfig::load(e.data.twin.as_ref().unwrap()).unwrap();
-    let data = MeasurementSet::read(e.data.measurements.as_ref().unwrap(), 6).unwrap();
+    let twin = TwinConfig::load(e.data.twin().unwrap()).unwrap();
+    let data = MeasurementSet::read(e.data.measurements().unwrap(), 6).unwrap();
     (e, data, twin)
 }
 
@@ -157,33 +157,33 @@ fn split_designs_the_data_cannot_meet_are_refused_with_their_key() {
     let untrained = Some(twin.loads.untrained.as_slice());
     let mut d = e.split.clone();
     d.trained_configurations = 168;
-    let (key, msg) = Splits::new(&data.rows, &d, untrained, 1).unwrap_err();
+    let robocal_data::Invalid { key, message: msg } =
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err();
     assert_eq!(key, "split.trained_configurations");
     assert!(msg.contains("168"), "{msg}");
     let mut d = e.split.clone();
     d.untrained_loads = Some(vec![2.5]);
     assert_eq!(
-        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().0,
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().key,
         "split.untrained_loads"
     );
     let mut d = e.split.clone();
     d.validation_loads = 15;
     assert_eq!(
-        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().0,
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().key,
         "split.validation_loads"
     );
     let mut d = e.split.clone();
     d.kinematic_load = Some(2.0);
     assert_eq!(
-        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().0,
+        Splits::new(&data.rows, &d, untrained, 1).unwrap_err().key,
         "split.kinematic_load"
     );
 }
 
 fn validate(text: &str) -> Result<Experiment, PipelineError> {
-    let raw: RawExperiment = toml::from_str(text).map_err(|e| {
-        PipelineError::from(robocal_robot::toml_error(Path::new("exp.toml"), text, &e))
-    })?;
+    let raw: RawExperiment =
+        toml::from_str(text).map_err(|e| PipelineError::toml(Path::new("exp.toml"), text, &e))?;
     raw.validate(Path::new("dir/exp.toml"))
 }
 
@@ -203,10 +203,7 @@ fn experiment_files_are_validated_with_the_key_named() {
     ))
     .unwrap();
     assert_eq!(ok.seed, 2020);
-    assert_eq!(
-        ok.data.twin.as_deref(),
-        Some(Path::new("configs/twin/x.toml"))
-    );
+    assert_eq!(ok.data.twin(), Some(Path::new("configs/twin/x.toml")));
     assert_eq!(ok.table5, Some(0));
     assert_eq!(
         ok.models[0].stages.residual.as_ref().unwrap().settings.seed,

@@ -22,8 +22,8 @@ pub enum ResidualError {
         message: String,
     },
     /// Settings that cannot be trained (the message names the field).
-    #[error("residual settings: {0}")]
-    Settings(String),
+    #[error("residual settings: {}: {}", .0.key, .0.message)]
+    Settings(robocal_data::Invalid),
     /// The data cannot train this model.
     #[error("residual training: {0}")]
     Data(String),

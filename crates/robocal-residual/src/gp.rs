@@ -31,6 +31,7 @@ use faer::{Mat, Side};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
+use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
@@ -84,21 +85,24 @@ pub const MAX_GP_ROWS: usize = 5000;
 
 impl GpSettings {
     /// The first bad setting as (field, message).
-    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
+    pub fn check(&self) -> std::result::Result<(), Invalid> {
         if self.hyper_rows < 2 || self.hyper_rows > MAX_GP_ROWS {
-            return Err((
+            return Err(Invalid::new(
                 "hyper_rows",
                 format!("must lie between 2 and {MAX_GP_ROWS}"),
             ));
         }
         if self.max_rows < 2 || self.max_rows > MAX_GP_ROWS {
-            return Err(("max_rows", format!("must lie between 2 and {MAX_GP_ROWS}")));
+            return Err(Invalid::new(
+                "max_rows",
+                format!("must lie between 2 and {MAX_GP_ROWS}"),
+            ));
         }
         if self.iterations > 10_000 {
-            return Err(("iterations", "at most 10000".into()));
+            return Err(Invalid::new("iterations", "at most 10000"));
         }
         if !(self.step.is_finite() && self.step > 0.0 && self.step < 10.0) {
-            return Err(("step", "must lie between 0 and 10".into()));
+            return Err(Invalid::new("step", "must lie between 0 and 10"));
         }
         Ok(())
     }
@@ -225,7 +229,7 @@ impl GpAxis {
     ) -> Result<(Self, Vec<usize>)> {
         settings
             .check()
-            .map_err(|(k, m)| ResidualError::Settings(format!("gp.{k}: {m}")))?;
+            .map_err(|e| ResidualError::Settings(e.within("gp")))?;
         let n = x.len();
         if n < 2 || y.len() != n {
             return Err(ResidualError::Data(format!(

@@ -10,6 +10,7 @@ use burn::tensor::activation::{relu, tanh};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
+use robocal_data::Invalid;
 use robocal_data::Observer;
 use serde::{Deserialize, Serialize};
 
@@ -86,24 +87,27 @@ impl NetSettings {
     }
 
     /// Checks the settings: the first bad one as (field, message).
-    pub fn check(&self) -> Result<(), (&'static str, String)> {
+    pub fn check(&self) -> Result<(), Invalid> {
         if self.hidden.contains(&0) {
-            return Err(("hidden", "every layer needs at least one neuron".into()));
+            return Err(Invalid::new(
+                "hidden",
+                "every layer needs at least one neuron",
+            ));
         }
         if self.hidden.len() > MAX_LAYERS || self.hidden.iter().any(|&n| n > MAX_WIDTH) {
-            return Err((
+            return Err(Invalid::new(
                 "hidden",
                 format!("at most {MAX_LAYERS} layers of at most {MAX_WIDTH} neurons"),
             ));
         }
         if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
-            return Err(("learning_rate", "must be a positive number".into()));
+            return Err(Invalid::new("learning_rate", "must be a positive number"));
         }
         if self.batch_size == 0 {
-            return Err(("batch_size", "must be at least 1".into()));
+            return Err(Invalid::new("batch_size", "must be at least 1"));
         }
         if self.max_epochs == 0 {
-            return Err(("max_epochs", "must be at least 1".into()));
+            return Err(Invalid::new("max_epochs", "must be at least 1"));
         }
         Ok(())
     }

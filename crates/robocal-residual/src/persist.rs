@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use burn::module::Module;
 use burn::prelude::Device;
+use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::casomm::CaSomm;
@@ -185,8 +186,9 @@ impl ResidualModel {
             )));
         }
         for (i, e) in m.nets.into_iter().enumerate() {
-            if let Err((field, message)) = e.settings.check() {
-                return Err(format(format!("nets[{i}].settings.{field}: {message}")));
+            if let Err(e) = e.settings.check() {
+                let Invalid { key, message } = e.within(&format!("nets[{i}].settings"));
+                return Err(format(format!("{key}: {message}")));
             }
             // The network file sits beside the manifest: a bare file name, nothing else.
             if std::path::Path::new(&e.file).file_name() != Some(std::ffi::OsStr::new(&e.file)) {

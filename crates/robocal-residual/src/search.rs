@@ -3,6 +3,7 @@
 //! scored by its best validation loss. Seeded, bounded in trials, run only when a stage config
 //! asks for it.
 
+use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 use tpe::{TpeOptimizer, categorical_range, histogram_estimator, parzen_estimator, range};
 
@@ -40,19 +41,19 @@ pub struct SearchSettings {
 
 impl SearchSettings {
     /// Checks the ranges: the first bad one as (field, message).
-    pub fn check(&self) -> Result<(), (&'static str, String)> {
+    pub fn check(&self) -> Result<(), Invalid> {
         if self.trials == 0 {
-            return Err(("trials", "must be at least 1".into()));
+            return Err(Invalid::new("trials", "must be at least 1"));
         }
         if self.layers[0] == 0 || self.layers[0] > self.layers[1] {
-            return Err(("layers", "needs 1 <= low <= high".into()));
+            return Err(Invalid::new("layers", "needs 1 <= low <= high"));
         }
         if self.neurons[0] == 0 || self.neurons[0] > self.neurons[1] {
-            return Err(("neurons", "needs 1 <= low <= high".into()));
+            return Err(Invalid::new("neurons", "needs 1 <= low <= high"));
         }
         let [lo, hi] = self.learning_rate;
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi) {
-            return Err(("learning_rate", "needs 0 < low < high".into()));
+            return Err(Invalid::new("learning_rate", "needs 0 < low < high"));
         }
         Ok(())
     }

@@ -1,5 +1,6 @@
 //! Which residual model, and every setting its training takes.
 
+use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::classifier::ClassifierSettings;
@@ -90,34 +91,25 @@ impl ResidualSettings {
         }
     }
 
-    /// The first invalid setting as (key relative to `[residual]`, message), e.g.
-    /// (`x.learning_rate`, …); every network is checked, used by this kind or not.
-    pub fn invalid(&self) -> Option<(String, String)> {
+    /// Every setting checked, used by this kind or not; the error's key is relative to
+    /// `[residual]` (`x.learning_rate`, `gp.step`).
+    pub fn validate(&self) -> std::result::Result<(), Invalid> {
         let [x, y, z] = &self.axes;
         for (name, s) in [("x", x), ("y", y), ("z", z), ("mosm", &self.mosm)] {
-            if let Err((field, m)) = s.check() {
-                return Some((format!("{name}.{field}"), m));
-            }
+            s.check().map_err(|e| e.within(name))?;
         }
-        if let Some(search) = &self.search
-            && let Err((field, m)) = search.check()
-        {
-            return Some((format!("search.{field}"), m));
+        if let Some(search) = &self.search {
+            search.check().map_err(|e| e.within("search"))?;
         }
-        if let Err((field, m)) = self.gp.check() {
-            return Some((format!("gp.{field}"), m));
-        }
+        self.gp.check().map_err(|e| e.within("gp"))?;
         if self.classifier.max_depth == 0 {
-            return Some(("classifier.max_depth".into(), "must be at least 1".into()));
+            return Err(Invalid::new("classifier.max_depth", "must be at least 1"));
         }
-        None
+        Ok(())
     }
 
     /// Checks every setting; the error names the key.
     pub fn check(&self) -> Result<()> {
-        match self.invalid() {
-            Some((key, m)) => Err(ResidualError::Settings(format!("{key}: {m}"))),
-            None => Ok(()),
-        }
+        self.validate().map_err(ResidualError::Settings)
     }
 }

@@ -1,5 +1,6 @@
 //! The residual stage of a stage config (`[residual]`), raw and validated.
 
+use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::classifier::ClassifierSettings;
@@ -56,15 +57,15 @@ pub const DEFAULT_SEED: u64 = 2020;
 
 impl RawResidualStage {
     /// Validates; errors name the key (`residual.x.learning_rate`, …).
-    pub fn validate(&self) -> Result<ResidualStage, (String, String)> {
+    pub fn validate(&self) -> Result<ResidualStage, Invalid> {
         let kind = match self.model.as_str() {
             "somm" => ResidualKind::Somm,
             "mosm" => ResidualKind::Mosm,
             "ca-somm" => ResidualKind::CaSomm,
             "gp" => ResidualKind::Gp,
             other => {
-                return Err((
-                    "residual.model".into(),
+                return Err(Invalid::new(
+                    "residual.model",
                     format!(
                         "`{other}` is not a residual model; use \"somm\", \"mosm\", \"ca-somm\" or \"gp\""
                     ),
@@ -94,12 +95,10 @@ impl RawResidualStage {
             settings.classifier = c.clone();
         }
         settings.search = self.search.clone();
-        if let Some((key, message)) = settings.invalid() {
-            return Err((format!("residual.{key}"), message));
-        }
+        settings.validate().map_err(|e| e.within("residual"))?;
         let holdout = self.holdout.unwrap_or(0.2);
         if !(holdout > 0.0 && holdout < 1.0) {
-            return Err(("residual.holdout".into(), "must lie between 0 and 1".into()));
+            return Err(Invalid::new("residual.holdout", "must lie between 0 and 1"));
         }
         Ok(ResidualStage { settings, holdout })
     }

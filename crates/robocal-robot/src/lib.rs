@@ -43,4 +43,6 @@ pub use ik::{IkOptions, IkTarget};
 pub use kinematics::JointAxes;
 pub use kinematics::{matrix_to_rpy, rpy_to_matrix};
 pub use params::{JointField, ParamId, Unit};
-pub use table::{Base, Joint, RawBase, RawJoint, RawTool, Robot, RobotTable, toml_error};
+pub use table::{
+    Base, Joint, RawBase, RawJoint, RawTool, Robot, RobotTable, TomlFault, toml_error,
+};

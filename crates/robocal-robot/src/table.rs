@@ -121,16 +121,44 @@ pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// Where a TOML file went wrong, for any crate's error type: the 1-based line and column of
+/// the offending text and the parser's message on one line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TomlFault {
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column.
+    pub column: usize,
+    /// What the TOML parser said.
+    pub message: String,
+}
+
+impl TomlFault {
+    /// The fault of a `toml` deserialisation error in `text`.
+    pub fn of(text: &str, err: &toml::de::Error) -> Self {
+        let (line, column) = err
+            .span()
+            .map_or((1, 1), |span| line_column(text, span.start));
+        Self {
+            line,
+            column,
+            message: err.message().trim().replace('\n', " "),
+        }
+    }
+}
+
 /// Turns a `toml` deserialisation error into a [`RobotError::Toml`] naming the file, line and column.
 pub fn toml_error(path: &Path, text: &str, err: &toml::de::Error) -> RobotError {
-    let (line, column) = err
-        .span()
-        .map_or((1, 1), |span| line_column(text, span.start));
+    let TomlFault {
+        line,
+        column,
+        message,
+    } = TomlFault::of(text, err);
     RobotError::Toml {
         path: path.to_path_buf(),
         line,
         column,
-        message: err.message().trim().replace('\n', " "),
+        message,
     }
 }
 

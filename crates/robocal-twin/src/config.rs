@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
-use robocal_robot::{Robot, RobotTable, toml_error};
+use robocal_robot::{Robot, RobotTable, TomlFault};
 use serde::Deserialize;
 
 use crate::error::{Result, TwinError};
@@ -110,9 +110,10 @@ pub struct Masses {
     pub payload_com: Vector3<f64>,
 }
 
-/// Joint compliance: deflection = gravity torque / stiffness.
+/// The twin's true joint stiffness: deflection = gravity torque / stiffness (robocal identifies
+/// its inverse, the compliance, as `robocal_robot::Compliance`).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Compliance {
+pub struct Stiffness {
     /// Joint stiffness, N·m/rad, one per joint (> 0).
     pub stiffness: Vec<f64>,
 }
@@ -247,7 +248,7 @@ pub struct TwinConfig {
     /// The links' masses (gravity torques exist whether or not the joints give under them).
     pub masses: Masses,
     /// Joint compliance, if enabled.
-    pub compliance: Option<Compliance>,
+    pub compliance: Option<Stiffness>,
     /// Gear transmission error, if enabled.
     pub gear: Option<Gear>,
     /// Backlash of the joints that have play (enabled entries, one per joint at most).
@@ -315,8 +316,15 @@ impl TwinConfig {
             path: path.to_path_buf(),
             source,
         })?;
-        let raw: RawTwin =
-            toml::from_str(&text).map_err(|e| TwinError::Robot(toml_error(path, &text, &e)))?;
+        let raw: RawTwin = toml::from_str(&text).map_err(|e| {
+            let f = TomlFault::of(&text, &e);
+            TwinError::Toml {
+                path: path.to_path_buf(),
+                line: f.line,
+                column: f.column,
+                message: f.message,
+            }
+        })?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let nominal = Robot::load(dir.join(&raw.nominal))?;
         let truth = raw.truth.clone().validate(path, "truth.")?;
@@ -361,7 +369,7 @@ impl TwinConfig {
                     "stiffness must be positive (N·m/rad)",
                 );
             }
-            Some(Compliance {
+            Some(Stiffness {
                 stiffness: r.stiffness.clone(),
             })
         } else {
