@@ -1,0 +1,299 @@
+//! `robocal calibrate` as a library: the stages a stage config asks for, or — with no config —
+//! the default calibration, whose stages are chosen from the data by their error on held-out
+//! poses.
+//!
+//! The default ([`automatic`]) scores candidate models — the nominal table with base and tool
+//! fitted; kinematic identification; with joint compliances (two or more loads); with
+//! transmission harmonics; with self-weight terms; residual models (GP, SOMM) on the best
+//! identified one — on random folds of configurations and on blocks of joint 1's range (or the
+//! `--validate` file), takes each richer one only if it lowers the held-out errors
+//! significantly, fits the chosen one again on every row, and reports every candidate and
+//! decision.
+//!
+//! Modules: [`select`] (the default: candidates, the chain of decisions, the final fit),
+//! [`folds`] (random folds, blocks of joint 1, the paired significance test); this module
+//! fits the stages themselves.
+
+pub mod folds;
+pub mod select;
+
+use std::collections::HashSet;
+
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use robocal_data::{ErrorStats, Measurement, Observer, Sample};
+use robocal_ident::{KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics};
+use robocal_model::CalibratedModel;
+use robocal_residual::{ResidualModel, ResidualStage, Samples, SearchLog};
+use robocal_robot::Robot;
+use serde::Serialize;
+
+use crate::error::{PipelineError, Result};
+use crate::stages::Stages;
+
+pub use folds::{SIGNIFICANCE, blocks, folds, improves};
+pub use select::{
+    AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, Selection, automatic,
+};
+
+/// The geometric (and elastic) model of an identification, without a residual model.
+pub fn physical_model(calibration: &KinematicCalibration) -> CalibratedModel {
+    CalibratedModel::new(
+        calibration.robot.clone(),
+        calibration.compliance.clone(),
+        None,
+    )
+}
+
+/// One network's training, in the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct NetTraining {
+    /// Axes it predicts (`x`, `xyz`, …).
+    pub axes: String,
+    /// Epochs run.
+    pub epochs: usize,
+    /// Epoch whose weights were kept.
+    pub best_epoch: usize,
+    /// Whether early stopping ended it.
+    pub stopped_early: bool,
+}
+
+/// The residual stage in `report.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct ResidualReport {
+    /// `somm`, `mosm`, `ca-somm` or `gp`.
+    pub model: &'static str,
+    /// Seed of the networks and of the hold-out.
+    pub seed: u64,
+    /// Where the early-stopping data came from.
+    pub validation_source: String,
+    /// Rows trained on.
+    pub training_rows: usize,
+    /// Rows of the early-stopping set.
+    pub validation_rows: usize,
+    /// Every network.
+    pub networks: Vec<NetTraining>,
+    /// Training rows: error after the stages before, and after the residual too.
+    pub training_before: ErrorStats,
+    /// See `training_before`.
+    pub training_after: ErrorStats,
+    /// Early-stopping rows, before and after.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_before: Option<ErrorStats>,
+    /// See `validation_before`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_after: Option<ErrorStats>,
+    /// CA-SOMM: share of rows the classifier puts in their true class.
+    pub classifier_accuracy_training: Option<f64>,
+    /// See `classifier_accuracy_training`.
+    pub classifier_accuracy_validation: Option<f64>,
+    /// TPE searches that chose the settings (when the stage asked for one).
+    pub search: Vec<SearchLog>,
+    /// The Gaussian process of each axis (a GP residual).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub gp: Vec<GpSummary>,
+}
+
+/// One axis's Gaussian process, in the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct GpSummary {
+    /// `x`, `y` or `z`.
+    pub axis: &'static str,
+    /// Rows it conditions on.
+    pub rows: usize,
+    /// Standard deviation of the learned error, mm (the kernel's signal).
+    pub signal_std: f64,
+    /// Standard deviation of what it takes as noise, mm.
+    pub noise_std: f64,
+    /// Length-scale of each standardised feature (sin q1, cos q1, …, load): short means the
+    /// error changes fast with it, long that it hardly depends on it.
+    pub lengthscales: Vec<f64>,
+    /// Negative log marginal likelihood per row on the hyper-parameter subset.
+    pub nll_per_row: f64,
+}
+
+/// The configurations (pose ids) of `rows`, sorted, each once.
+pub(crate) fn configurations<'a>(rows: &[&'a Measurement]) -> Vec<&'a str> {
+    let mut poses: Vec<&str> = rows.iter().map(|r| r.sample.pose.as_str()).collect();
+    poses.sort_unstable();
+    poses.dedup();
+    poses
+}
+
+/// Splits `rows` into (kept, held out) by whole configurations: `share` of them (at least one,
+/// never all), drawn by `seed`. `None` when there are fewer than two configurations.
+pub fn hold_out<'a>(
+    rows: &[&'a Measurement],
+    share: f64,
+    seed: u64,
+) -> Option<(Vec<&'a Measurement>, Vec<&'a Measurement>, String)> {
+    let mut poses = configurations(rows);
+    if poses.len() < 2 {
+        return None;
+    }
+    poses.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    let n = ((poses.len() as f64 * share).round() as usize).clamp(1, poses.len() - 1);
+    let held: HashSet<&str> = poses[..n].iter().copied().collect();
+    let (out, kept): (Vec<&Measurement>, Vec<&Measurement>) = rows
+        .iter()
+        .partition(|r| held.contains(r.sample.pose.as_str()));
+    let how = format!(
+        "{n} of {} configurations held out (seed {seed})",
+        poses.len()
+    );
+    Some((kept, out, how))
+}
+
+/// Identifies the kinematic stage from `rows`: a rigid stage from the rows at the lightest load
+/// (geometry alone, as in the paper), an elasto-geometric one from every row.
+pub fn fit_kinematic(
+    nominal: &Robot,
+    rows: &[&Measurement],
+    settings: &KinematicSettings,
+) -> Result<KinematicCalibration> {
+    let obs = if settings.compliance.is_some() {
+        Observations::from_rows(nominal.dof(), rows.iter().copied())
+    } else {
+        let lightest = rows
+            .iter()
+            .map(|r| r.sample.load)
+            .fold(f64::INFINITY, f64::min);
+        Observations::from_rows(
+            nominal.dof(),
+            rows.iter().copied().filter(|r| r.sample.load == lightest),
+        )
+    };
+    Ok(calibrate_kinematics(nominal, &obs, settings)?)
+}
+
+/// Trains a residual stage on what `base` leaves of `train`; early stopping on `validation`
+/// (rows and where they came from), or on a hold-out of whole configurations of `train`.
+pub fn train_residual(
+    stage: &ResidualStage,
+    base: &CalibratedModel,
+    train: &[&Measurement],
+    validation: Option<(&[&Measurement], String)>,
+    observer: &dyn Observer,
+) -> Result<(ResidualModel, ResidualReport)> {
+    let seed = stage.settings.seed;
+    let model = |s: &Sample| base.base_point(s);
+    let (train, val, source) = match validation {
+        Some((v, source)) => (
+            Samples::from_model(model, train.iter().copied()),
+            Samples::from_model(model, v.iter().copied()),
+            source,
+        ),
+        None if !stage.settings.kind.early_stops() => (
+            Samples::from_model(model, train.iter().copied()),
+            Samples::default(),
+            format!(
+                "none: a {} needs no early stopping and trains on every row",
+                stage.settings.kind.name()
+            ),
+        ),
+        None => {
+            let Some((t, v, how)) = hold_out(train, stage.holdout, seed) else {
+                return Err(PipelineError::Stage(
+                    "the residual stage needs a --validate file or at least two configurations to hold one out".into(),
+                ));
+            };
+            (
+                Samples::from_model(model, t),
+                Samples::from_model(model, v),
+                how,
+            )
+        }
+    };
+    observer.start(
+        "residual, epochs (at most)",
+        ResidualModel::max_epochs(&stage.settings),
+    );
+    let fitted = ResidualModel::fit(&stage.settings, &train, &val, observer);
+    observer.finish();
+    let fitted = fitted?;
+    let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
+        ErrorStats::from_errors(&s.remaining(predicted))
+    };
+    let report = ResidualReport {
+        model: stage.settings.kind.name(),
+        seed,
+        validation_source: source,
+        training_rows: train.len(),
+        validation_rows: val.len(),
+        networks: (fitted.nets().into_iter())
+            .map(|n| NetTraining {
+                axes: n.axes_name(),
+                epochs: n.report.epochs,
+                best_epoch: n.report.best_epoch,
+                stopped_early: n.report.stopped_early,
+            })
+            .collect(),
+        training_before: left(&train, None),
+        training_after: left(&train, Some(&fitted.predict(&train.inputs))),
+        validation_before: (!val.is_empty()).then(|| left(&val, None)),
+        validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val.inputs)))),
+        classifier_accuracy_training: fitted.classifier().map(|c| c.accuracy(&train)),
+        classifier_accuracy_validation: fitted.classifier().map(|c| c.accuracy(&val)),
+        search: fitted.search.clone(),
+        gp: fitted.gp().map_or_else(Vec::new, |g| {
+            (g.axes.iter().zip(["x", "y", "z"]))
+                .map(|(a, axis)| GpSummary {
+                    axis,
+                    rows: g.rows.len(),
+                    signal_std: a.signal_variance.sqrt() * a.target_std,
+                    noise_std: a.noise_variance.sqrt() * a.target_std,
+                    lengthscales: a.lengthscales.clone(),
+                    nll_per_row: a.nll_per_row,
+                })
+                .collect()
+        }),
+    };
+    Ok((fitted, report))
+}
+
+/// A calibrated model and what made it.
+#[derive(Debug)]
+pub struct Built {
+    /// The kinematic (or elasto-geometric) identification in the model.
+    pub kinematic: KinematicCalibration,
+    /// The residual stage, if one is in the model.
+    pub residual: Option<(ResidualModel, ResidualReport)>,
+    /// The stages, as a stage config would give them.
+    pub stages: Stages,
+    /// How the default calibration chose the stages (absent with a stage config).
+    pub selection: Option<Selection>,
+}
+
+impl Built {
+    /// The calibrated model.
+    pub fn model(&self) -> CalibratedModel {
+        CalibratedModel {
+            residual: self.residual.as_ref().map(|(m, _)| m.clone()),
+            ..physical_model(&self.kinematic)
+        }
+    }
+}
+
+/// Runs the stages of a stage config on `rows` (early stopping on `validation` when given).
+pub fn configured(
+    stages: &Stages,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    validation: Option<(&[&Measurement], String)>,
+    observer: &dyn Observer,
+) -> Result<Built> {
+    let kinematic = fit_kinematic(nominal, rows, &stages.kinematic)?;
+    let base = physical_model(&kinematic);
+    let residual = stages
+        .residual
+        .as_ref()
+        .map(|stage| train_residual(stage, &base, rows, validation, observer))
+        .transpose()?;
+    Ok(Built {
+        kinematic,
+        residual,
+        stages: stages.clone(),
+        selection: None,
+    })
+}

@@ -1,0 +1,844 @@
+//! The default calibration: candidates scored on held-out poses, a chain of decisions, the
+//! chosen model fitted again on every row.
+
+use std::time::Instant;
+
+use robocal_data::{ErrorStats, Measurement, Observer, Silent};
+use robocal_ident::{
+    ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings,
+};
+use robocal_model::CalibratedModel;
+use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
+use robocal_robot::Robot;
+use serde::Serialize;
+
+use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
+use super::{Built, configurations, configured, fit_kinematic, physical_model, train_residual};
+use crate::error::Result;
+use crate::stages::Stages;
+
+/// What the default calibration decided about one stage.
+#[derive(Debug, Clone, Serialize)]
+pub struct Decision {
+    /// `kinematic`, `compliance`, `joint_errors` or `residual`.
+    pub stage: &'static str,
+    /// Whether the stage is in the model.
+    pub kept: bool,
+    /// Held-out score (see [`Candidate::score`]) of the model the stage was added to, mm
+    /// (absent when the stage was not tried).
+    pub held_out_without: Option<f64>,
+    /// Held-out score of that model with the stage, mm.
+    pub held_out_with: Option<f64>,
+    /// Why.
+    pub reason: String,
+}
+
+/// One candidate model of the default calibration and its held-out error.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    /// What it stacks, e.g. `kinematic + compliance + gp`.
+    pub name: String,
+    /// Statistics of every held-out row's error over the random folds (each row held out
+    /// once), or on the validation file, mm; absent when the candidate was skipped.
+    pub held_out: Option<ErrorStats>,
+    /// The same over the blocks of joint 1's range (each row held out once), mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_blocks: Option<ErrorStats>,
+    /// What the choice compares, mm: the mean of the two means (the random folds' mean alone
+    /// with a validation file).
+    pub score: Option<f64>,
+    /// Seconds its folds took.
+    pub seconds: f64,
+    /// `chosen`, `evaluated`, or why it was skipped.
+    pub status: String,
+}
+
+/// How the default calibration chose its stages.
+#[derive(Debug, Clone, Serialize)]
+pub struct Selection {
+    /// Where the held-out poses came from.
+    pub held_out: String,
+    /// Folds: the random ones and the blocks of joint 1 (1 with a validation file).
+    pub folds: usize,
+    /// Rows the candidates were fitted on, summed over the folds.
+    pub fitted_rows: usize,
+    /// Rows held out, summed over the folds (every row twice in cross-validation: once in a
+    /// random fold, once in a block).
+    pub held_out_rows: usize,
+    /// Every candidate, in the order tried.
+    pub candidates: Vec<Candidate>,
+    /// One per stage, in order.
+    pub decisions: Vec<Decision>,
+    /// Whether the chosen candidate was fitted again on every row of the data file (always,
+    /// unless a validation file was given or there were too few configurations to hold any
+    /// out).
+    pub refitted_on_every_row: bool,
+    /// The time budget, s, and what the selection took.
+    pub budget_seconds: f64,
+    /// See `budget_seconds`.
+    pub seconds: f64,
+}
+
+/// Settings of the default calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AutoSettings {
+    /// Folds of the cross-validation over configurations (when no validation file is given).
+    pub folds: usize,
+    /// Seed of the folds (and of the residual models).
+    pub seed: u64,
+    /// Fewest configurations (in the data, or in each fold's training part) for which a
+    /// residual model is tried.
+    pub min_residual_configurations: usize,
+    /// Transmission harmonics up to this order tried with the geometry (0: not tried).
+    pub harmonics: u32,
+    /// Self-weight terms tried with the geometry.
+    pub self_weight: bool,
+    /// The residual models tried, each on top of the best physical model.
+    pub residuals: Vec<ResidualStage>,
+    /// Seconds the selection may take: a candidate whose folds would run past it (projected
+    /// from its first fold) is abandoned, and none starts after it. The only setting that
+    /// depends on the clock: far under budget, a seed gives the same model.
+    pub budget_seconds: f64,
+}
+
+/// Folds of the default cross-validation.
+pub const DEFAULT_FOLDS: usize = 5;
+
+/// The default selection's time budget, s.
+pub const DEFAULT_BUDGET_SECONDS: f64 = 120.0;
+
+impl Default for AutoSettings {
+    fn default() -> Self {
+        let seed = robocal_residual::DEFAULT_SEED;
+        Self {
+            folds: DEFAULT_FOLDS,
+            seed,
+            min_residual_configurations: 40,
+            harmonics: 2,
+            self_weight: true,
+            residuals: vec![
+                ResidualStage {
+                    settings: ResidualSettings::gp(seed),
+                    holdout: 0.2,
+                },
+                ResidualStage {
+                    settings: ResidualSettings::paper(ResidualKind::Somm, seed),
+                    holdout: 0.2,
+                },
+            ],
+            budget_seconds: DEFAULT_BUDGET_SECONDS,
+        }
+    }
+}
+
+/// The physical part of a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Physics {
+    /// Only base and tool fitted to the nominal table.
+    aligned: bool,
+    /// Joint compliances under the payload.
+    compliance: bool,
+    /// Transmission harmonics up to this order.
+    harmonics: u32,
+    /// Self-weight terms.
+    self_weight: bool,
+}
+
+impl Physics {
+    const ALIGNED: Self = Self {
+        aligned: true,
+        compliance: false,
+        harmonics: 0,
+        self_weight: false,
+    };
+    const RIGID: Self = Self {
+        aligned: false,
+        ..Self::ALIGNED
+    };
+
+    fn name(self) -> String {
+        if self.aligned {
+            return "nominal (base and tool fitted)".into();
+        }
+        let mut name = String::from("kinematic");
+        if self.compliance {
+            name += " + compliance";
+        }
+        if self.harmonics > 0 {
+            name += &format!(" + harmonics {}", self.harmonics);
+        }
+        if self.self_weight {
+            name += " + self-weight";
+        }
+        name
+    }
+
+    /// Its joint-error terms in words, e.g. `transmission harmonics (orders 1 to 2) identified
+    /// with the geometry`.
+    fn joint_error_terms(self) -> String {
+        let mut parts = Vec::new();
+        if self.harmonics > 0 {
+            parts.push(format!(
+                "transmission harmonics (orders 1 to {})",
+                self.harmonics
+            ));
+        }
+        if self.self_weight {
+            parts.push("self-weight terms".to_string());
+        }
+        format!("{} identified with the geometry", parts.join(" and "))
+    }
+
+    fn settings(self) -> KinematicSettings {
+        KinematicSettings {
+            compliance: self.compliance.then(ComplianceSettings::default),
+            joint_errors: (self.harmonics > 0 || self.self_weight).then(|| JointErrorSettings {
+                harmonics: self.harmonics,
+                self_weight: self.self_weight,
+                ..JointErrorSettings::default()
+            }),
+            ..KinematicSettings::default()
+        }
+    }
+
+    /// The model of this physics from the identification that made it.
+    fn model(self, fit: &KinematicCalibration) -> CalibratedModel {
+        if self.aligned {
+            CalibratedModel::kinematic(fit.aligned.clone())
+        } else {
+            physical_model(fit)
+        }
+    }
+}
+
+/// A physical candidate scored on every fold.
+struct Scored {
+    physics: Physics,
+    /// Selection score (none when a fold's fit failed).
+    score: Option<f64>,
+    /// Every held-out error ([`Held::all`]; none when a fold's fit failed).
+    errors: Option<Vec<f64>>,
+    /// The fitted model of each fold.
+    fitted: Vec<Option<CalibratedModel>>,
+}
+
+/// Fits `physics` on every fold and scores it on the fold's held-out rows.
+fn score_physics(
+    physics: Physics,
+    nominal: &Robot,
+    splits: &[Fold<'_>],
+    candidates: &mut Vec<Candidate>,
+    observer: &dyn Observer,
+) -> Scored {
+    let t = std::time::Instant::now();
+    let kinematic = physics.settings();
+    let mut held = Held::default();
+    let mut fitted = Vec::new();
+    let mut failure = None;
+    for fold in splits {
+        observer.advance(1);
+        match fit_kinematic(nominal, &fold.train, &kinematic) {
+            Ok(fit) => {
+                let model = physics.model(&fit);
+                held.add(fold, model.errors(&fold.test));
+                fitted.push(Some(model));
+            }
+            Err(e) => {
+                failure = Some(format!("skipped: {e}"));
+                fitted.push(None);
+            }
+        }
+    }
+    let mut c = Candidate {
+        name: physics.name(),
+        held_out: None,
+        held_out_blocks: None,
+        score: None,
+        seconds: t.elapsed().as_secs_f64(),
+        status: failure.clone().unwrap_or_else(|| "evaluated".into()),
+    };
+    if failure.is_none() {
+        let (random, blocked, score) = held.summary();
+        (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
+    }
+    report(&c, observer);
+    let score = c.score;
+    candidates.push(c);
+    Scored {
+        physics,
+        score,
+        errors: score.map(|_| held.all()),
+        fitted,
+    }
+}
+
+/// Says a candidate's held-out numbers, or why it was skipped.
+fn report(c: &Candidate, observer: &dyn Observer) {
+    observer.message(&match (&c.held_out, &c.held_out_blocks) {
+        (Some(h), Some(b)) => format!(
+            "candidate {}: held-out mean {:.4} mm (max {:.4}) on random folds, {:.4} mm (max {:.4}) on blocks of joint 1 ({:.1} s)",
+            c.name, h.mean, h.max, b.mean, b.max, c.seconds
+        ),
+        (Some(h), None) => format!(
+            "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({:.1} s)",
+            c.name, h.mean, h.max, c.seconds
+        ),
+        _ => format!("candidate {}: {}", c.name, c.status),
+    });
+}
+
+/// Where the candidates are scored: the folds, how they were made, and whether the winner is
+/// fitted again on every row.
+struct FoldPlan<'a> {
+    splits: Vec<Fold<'a>>,
+    held_out: String,
+    refit: bool,
+}
+
+impl<'a> FoldPlan<'a> {
+    /// The validation file as the one fold, or random folds and blocks of joint 1; `None` with
+    /// fewer than 4 configurations and no validation file.
+    fn new(
+        settings: &AutoSettings,
+        rows: &[&'a Measurement],
+        validation: Option<&(&[&'a Measurement], String)>,
+    ) -> Option<Self> {
+        let n_configurations = configurations(rows).len();
+        match validation {
+            Some((v, source)) => Some(Self {
+                splits: vec![Fold {
+                    train: rows.to_vec(),
+                    test: v.to_vec(),
+                    blocked: false,
+                }],
+                held_out: source.clone(),
+                refit: false,
+            }),
+            None if n_configurations >= 4 => {
+                let (fold_of, k) = folds(rows, settings.folds, settings.seed);
+                let mut splits = splits_of(rows, &fold_of, k, false);
+                let (block_of, kb) = blocks(rows, settings.folds);
+                splits.extend(splits_of(rows, &block_of, kb, true));
+                Some(Self {
+                    splits,
+                    held_out: format!(
+                        "{k}-fold cross-validation over {n_configurations} configurations (seed {}), and {kb} blocks of joint 1's range",
+                        settings.seed
+                    ),
+                    refit: true,
+                })
+            }
+            None => None,
+        }
+    }
+
+    /// One group per configuration and kind of fold, in the order [`Held::all`] keeps the
+    /// errors: the units of the paired test.
+    fn groups(&self) -> Vec<usize> {
+        let mut ids: std::collections::HashMap<(&str, bool), usize> = Default::default();
+        let mut out = Vec::new();
+        for blocked in [false, true] {
+            for fold in self.splits.iter().filter(|f| f.blocked == blocked) {
+                for r in &fold.test {
+                    let next = ids.len();
+                    out.push(*ids.entry((r.sample.pose.as_str(), blocked)).or_insert(next));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// One step of the chain: a richer physical model tried on the current one.
+struct Step {
+    /// The decision it belongs to.
+    stage: &'static str,
+    /// The model it was compared with (index into [`Chain::scored`]).
+    base: usize,
+    /// The richer model.
+    next: usize,
+    /// Whether it lowered the held-out errors significantly and became the current model.
+    kept: bool,
+}
+
+/// The physical candidates, scored, and the chain through them.
+struct Chain {
+    scored: Vec<Scored>,
+    steps: Vec<Step>,
+    /// The model the chain ended on.
+    current: usize,
+    /// Why compliance was not tried, if it was not.
+    compliance_skip: Option<String>,
+}
+
+impl Chain {
+    /// The model residual models are trained on: the chain's, or the identified table when the
+    /// chain ended on the nominal one (a residual model learns what an identified model
+    /// leaves).
+    fn identified(&self) -> usize {
+        if self.scored[self.current].physics.aligned {
+            1
+        } else {
+            self.current
+        }
+    }
+
+    /// Scores `next`, compares it with the current model and takes it if it is significantly
+    /// better.
+    fn step(&mut self, stage: &'static str, next: Scored, groups: &[usize]) {
+        let better = match (&self.scored[self.current].errors, &next.errors) {
+            (Some(c), Some(n)) => improves(c, n, groups),
+            (None, Some(_)) => true,
+            _ => false,
+        };
+        self.scored.push(next);
+        let next = self.scored.len() - 1;
+        self.steps.push(Step {
+            stage,
+            base: self.current,
+            next,
+            kept: better,
+        });
+        if better {
+            self.current = next;
+        }
+    }
+}
+
+/// The physical models, each scored on every fold: the nominal table, the identified one, with
+/// compliances (two or more loads); then, on the current identified one, transmission
+/// harmonics, then self-weight terms — each kept only if it lowers the held-out errors
+/// significantly.
+fn physics_chain(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    plan: &FoldPlan<'_>,
+    groups: &[usize],
+    candidates: &mut Vec<Candidate>,
+    observer: &dyn Observer,
+) -> Chain {
+    let mut score =
+        |physics: Physics| score_physics(physics, nominal, &plan.splits, candidates, observer);
+    let mut chain = Chain {
+        scored: vec![score(Physics::ALIGNED)],
+        steps: Vec::new(),
+        current: 0,
+        compliance_skip: None,
+    };
+    chain.step("kinematic", score(Physics::RIGID), groups);
+    let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
+    loads.sort_by(f64::total_cmp);
+    loads.dedup();
+    if loads.len() >= 2 {
+        let elastic = Physics {
+            compliance: true,
+            ..Physics::RIGID
+        };
+        chain.step("compliance", score(elastic), groups);
+    } else {
+        chain.compliance_skip = Some(format!(
+            "skipped: the data hold one load ({} kg); compliance needs two or more",
+            loads.first().copied().unwrap_or(0.0)
+        ));
+    }
+    for (harmonics, self_weight) in [(settings.harmonics, false), (0, settings.self_weight)] {
+        if harmonics == 0 && !self_weight {
+            continue;
+        }
+        let base = chain.scored[chain.identified()].physics;
+        let next = Physics {
+            harmonics: base.harmonics.max(harmonics),
+            self_weight: base.self_weight || self_weight,
+            ..base
+        };
+        chain.step("joint_errors", score(next), groups);
+    }
+    chain
+}
+
+/// A residual candidate's result.
+struct ResidualScore {
+    /// Its selection score (none when skipped or abandoned).
+    score: Option<f64>,
+    /// Whether it lowers the chain model's held-out errors significantly.
+    significant: bool,
+}
+
+/// Each residual model of `settings`, trained on every fold on what the identified chain model
+/// leaves, scored like the physical candidates; skipped with too few configurations, and
+/// abandoned when its folds would run past the time budget.
+#[allow(clippy::too_many_arguments)]
+fn residual_candidates(
+    settings: &AutoSettings,
+    chain: &Chain,
+    plan: &FoldPlan<'_>,
+    groups: &[usize],
+    candidates: &mut Vec<Candidate>,
+    observer: &dyn Observer,
+    over_budget: &dyn Fn(f64) -> bool,
+) -> Result<Vec<ResidualScore>> {
+    let splits = &plan.splits;
+    let base_physics = chain.identified();
+    let fewest = (splits.iter())
+        .map(|f| configurations(&f.train).len())
+        .min()
+        .unwrap_or(0);
+    let mut scores = Vec::new();
+    for stage in &settings.residuals {
+        let mut c = Candidate {
+            name: format!(
+                "{} + {}",
+                chain.scored[base_physics].physics.name(),
+                stage.settings.kind.name()
+            ),
+            held_out: None,
+            held_out_blocks: None,
+            score: None,
+            seconds: 0.0,
+            status: String::new(),
+        };
+        let mut significant = false;
+        if fewest < settings.min_residual_configurations {
+            c.status = format!(
+                "skipped: {fewest} configurations to train on; a residual model needs at least {}",
+                settings.min_residual_configurations
+            );
+        } else if over_budget(0.0) {
+            c.status = format!(
+                "skipped: the time budget ({} s) is spent",
+                settings.budget_seconds
+            );
+        } else {
+            let mut held = Held::default();
+            let mut abandoned = None;
+            for (f, fold) in splits.iter().enumerate() {
+                let t = Instant::now();
+                let Some(base) = &chain.scored[base_physics].fitted[f] else {
+                    abandoned = Some("skipped: its physical model failed on a fold".to_string());
+                    break;
+                };
+                observer.advance(1);
+                let (model, _) = train_residual(stage, base, &fold.train, None, &Silent)?;
+                let candidate = CalibratedModel {
+                    residual: Some(model),
+                    ..base.clone()
+                };
+                held.add(fold, candidate.errors(&fold.test));
+                let took = t.elapsed().as_secs_f64();
+                c.seconds += took;
+                // The remaining folds and the final fit, at this fold's pace.
+                let left = (splits.len() - f) as f64 * took;
+                if f + 1 < splits.len() && over_budget(left) {
+                    abandoned = Some(format!(
+                        "abandoned: its folds would run past the time budget ({} s)",
+                        settings.budget_seconds
+                    ));
+                    break;
+                }
+            }
+            match abandoned {
+                Some(why) => c.status = why,
+                None => {
+                    let (random, blocked, score) = held.summary();
+                    (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
+                    significant = (chain.scored[chain.current].errors.as_ref())
+                        .is_some_and(|base| improves(base, &held.all(), groups));
+                    c.status = if significant {
+                        "evaluated".into()
+                    } else {
+                        "evaluated: not significantly better than the physical model".into()
+                    };
+                }
+            }
+        }
+        report(&c, observer);
+        scores.push(ResidualScore {
+            score: c.score,
+            significant,
+        });
+        candidates.push(c);
+    }
+    Ok(scores)
+}
+
+/// A decision with its reason: `kept`/`dropped`, the scores without and with the stage.
+fn decision(
+    stage: &'static str,
+    kept: bool,
+    without: Option<f64>,
+    with: Option<f64>,
+    what: &str,
+) -> Decision {
+    let reason = match (without, with) {
+        (Some(w), Some(x)) => format!(
+            "{}: held-out score {w:.4} mm without, {x:.4} mm with {what}{}",
+            if kept { "kept" } else { "dropped" },
+            if !kept && x < w {
+                " (lower, but not by more than twice its standard error)"
+            } else if kept && x >= w {
+                " (the chosen residual model is trained on it)"
+            } else {
+                ""
+            }
+        ),
+        _ => what.to_string(),
+    };
+    Decision {
+        stage,
+        kept,
+        held_out_without: without,
+        held_out_with: with,
+        reason,
+    }
+}
+
+/// One decision per stage — kinematic, compliance, joint errors, residual — each comparing the
+/// model the stage was tried on with the model with it.
+fn decisions(
+    settings: &AutoSettings,
+    chain: &Chain,
+    candidates: &[Candidate],
+    chosen: Physics,
+    residual: Option<(usize, f64)>,
+    residual_wins: bool,
+) -> Vec<Decision> {
+    let score = |i: usize| chain.scored[i].score;
+    let steps =
+        |stage: &str| -> Vec<&Step> { chain.steps.iter().filter(|s| s.stage == stage).collect() };
+    let mut out = Vec::new();
+    for step in steps("kinematic") {
+        out.push(decision(
+            "kinematic",
+            !chosen.aligned,
+            score(step.base),
+            score(step.next),
+            "the identified table (LM, identifiable parameters)",
+        ));
+    }
+    out.push(
+        match (&chain.compliance_skip, steps("compliance").first()) {
+            (Some(why), _) => decision("compliance", false, None, None, why),
+            (None, Some(step)) if score(step.next).is_some() => decision(
+                "compliance",
+                chosen.compliance,
+                score(step.base),
+                score(step.next),
+                "joint compliances identified with the geometry on every load",
+            ),
+            (None, _) => decision(
+                "compliance",
+                false,
+                None,
+                None,
+                &candidates
+                    .iter()
+                    .find(|c| c.name == "kinematic + compliance")
+                    .map_or("skipped".to_string(), |c| c.status.clone()),
+            ),
+        },
+    );
+    let joint_errors = steps("joint_errors");
+    // With the stage: the last step the chain kept, else the best one tried.
+    let with = (joint_errors.iter().rev().find(|s| s.kept))
+        .or_else(|| {
+            (joint_errors.iter())
+                .filter(|s| score(s.next).is_some())
+                .min_by(|a, b| {
+                    score(a.next)
+                        .unwrap_or(f64::INFINITY)
+                        .total_cmp(&score(b.next).unwrap_or(f64::INFINITY))
+                })
+        })
+        .copied();
+    let has_errors = chosen.harmonics > 0 || chosen.self_weight;
+    out.push(match (joint_errors.first(), with) {
+        (Some(first), Some(step)) => decision(
+            "joint_errors",
+            has_errors,
+            score(first.base),
+            score(step.next),
+            &chain.scored[if has_errors {
+                chain.identified()
+            } else {
+                step.next
+            }]
+            .physics
+            .joint_error_terms(),
+        ),
+        _ => decision(
+            "joint_errors",
+            false,
+            None,
+            None,
+            "not tried (no harmonics or self-weight in the settings), or every fit failed",
+        ),
+    });
+    let physics_mean = score(chain.current).unwrap_or(f64::INFINITY);
+    out.push(match residual {
+        Some((r, mean)) => decision(
+            "residual",
+            residual_wins,
+            Some(physics_mean),
+            Some(mean),
+            &format!(
+                "a {} residual model (the best of {} tried)",
+                settings.residuals[r].settings.kind.name(),
+                settings.residuals.len()
+            ),
+        ),
+        None => decision(
+            "residual",
+            false,
+            Some(physics_mean),
+            None,
+            &candidates
+                .get(chain.scored.len())
+                .map_or("skipped: no residual model configured".to_string(), |c| {
+                    c.status.clone()
+                }),
+        ),
+    });
+    out
+}
+
+/// Too few poses to hold any out: the kinematic stage alone, on everything.
+fn kinematic_only(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    observer: &dyn Observer,
+    start: Instant,
+) -> Result<Built> {
+    observer.message("too few configurations to hold any out: kinematic identification only");
+    let mut built = configured(&Stages::default(), nominal, rows, None, observer)?;
+    built.selection = Some(Selection {
+        held_out: "none: fewer than 4 configurations".into(),
+        folds: 0,
+        fitted_rows: rows.len(),
+        held_out_rows: 0,
+        candidates: Vec::new(),
+        decisions: vec![Decision {
+            stage: "kinematic",
+            kept: true,
+            held_out_without: None,
+            held_out_with: None,
+            reason: "kept untested: too few configurations to hold any out".into(),
+        }],
+        refitted_on_every_row: false,
+        budget_seconds: settings.budget_seconds,
+        seconds: start.elapsed().as_secs_f64(),
+    });
+    Ok(built)
+}
+
+/// The default calibration: every candidate model — the nominal table with base and tool
+/// fitted; kinematic identification; with joint compliances (two or more loads); with
+/// transmission harmonics, with self-weight terms; each residual model of `settings` on top of
+/// the best identified one — is scored by its error on held-out poses: the mean of its mean
+/// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
+/// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
+/// The choice is a chain — identified table, compliance, harmonics, self-weight, the best
+/// residual model — each step taken only if it lowers the held-out errors significantly
+/// ([`improves`]); the model it ends on is fitted again on every row. `observer` hears a line
+/// per candidate and per decision, and counts the fits.
+pub fn automatic(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    validation: Option<(&[&Measurement], String)>,
+    observer: &dyn Observer,
+) -> Result<Built> {
+    let start = Instant::now();
+    let Some(plan) = FoldPlan::new(settings, rows, validation.as_ref()) else {
+        return kinematic_only(settings, nominal, rows, observer, start);
+    };
+    let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
+    // The progress bar counts fits: every candidate on every fold, and the final one.
+    observer.start(
+        "candidates × folds fitted",
+        (plan.splits.len() * (5 + settings.residuals.len()) + 1) as u64,
+    );
+    let groups = plan.groups();
+    let mut candidates: Vec<Candidate> = Vec::new();
+    let chain = physics_chain(
+        settings,
+        nominal,
+        rows,
+        &plan,
+        &groups,
+        &mut candidates,
+        observer,
+    );
+    let residuals = residual_candidates(
+        settings,
+        &chain,
+        &plan,
+        &groups,
+        &mut candidates,
+        observer,
+        &over_budget,
+    )?;
+
+    // The winner: the best residual model if it is significantly better than the physical
+    // model, else the physical model the chain ended on.
+    let best_residual = (residuals.iter().enumerate())
+        .filter_map(|(r, s)| s.score.map(|m| (r, m)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let physics_mean = chain.scored[chain.current].score.unwrap_or(f64::INFINITY);
+    let residual_wins =
+        best_residual.filter(|&(r, m)| m < physics_mean && residuals[r].significant);
+    let (winner, chosen_physics) = match residual_wins {
+        Some((r, _)) => (
+            chain.scored.len() + r,
+            chain.scored[chain.identified()].physics,
+        ),
+        None => (chain.current, chain.scored[chain.current].physics),
+    };
+    candidates[winner].status = "chosen".into();
+    let decisions = decisions(
+        settings,
+        &chain,
+        &candidates,
+        chosen_physics,
+        best_residual,
+        residual_wins.is_some(),
+    );
+    for d in &decisions {
+        observer.message(&format!("stage {}: {}", d.stage, d.reason));
+    }
+    observer.message(&format!(
+        "chosen: {} (held-out score {:.4} mm)",
+        candidates[winner].name,
+        candidates[winner].score.unwrap_or(f64::NAN)
+    ));
+
+    // Fit the winner on every row (with a validation file: on the data file's rows, the
+    // validation file early-stopping the networks as it always has).
+    let stages = Stages {
+        kinematic: chosen_physics.settings(),
+        residual: residual_wins.map(|(r, _)| settings.residuals[r].clone()),
+    };
+    if plan.refit {
+        observer.message("fitting the chosen model again on every row");
+    }
+    let mut built = configured(&stages, nominal, rows, validation.clone(), &Silent)?;
+    observer.advance(1);
+    observer.finish();
+    if chosen_physics.aligned {
+        built.kinematic.robot = built.kinematic.aligned.clone();
+        built.kinematic.compliance = None;
+    }
+    built.selection = Some(Selection {
+        held_out: plan.held_out.clone(),
+        folds: plan.splits.len(),
+        fitted_rows: plan.splits.iter().map(|f| f.train.len()).sum(),
+        held_out_rows: plan.splits.iter().map(|f| f.test.len()).sum(),
+        candidates,
+        decisions,
+        refitted_on_every_row: plan.refit,
+        budget_seconds: settings.budget_seconds,
+        seconds: start.elapsed().as_secs_f64(),
+    });
+    Ok(built)
+}
