@@ -381,41 +381,123 @@ fn choose_compliance(
     })
 }
 
-/// Identifies the kinematic parameters of `nominal` from `obs` (and, when the settings ask for
-/// it, the joint compliances with them: then the points of every load take part).
-pub fn calibrate_kinematics(
-    nominal: &Robot,
+/// Warnings about the data and the fit: too few distinct poses for the parameters, an
+/// ill-conditioned problem, a model that still misses the points by more than a calibration
+/// should.
+fn fit_warnings(
     obs: &Observations,
-    settings: &KinematicSettings,
-) -> Result<KinematicCalibration> {
-    if obs.dof != nominal.dof() {
-        return Err(IdentError::JointCountMismatch {
-            expected: nominal.dof(),
-            found: obs.dof,
-        });
+    parameters: usize,
+    condition_number: f64,
+    mean_after: f64,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let mut distinct: Vec<&[f64]> = (0..obs.len()).map(|i| obs.joints(i)).collect();
+    distinct.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    distinct.dedup();
+    if 3 * distinct.len() < parameters {
+        warnings.push(format!(
+            "only {} distinct joint configurations ({} equations) for {} parameters: most cannot be determined; measure more, and more varied, poses",
+            distinct.len(),
+            3 * distinct.len(),
+            parameters
+        ));
     }
-    let selected = select(nominal, settings.parameters.as_deref())?;
-    if 3 * obs.len() < selected.len().min(9) || obs.len() < 3 {
-        return Err(IdentError::TooFewMeasurements {
-            points: obs.len(),
-            equations: 3 * obs.len(),
-            parameters: selected.len(),
-        });
+    if condition_number > ILL_CONDITIONED {
+        warnings.push(format!(
+            "ill-conditioned: the scaled Jacobian's condition number is {:.1e}; the identified values are sensitive to noise (spread the poses over the joint ranges)",
+            condition_number
+        ));
     }
-    let aligned = align(nominal, obs)?;
-    let before = ErrorStats::from_errors(&obs.errors(&aligned));
-    let choice = settings
-        .compliance
-        .as_ref()
-        .map(|c| choose_compliance(c, &aligned, obs))
-        .transpose()?;
+    if mean_after > POOR_FIT {
+        warnings.push(format!(
+            "the identified model still misses the measured points by {:.4} mm on average (more than {POOR_FIT} mm): the data and the robot file do not describe the same arm; check the units (mm, deg), the joint order and signs, the measured point (the robot file's tool point) and the tracker frame",
+            mean_after
+        ));
+    }
+    warnings
+}
 
-    // Identifiability at the aligned model (the neighbourhood of the solution).
-    let ids = aligned.param_ids();
-    let mut problem = CalibrationProblem::new(&aligned, selected.clone(), obs);
-    let mut columns: Vec<Column> = selected.iter().map(|&i| ids[i].into()).collect();
-    let mut start: Option<JointErrors> = choice.as_ref().map(|c| c.start.clone());
-    let mut params: Vec<ErrorParam> = choice.as_ref().map_or_else(Vec::new, |c| {
+/// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
+/// payload torque and why it was held rigid.
+fn compliance_report(
+    choice: Option<&ComplianceChoice>,
+    compliance: Option<&JointErrors>,
+    obs: &Observations,
+    kept: &[Column],
+    fixed: &[FixedParameter],
+    std_of: &dyn Fn(Column) -> Option<f64>,
+) -> Option<ComplianceReport> {
+    match (choice, compliance) {
+        (Some(choice), Some(model)) => Some(ComplianceReport {
+            gravity: model.gravity.into(),
+            payload_com: model.payload_com.into(),
+            payload_com_source: choice.payload_com_source.clone(),
+            joints_source: choice.joints_source.clone(),
+            loads: obs.distinct_loads(),
+            joints: (0..model.values.len())
+                .map(|j| {
+                    let column = Column::Compliance(j);
+                    let identified = kept.contains(&column);
+                    let reason = if identified && model.values[j] < 0.0 {
+                        "identified, NEGATIVE: no joint stiffens under load; the stage is absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection); consider leaving this joint out".to_string()
+                    } else if identified {
+                        "identified".to_string()
+                    } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
+                        format!("held rigid: {}", f.reason)
+                    } else {
+                        "held rigid: not selected".to_string()
+                    };
+                    JointCompliance {
+                        joint: j + 1,
+                        compliance: model.values[j] / DEG_PER_KNM,
+                        std: std_of(column).map(|s| s / DEG_PER_KNM),
+                        torque_per_kg: choice.torque_per_kg[j],
+                        identified,
+                        reason,
+                    }
+                })
+                .collect(),
+        }),
+        _ => None,
+    }
+}
+
+/// The harmonic and self-weight terms in the report: value (deg), σ, whether identified.
+fn joint_error_reports(
+    model: &JointErrors,
+    params: &[ErrorParam],
+    kept: &[Column],
+    std_of: &dyn Fn(Column) -> Option<f64>,
+) -> Vec<ErrorTermReport> {
+    params
+        .iter()
+        .filter(|p| !matches!(p, ErrorParam::Compliance(_)))
+        .map(|&p| {
+            let column = Column::of_error(model, p);
+            ErrorTermReport {
+                name: model.param_name(p),
+                unit: if matches!(p, ErrorParam::SelfWeight(_)) {
+                    "deg per basis unit"
+                } else {
+                    "deg"
+                },
+                value: model.param(p).to_degrees(),
+                std: std_of(column).map(f64::to_degrees),
+                identified: kept.contains(&column),
+            }
+        })
+        .collect()
+}
+
+/// The joint-error model identification starts from — the compliance choice's, with the
+/// harmonics and self-weight terms `settings` ask for at zero — and its unknowns.
+fn joint_error_start(
+    settings: &KinematicSettings,
+    aligned: &Robot,
+    choice: Option<&ComplianceChoice>,
+) -> Result<(Option<JointErrors>, Vec<ErrorParam>)> {
+    let mut start: Option<JointErrors> = choice.map(|c| c.start.clone());
+    let mut params: Vec<ErrorParam> = choice.map_or_else(Vec::new, |c| {
         c.joints
             .iter()
             .map(|&j| ErrorParam::Compliance(j))
@@ -449,39 +531,27 @@ pub fn calibrate_kinematics(
         }
         start = Some(model);
     }
-    if let Some(model) = &start {
-        columns.extend(params.iter().map(|&p| Column::of_error(model, p)));
-        problem = problem.with_joint_errors(model.clone(), params.clone());
-    }
-    let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
-    let ident = analyse(&jac, &columns, settings.rank_tolerance);
-    let mut problem = problem.restricted(&ident.identifiable);
-    let mut kept: Vec<Column> = ident.identifiable.iter().map(|&p| columns[p]).collect();
-    let mut fixed: Vec<FixedParameter> = ident
-        .unidentifiable
-        .iter()
-        .map(|&(p, fraction)| FixedParameter {
-            name: columns[p].to_string(),
-            independent_fraction: fraction,
-            reason: if fraction == 0.0 {
-                "no effect on the measured points with these poses".into()
-            } else {
-                "redundant with the identified parameters for these poses".into()
-            },
-        })
-        .collect();
+    Ok((start, params))
+}
 
-    // Solve; a transmission harmonic identified beyond what a gear can have is not one (the
-    // term fits an effect it does not model, or the poses barely determine it, and it would
-    // not extrapolate): it is held at zero and the rest solved again.
-    let (u, iterations, termination) = loop {
+/// Solves `problem`; a transmission harmonic identified beyond what a gear can have is not one
+/// (the term fits an effect it does not model, or the poses barely determine it, and it would
+/// not extrapolate): it is held at zero (moved from `kept` to `fixed`) and the rest solved
+/// again. Returns the solution, the iterations and why the solver stopped.
+fn solve_gated(
+    problem: &mut CalibrationProblem<'_>,
+    kept: &mut Vec<Column>,
+    fixed: &mut Vec<FixedParameter>,
+    settings: &KinematicSettings,
+) -> Result<(Vec<f64>, u64, String)> {
+    Ok(loop {
         let u0 = vec![0.0; problem.unknowns()];
         let solved = if kept.is_empty() {
             (u0, 0, "nothing to identify".to_string())
         } else {
             match settings.solver {
-                SolverKind::Lm => run_lm(LeastSquares(&problem), u0, settings.max_iterations)?,
-                SolverKind::Bfgs => run_bfgs(&problem, u0, settings.max_iterations)?,
+                SolverKind::Lm => run_lm(LeastSquares(problem), u0, settings.max_iterations)?,
+                SolverKind::Bfgs => run_bfgs(problem, u0, settings.max_iterations)?,
             }
         };
         let Some(model) = problem.compliance_at(&solved.0) else {
@@ -513,9 +583,68 @@ pub fn calibrate_kinematics(
                 ),
             });
         }
-        problem = problem.restricted(&keep);
-        kept = keep.iter().map(|&p| kept[p]).collect();
-    };
+        *problem = problem.restricted(&keep);
+        *kept = keep.iter().map(|&p| kept[p]).collect();
+    })
+}
+
+/// Identifies the kinematic parameters of `nominal` from `obs` (and, when the settings ask for
+/// it, the joint compliances with them: then the points of every load take part).
+pub fn calibrate_kinematics(
+    nominal: &Robot,
+    obs: &Observations,
+    settings: &KinematicSettings,
+) -> Result<KinematicCalibration> {
+    if obs.dof != nominal.dof() {
+        return Err(IdentError::JointCountMismatch {
+            expected: nominal.dof(),
+            found: obs.dof,
+        });
+    }
+    let selected = select(nominal, settings.parameters.as_deref())?;
+    if 3 * obs.len() < selected.len().min(9) || obs.len() < 3 {
+        return Err(IdentError::TooFewMeasurements {
+            points: obs.len(),
+            equations: 3 * obs.len(),
+            parameters: selected.len(),
+        });
+    }
+    let aligned = align(nominal, obs)?;
+    let before = ErrorStats::from_errors(&obs.errors(&aligned));
+    let choice = settings
+        .compliance
+        .as_ref()
+        .map(|c| choose_compliance(c, &aligned, obs))
+        .transpose()?;
+
+    // Identifiability at the aligned model (the neighbourhood of the solution).
+    let ids = aligned.param_ids();
+    let mut problem = CalibrationProblem::new(&aligned, selected.clone(), obs);
+    let mut columns: Vec<Column> = selected.iter().map(|&i| ids[i].into()).collect();
+    let (start, params) = joint_error_start(settings, &aligned, choice.as_ref())?;
+    if let Some(model) = &start {
+        columns.extend(params.iter().map(|&p| Column::of_error(model, p)));
+        problem = problem.with_joint_errors(model.clone(), params.clone());
+    }
+    let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
+    let ident = analyse(&jac, &columns, settings.rank_tolerance);
+    let mut problem = problem.restricted(&ident.identifiable);
+    let mut kept: Vec<Column> = ident.identifiable.iter().map(|&p| columns[p]).collect();
+    let mut fixed: Vec<FixedParameter> = ident
+        .unidentifiable
+        .iter()
+        .map(|&(p, fraction)| FixedParameter {
+            name: columns[p].to_string(),
+            independent_fraction: fraction,
+            reason: if fraction == 0.0 {
+                "no effect on the measured points with these poses".into()
+            } else {
+                "redundant with the identified parameters for these poses".into()
+            },
+        })
+        .collect();
+
+    let (u, iterations, termination) = solve_gated(&mut problem, &mut kept, &mut fixed, settings)?;
     let robot = problem.robot_at(&u);
     let compliance = problem.compliance_at(&u);
     let finite = robot.params().iter().all(|v| v.is_finite())
@@ -529,30 +658,7 @@ pub fn calibrate_kinematics(
         });
     }
     let after = ErrorStats::from_errors(&obs.errors_with(&robot, compliance.as_ref()));
-    let mut warnings = Vec::new();
-    let mut distinct: Vec<&[f64]> = (0..obs.len()).map(|i| obs.joints(i)).collect();
-    distinct.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
-    distinct.dedup();
-    if 3 * distinct.len() < selected.len() {
-        warnings.push(format!(
-            "only {} distinct joint configurations ({} equations) for {} parameters: most cannot be determined; measure more, and more varied, poses",
-            distinct.len(),
-            3 * distinct.len(),
-            selected.len()
-        ));
-    }
-    if ident.condition_number > ILL_CONDITIONED {
-        warnings.push(format!(
-            "ill-conditioned: the scaled Jacobian's condition number is {:.1e}; the identified values are sensitive to noise (spread the poses over the joint ranges)",
-            ident.condition_number
-        ));
-    }
-    if after.mean > POOR_FIT {
-        warnings.push(format!(
-            "the identified model still misses the measured points by {:.4} mm on average (more than {POOR_FIT} mm): the data and the robot file do not describe the same arm; check the units (mm, deg), the joint order and signs, the measured point (the robot file's tool point) and the tracker frame",
-            after.mean
-        ));
-    }
+    let mut warnings = fit_warnings(obs, selected.len(), ident.condition_number, after.mean);
     let (r, jac) = problem.residuals_and_jacobian(&u);
     let std_u = standard_deviations(&jac, &r);
     // Standard deviation of the unknown for `column`, internal units.
@@ -601,58 +707,18 @@ pub fn calibrate_kinematics(
             far.join(", ")
         ));
     }
-    let compliance_report = match (&choice, &compliance) {
-        (Some(choice), Some(model)) => Some(ComplianceReport {
-            gravity: model.gravity.into(),
-            payload_com: model.payload_com.into(),
-            payload_com_source: choice.payload_com_source.clone(),
-            joints_source: choice.joints_source.clone(),
-            loads: obs.distinct_loads(),
-            joints: (0..robot.dof())
-                .map(|j| {
-                    let column = Column::Compliance(j);
-                    let identified = kept.contains(&column);
-                    let reason = if identified && model.values[j] < 0.0 {
-                        "identified, NEGATIVE: no joint stiffens under load; the stage is absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection); consider leaving this joint out".to_string()
-                    } else if identified {
-                        "identified".to_string()
-                    } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
-                        format!("held rigid: {}", f.reason)
-                    } else {
-                        "held rigid: not selected".to_string()
-                    };
-                    JointCompliance {
-                        joint: j + 1,
-                        compliance: model.values[j] / DEG_PER_KNM,
-                        std: std_of(column).map(|s| s / DEG_PER_KNM),
-                        torque_per_kg: choice.torque_per_kg[j],
-                        identified,
-                        reason,
-                    }
-                })
-                .collect(),
-        }),
-        _ => None,
-    };
+    let compliance_report = compliance_report(
+        choice.as_ref(),
+        compliance.as_ref(),
+        obs,
+        &kept,
+        &fixed,
+        &std_of,
+    );
     let joint_errors = match &compliance {
-        Some(model) if settings.joint_errors.is_some() => params
-            .iter()
-            .filter(|p| !matches!(p, ErrorParam::Compliance(_)))
-            .map(|&p| {
-                let column = Column::of_error(model, p);
-                ErrorTermReport {
-                    name: model.param_name(p),
-                    unit: if matches!(p, ErrorParam::SelfWeight(_)) {
-                        "deg per basis unit"
-                    } else {
-                        "deg"
-                    },
-                    value: model.param(p).to_degrees(),
-                    std: std_of(column).map(f64::to_degrees),
-                    identified: kept.contains(&column),
-                }
-            })
-            .collect(),
+        Some(model) if settings.joint_errors.is_some() => {
+            joint_error_reports(model, &params, &kept, &std_of)
+        }
         _ => Vec::new(),
     };
     Ok(KinematicCalibration {

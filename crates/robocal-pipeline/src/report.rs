@@ -59,9 +59,23 @@ fn twin_contents(t: &TwinConfig) -> String {
 /// The tables (printed on the terminal and in the report), some read from `summary`.
 fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
     let mut t = String::new();
+    let w = &mut t;
+    split_table(w, o);
+    kinematic_table(w, o);
+    table4(w, o);
+    compliance_table(w, o);
+    groups_table(w, o);
+    table5(w, o);
+    table6(w, o);
+    residual_training(w, summary);
+    by_load_table(w, o);
+    t
+}
+
+/// The split: which configurations and loads each group holds.
+fn split_table(w: &mut String, o: &Outcome) {
     let e = &o.experiment;
     let s = &o.splits;
-    let w = &mut t;
     let _ = writeln!(w, "## Split (seed {})\n", e.seed);
     let _ = writeln!(w, "| set | configurations | loads | rows | role |");
     let _ = writeln!(w, "|---|---|---|---|---|");
@@ -114,7 +128,11 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         s.kinematic_load,
         s.kinematic_held_out_rows.len()
     );
+}
 
+/// Kinematic calibration: every solver on the fitted and the held-out rows.
+fn kinematic_table(w: &mut String, o: &Outcome) {
+    let s = &o.splits;
     let _ = writeln!(w, "## Kinematic calibration (paper section V-A)\n");
     let _ = writeln!(
         w,
@@ -180,7 +198,10 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
             }
         );
     }
+}
 
+/// Table 4: the identified parameters beside the nominal table and the twin's truth.
+fn table4(w: &mut String, o: &Outcome) {
     let _ = writeln!(w, "\n## Table 4: identified parameters\n");
     let truth_col = o.twin.is_some();
     let _ = write!(
@@ -220,7 +241,10 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         w,
         "\n(Base and tool frames are in `results.json`. \"fixed\": not identifiable with these poses, held at nominal; the base/tool carry its effect.)\n"
     );
+}
 
+/// Joint compliance of the elasto-geometric stages, beside the twin's truth.
+fn compliance_table(w: &mut String, o: &Outcome) {
     let elastic: Vec<&crate::run::KinematicRun> = (o.kinematics.iter())
         .filter(|k| k.calibration.report.compliance.is_some())
         .collect();
@@ -292,7 +316,10 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
             "\nThe twin's links also deflect under their own weight; that part does not change with the load and the geometry absorbs it, so the twin truth is the comparison for the load-dependent part only.\n"
         );
     }
+}
 
+/// Every model on every group of the split.
+fn groups_table(w: &mut String, o: &Outcome) {
     let _ = writeln!(
         w,
         "## Every model on every group: mean / max (mm)\n\nGA10 trained configurations and loads (training), GB20 trained configurations at the validation loads, GA20 untrained configurations at trained loads, GB10 trained configurations at untrained loads, GB30 untrained configurations at untrained loads.\n"
@@ -315,7 +342,11 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         line(&m.name, &m.errors);
     }
     let _ = writeln!(w);
+}
 
+/// Table 5: one model on training, validation and test.
+fn table5(w: &mut String, o: &Outcome) {
+    let e = &o.experiment;
     if let Some(i) = e.table5 {
         let m = &o.models[i];
         let _ = writeln!(
@@ -344,7 +375,11 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         }
         let _ = writeln!(w);
     }
+}
 
+/// Table 6: every model on the untrained configurations, and per axis.
+fn table6(w: &mut String, o: &Outcome) {
+    let e = &o.experiment;
     let t6 = o.rows("table6");
     let _ = writeln!(
         w,
@@ -390,7 +425,10 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         );
     }
     let _ = writeln!(w);
+}
 
+/// How each residual model trained.
+fn residual_training(w: &mut String, summary: &Summary<'_>) {
     let mut residual_lines = Vec::new();
     for m in &summary.models {
         if m.networks.is_empty() {
@@ -426,7 +464,10 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
     if !residual_lines.is_empty() {
         let _ = writeln!(w, "## Residual models\n\n{}\n", residual_lines.join("\n"));
     }
+}
 
+/// Mean error against load on the untrained configurations (Fig. 13).
+fn by_load_table(w: &mut String, o: &Outcome) {
     let _ = writeln!(
         w,
         "## Mean error against load, untrained configurations (Fig. 13; paper: rising to {:.2} mm at 20 kg after BFGS)\n",
@@ -446,7 +487,6 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
         }
         let _ = writeln!(w);
     }
-    t
 }
 
 /// The whole `report.md`.

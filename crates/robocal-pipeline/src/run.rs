@@ -152,12 +152,13 @@ fn key_error(e: &Experiment, invalid: Invalid) -> PipelineError {
     PipelineError::invalid(&e.source, invalid)
 }
 
-/// Runs every stage of every model of `experiment`; `observer` hears a line per step and the
-/// epochs of each residual model's training.
-pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> {
-    let say = |line: &str| observer.message(line);
-    let start = Instant::now();
-    let (nominal, twin, data, generated) = match &experiment.data {
+/// The nominal table, the twin (if any), the measurements, and whether they were generated
+/// from the twin.
+fn load_data(
+    experiment: &Experiment,
+    observer: &dyn Observer,
+) -> Result<(Robot, Option<TwinConfig>, MeasurementSet, bool)> {
+    Ok(match &experiment.data {
         DataSource::Files {
             robot,
             measurements,
@@ -179,7 +180,7 @@ pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> 
             let (data, generated) = match measurements {
                 Some(path) => (MeasurementSet::read(path, nominal.dof())?, false),
                 None => {
-                    say(&format!(
+                    observer.message(&format!(
                         "generating the twin's measurements ({})",
                         twin.name
                     ));
@@ -188,7 +189,81 @@ pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> 
             };
             (nominal, Some(twin), data, generated)
         }
-    };
+    })
+}
+
+/// Every distinct kinematic stage of the experiment's models, identified once: the runs, and
+/// each model's run.
+fn identify_all(
+    experiment: &Experiment,
+    nominal: &Robot,
+    data: &MeasurementSet,
+    obs: &Observations,
+    loaded_obs: &Observations,
+    observer: &dyn Observer,
+) -> Result<(Vec<KinematicRun>, Vec<usize>)> {
+    let mut kinematics: Vec<KinematicRun> = Vec::new();
+    let mut model_kin = Vec::new();
+    for m in &experiment.models {
+        if let Some(i) = kinematics
+            .iter()
+            .position(|k| k.settings == m.stages.kinematic)
+        {
+            model_kin.push(i);
+            continue;
+        }
+        let settings = m.stages.kinematic.clone();
+        let mut solver = settings.solver.name().to_uppercase();
+        if settings.compliance.is_some() {
+            solver += "+C";
+        }
+        let same = kinematics
+            .iter()
+            .filter(|k| {
+                k.settings.solver == settings.solver
+                    && k.settings.compliance.is_some() == settings.compliance.is_some()
+            })
+            .count();
+        let label = if same == 0 {
+            solver
+        } else {
+            format!("{solver} {}", same + 1)
+        };
+        let k0 = Instant::now();
+        let rows = if settings.compliance.is_some() {
+            loaded_obs
+        } else {
+            obs
+        };
+        let calibration = calibrate_kinematics(nominal, rows, &settings)?;
+        let seconds = k0.elapsed().as_secs_f64();
+        observer.message(&format!(
+            "kinematic {label}: {} points, mean {:.3} → {:.3} mm, {} iterations, {:.2} s",
+            calibration.report.points,
+            calibration.report.before.mean,
+            calibration.report.after.mean,
+            calibration.report.iterations,
+            seconds
+        ));
+        let errors = physical_model(&calibration).residuals(&data.rows);
+        model_kin.push(kinematics.len());
+        kinematics.push(KinematicRun {
+            label,
+            settings,
+            calibration,
+            errors,
+            seconds,
+        });
+    }
+    Ok((kinematics, model_kin))
+}
+
+/// Runs every stage of every model of `experiment`; `observer` hears a line per step and the
+/// epochs of each residual model's training.
+pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> {
+    let say = |line: &str| observer.message(line);
+    let start = Instant::now();
+    let (nominal, twin, data, generated) = load_data(experiment, observer)?;
     let data_s = start.elapsed().as_secs_f64();
     let splits = Splits::new(
         &data.rows,
@@ -225,59 +300,8 @@ pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> 
     let loaded_obs =
         Observations::from_rows(nominal.dof(), train_rows.iter().map(|&i| &data.rows[i]));
     let t = Instant::now();
-    let mut kinematics: Vec<KinematicRun> = Vec::new();
-    let mut model_kin = Vec::new();
-    for m in &experiment.models {
-        if let Some(i) = kinematics
-            .iter()
-            .position(|k| k.settings == m.stages.kinematic)
-        {
-            model_kin.push(i);
-            continue;
-        }
-        let settings = m.stages.kinematic.clone();
-        let mut solver = settings.solver.name().to_uppercase();
-        if settings.compliance.is_some() {
-            solver += "+C";
-        }
-        let same = kinematics
-            .iter()
-            .filter(|k| {
-                k.settings.solver == settings.solver
-                    && k.settings.compliance.is_some() == settings.compliance.is_some()
-            })
-            .count();
-        let label = if same == 0 {
-            solver
-        } else {
-            format!("{solver} {}", same + 1)
-        };
-        let k0 = Instant::now();
-        let rows = if settings.compliance.is_some() {
-            &loaded_obs
-        } else {
-            &obs
-        };
-        let calibration = calibrate_kinematics(&nominal, rows, &settings)?;
-        let seconds = k0.elapsed().as_secs_f64();
-        say(&format!(
-            "kinematic {label}: {} points, mean {:.3} → {:.3} mm, {} iterations, {:.2} s",
-            calibration.report.points,
-            calibration.report.before.mean,
-            calibration.report.after.mean,
-            calibration.report.iterations,
-            seconds
-        ));
-        let errors = physical_model(&calibration).residuals(&data.rows);
-        model_kin.push(kinematics.len());
-        kinematics.push(KinematicRun {
-            label,
-            settings,
-            calibration,
-            errors,
-            seconds,
-        });
-    }
+    let (kinematics, model_kin) =
+        identify_all(experiment, &nominal, &data, &obs, &loaded_obs, observer)?;
     let kinematic_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();

@@ -1,10 +1,8 @@
 //! End-to-end tests of the `robocal` binary on real files.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
-use common::{robocal, s, select_rows, twin_rows, write};
+use crate::common::{robocal, s, select_rows, twin_rows, write};
 
 use robocal_robot::Robot;
 

@@ -1,7 +1,5 @@
 //! Helpers shared by the end-to-end tests of the binary.
 
-#![allow(dead_code)] // each test file uses some of them
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

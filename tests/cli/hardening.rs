@@ -2,11 +2,9 @@
 //! stderr naming the file and the line/column or key, no panic, and no output written or
 //! changed.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
-use common::{robocal, s, select_rows, twin_rows, write};
+use crate::common::{robocal, s, select_rows, twin_rows, write};
 
 const ROBOT: &str = "configs/robots/pmc6va030.toml";
 const HEADER: &str = "pose,q1,q2,q3,q4,q5,q6,load,x,y,z";

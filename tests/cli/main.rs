@@ -1,0 +1,7 @@
+//! End-to-end tests of the `robocal` binary, one test binary (one link of the whole
+//! dependency tree): every command on real files ([`commands`]) and bad input across every
+//! command and input file ([`hardening`]), with one runner and CSV helpers ([`common`]).
+
+mod commands;
+mod common;
+mod hardening;
