@@ -60,6 +60,14 @@ step evaluate-not-model "$bin" evaluate --model not-a-model --data in/check.csv
 cp -r m-somm m-future && sed -i 's/"model_format": 1/"model_format": 9/' m-future/report.json
 step evaluate-future "$bin" evaluate --model m-future --data in/check.csv
 step calibrate-bad "$bin" calibrate --robot "$robot" --data in/bad.csv --out m-bad
+printf '[kinematic]\nsolver = "gn"\n' > in/bad-solver.toml
+step calibrate-bad-solver "$bin" calibrate --robot "$robot" --data in/train.csv --out m-bad --config in/bad-solver.toml
+printf '[residual]\nmodel = "svm"\n' > in/bad-model.toml
+step calibrate-bad-model "$bin" calibrate --robot "$robot" --data in/train.csv --out m-bad --config in/bad-model.toml
+printf '[residual]\nmodel = "somm"\n[residual.x]\nhidden = [4]\nlearning_rate = -1.0\n' > in/bad-rate.toml
+step calibrate-bad-rate "$bin" calibrate --robot "$robot" --data in/train.csv --out m-bad --config in/bad-rate.toml
+printf '[kinematic]\nsolver = "lm"\nspeed = 3\n' > in/bad-key.toml
+step calibrate-bad-key "$bin" calibrate --robot "$robot" --data in/train.csv --out m-bad --config in/bad-key.toml
 # The paper's experiment: its tables, results.json and report (figures not compared: PNG
 # encoders may differ in bytes for the same picture).
 step run-paper "$bin" run "$root/configs/experiments/paper.toml" --out paper-report

@@ -179,3 +179,14 @@ impl Invalid {
         }
     }
 }
+
+/// The names a key accepts, quoted, for an error message: `"a"`, `"a" or "b"`,
+/// `"a", "b" or "c"`.
+pub fn one_of(names: &[&str]) -> String {
+    let names: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        Some((last, _)) => last.clone(),
+        None => String::new(),
+    }
+}

@@ -22,6 +22,6 @@ pub use csvio::{
     Measurement, MeasurementSet, Prediction, Sample, SampleSet, Target, csv_text, fixed6,
     read_targets, write_predictions,
 };
-pub use error::{DataError, Invalid, Result};
+pub use error::{DataError, Invalid, Result, one_of};
 pub use observe::{Lines, Observer, Silent};
 pub use stats::ErrorStats;

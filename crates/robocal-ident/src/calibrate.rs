@@ -24,6 +24,14 @@ pub enum SolverKind {
 }
 
 impl SolverKind {
+    /// Every solver.
+    pub const ALL: [Self; 2] = [Self::Lm, Self::Bfgs];
+
+    /// The solver a config names.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
     /// Name used in configs and reports.
     pub fn name(self) -> &'static str {
         match self {

@@ -1,6 +1,6 @@
 //! The kinematic stage of a stage config (`robocal calibrate --config FILE`), raw and validated.
 
-use robocal_data::Invalid;
+use robocal_data::{Invalid, one_of};
 use serde::{Deserialize, Serialize};
 
 use crate::calibrate::{ComplianceSettings, JointErrorSettings, KinematicSettings, SolverKind};
@@ -24,16 +24,15 @@ impl RawKinematicStage {
     pub fn validate(&self) -> Result<KinematicSettings, Invalid> {
         let mut s = KinematicSettings::default();
         if let Some(solver) = &self.solver {
-            s.solver = match solver.as_str() {
-                "lm" => SolverKind::Lm,
-                "bfgs" => SolverKind::Bfgs,
-                other => {
-                    return Err(Invalid::new(
-                        "kinematic.solver",
-                        format!("`{other}` is not a solver; use \"lm\" or \"bfgs\""),
-                    ));
-                }
-            };
+            s.solver = SolverKind::from_name(solver).ok_or_else(|| {
+                Invalid::new(
+                    "kinematic.solver",
+                    format!(
+                        "`{solver}` is not a solver; use {}",
+                        one_of(&SolverKind::ALL.map(SolverKind::name))
+                    ),
+                )
+            })?;
         }
         if let Some(params) = &self.parameters {
             if params.is_empty() {

@@ -26,6 +26,14 @@ pub enum ResidualKind {
 }
 
 impl ResidualKind {
+    /// Every residual model.
+    pub const ALL: [Self; 4] = [Self::Somm, Self::Mosm, Self::CaSomm, Self::Gp];
+
+    /// The model a stage file names.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
     /// The name used in files.
     pub fn name(self) -> &'static str {
         match self {

@@ -1,6 +1,6 @@
 //! The residual stage of a stage config (`[residual]`), raw and validated.
 
-use robocal_data::Invalid;
+use robocal_data::{Invalid, one_of};
 use serde::{Deserialize, Serialize};
 
 use crate::classifier::ClassifierSettings;
@@ -58,20 +58,16 @@ pub const DEFAULT_SEED: u64 = 2020;
 impl RawResidualStage {
     /// Validates; errors name the key (`residual.x.learning_rate`, …).
     pub fn validate(&self) -> Result<ResidualStage, Invalid> {
-        let kind = match self.model.as_str() {
-            "somm" => ResidualKind::Somm,
-            "mosm" => ResidualKind::Mosm,
-            "ca-somm" => ResidualKind::CaSomm,
-            "gp" => ResidualKind::Gp,
-            other => {
-                return Err(Invalid::new(
-                    "residual.model",
-                    format!(
-                        "`{other}` is not a residual model; use \"somm\", \"mosm\", \"ca-somm\" or \"gp\""
-                    ),
-                ));
-            }
-        };
+        let kind = ResidualKind::from_name(&self.model).ok_or_else(|| {
+            Invalid::new(
+                "residual.model",
+                format!(
+                    "`{}` is not a residual model; use {}",
+                    self.model,
+                    one_of(&ResidualKind::ALL.map(ResidualKind::name))
+                ),
+            )
+        })?;
         let seed = self.seed.unwrap_or(DEFAULT_SEED);
         let mut settings = match kind {
             ResidualKind::Gp => ResidualSettings::gp(seed),
