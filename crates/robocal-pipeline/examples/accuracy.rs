@@ -221,6 +221,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let aside = args.iter().any(|a| a == "--aside");
     let compensation = !args.iter().any(|a| a == "--no-compensation");
     let verbose = args.iter().any(|a| a == "--verbose");
+    // Residual models side by side on the identified physics, instead of the default.
+    let networks = args.iter().any(|a| a == "--networks");
     let mut landings: Vec<(String, u64, Landing)> = Vec::new();
     let arms: Vec<String> = match value("--arms") {
         Some(list) => list.split(',').map(str::to_string).collect(),
@@ -230,10 +232,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .filter(|a| aside || a != ASIDE)
             .collect(),
     };
-    println!(
-        "| arm | seed | effects | split | test rows | noise floor | previous default | kinematic | + compliance | + compliance + harmonics + self-weight | that + GP | default | change | default's choice | default s |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    if networks {
+        println!(
+            "| arm | seed | effects | split | test rows | noise floor | physics | + SOMM (paper) | s | + SOMM (robocal) | s | + GP | s |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    } else {
+        println!(
+            "| arm | seed | effects | split | test rows | noise floor | previous default | kinematic | + compliance | + compliance + harmonics + self-weight | that + GP | default | change | default's choice | default s |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    }
     for (name, file) in ARMS.iter().filter(|a| arms.iter().any(|n| n == a.0)) {
         let base = TwinConfig::load(root().join(file))?;
         for seed in 0..seeds {
@@ -287,6 +296,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             Err(e) => format!("failed ({e})"),
                         }
                     };
+                    let label = |effects: Effects, how: Split| {
+                        (
+                            match effects {
+                                Effects::All => "all",
+                                Effects::Modelled => "modelled only",
+                            },
+                            match how {
+                                Split::Configurations => "configurations",
+                                Split::Extrapolation => "extrapolation (q1)",
+                            },
+                        )
+                    };
+                    if networks {
+                        let timed = |stages: &Stages| {
+                            let t = Instant::now();
+                            let e = score(stages);
+                            (e, t.elapsed().as_secs_f64())
+                        };
+                        let (physics, _) = timed(&stage(2, None));
+                        let (paper, paper_s) = timed(&stage(
+                            2,
+                            Some(ResidualSettings::paper(ResidualKind::Somm, 2020)),
+                        ));
+                        let (ours, ours_s) = timed(&stage(
+                            2,
+                            Some(ResidualSettings::robocal(ResidualKind::Somm, 2020)),
+                        ));
+                        let (gp, gp_s) = timed(&stage(2, Some(ResidualSettings::gp(2020))));
+                        let (e, h) = label(effects, how);
+                        println!(
+                            "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gp} | {gp_s:.1} |",
+                            test.len()
+                        );
+                        continue;
+                    }
                     let kin = score(&stage(0, None));
                     let comp = score(&stage(1, None));
                     let physics = score(&stage(2, None));

@@ -352,7 +352,7 @@ impl RawExperiment {
                 joint_errors: m.joint_errors.clone(),
                 residual: m.residual.clone(),
             }
-            .validate(Some(seed))
+            .validate(Some(seed), robocal_residual::Defaults::Paper)
             .map_err(|e| PipelineError::invalid(path, e.within(&at)))?;
             models.push(ModelPlan {
                 name: m.name.clone(),
@@ -443,6 +443,7 @@ impl Experiment {
                             let s = &r.settings;
                             robocal_residual::RawResidualStage {
                                 model: s.kind.name().to_string(),
+                                defaults: None,
                                 seed: Some(s.seed),
                                 holdout: Some(r.holdout),
                                 x: Some(s.axes[0].clone()),

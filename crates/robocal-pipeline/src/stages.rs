@@ -6,7 +6,7 @@ use robocal_data::Invalid;
 use std::path::Path;
 
 use robocal_ident::{KinematicSettings, RawComplianceStage, RawJointErrorStage, RawKinematicStage};
-use robocal_residual::{RawResidualStage, ResidualStage};
+use robocal_residual::{Defaults, RawResidualStage, ResidualStage};
 use serde::Deserialize;
 
 use crate::error::{PipelineError, Result, read_text};
@@ -38,8 +38,14 @@ pub struct Stages {
 
 impl RawStages {
     /// Validates; errors give the key relative to the stage table (`kinematic.solver`,
-    /// `residual.x.learning_rate`). `seed` is the residual seed when the stage gives none.
-    pub fn validate(&self, seed: Option<u64>) -> std::result::Result<Stages, Invalid> {
+    /// `residual.x.learning_rate`). `seed` is the residual seed when the stage gives none;
+    /// `defaults` fill the residual settings it leaves out (robocal's in a stage file, the
+    /// paper's in an experiment).
+    pub fn validate(
+        &self,
+        seed: Option<u64>,
+        defaults: Defaults,
+    ) -> std::result::Result<Stages, Invalid> {
         let mut kinematic = self.kinematic.clone().unwrap_or_default().validate()?;
         kinematic.compliance = self
             .compliance
@@ -57,7 +63,7 @@ impl RawStages {
         let residual = match &self.residual {
             None => None,
             Some(raw) => {
-                let mut stage = raw.validate()?;
+                let mut stage = raw.validate(defaults)?;
                 if let (None, Some(seed)) = (raw.seed, seed) {
                     stage.settings.seed = seed;
                 }
@@ -77,7 +83,7 @@ impl Stages {
         let text = read_text(path)?;
         let raw: RawStages =
             toml::from_str(&text).map_err(|e| PipelineError::toml(path, &text, &e))?;
-        raw.validate(None)
+        raw.validate(None, Defaults::Robocal)
             .map_err(|e| PipelineError::invalid(path, e))
     }
 }

@@ -3,6 +3,7 @@
 //! epoch's weights kept.
 
 use burn::nn::{Linear, LinearConfig};
+use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::prelude::*;
 use burn::tensor::TensorData;
@@ -33,6 +34,29 @@ fn default_epochs() -> usize {
 fn default_patience() -> usize {
     5
 }
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// How the learning rate changes during training.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Schedule {
+    /// The same rate throughout (the paper).
+    #[default]
+    Constant,
+    /// Halved whenever the validation loss has not improved for a quarter of the patience (at
+    /// least 3 epochs), down to 1/64 of the start: large steps first, then the fine ones a
+    /// smooth residual needs.
+    Plateau,
+}
+
+impl Schedule {
+    /// Whether this is [`Schedule::Constant`] (the default, left out of saved files).
+    pub fn is_constant(&self) -> bool {
+        *self == Self::Constant
+    }
+}
 
 /// Architecture and training settings of one network (paper Tables 2 and 3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,6 +77,16 @@ pub struct NetSettings {
     /// Stop when the validation loss has not improved for this many epochs.
     #[serde(default = "default_patience")]
     pub patience: usize,
+    /// L2 penalty on the weights (Adam's coupled weight decay); 0: none (the paper).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub weight_decay: f64,
+    /// How the learning rate changes.
+    #[serde(default, skip_serializing_if = "Schedule::is_constant")]
+    pub schedule: Schedule,
+    /// Train for about this many mini-batch steps: the epochs are sized to the data
+    /// (`steps / batches per epoch`, at most `max_epochs`); absent: `max_epochs` alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps: Option<usize>,
 }
 
 /// Most hidden layers a network may have (the paper's deepest has six).
@@ -83,6 +117,38 @@ impl NetSettings {
             batch_size: default_batch(),
             max_epochs: default_epochs(),
             patience: default_patience(),
+            weight_decay: 0.0,
+            schedule: Schedule::Constant,
+            steps: None,
+        }
+    }
+
+    /// robocal's network for a residual axis (not the paper's): two hidden layers of 64 tanh
+    /// units on the periodic encoding, small batches, a light L2 penalty, the learning rate
+    /// halved on plateaus, about 6000 steps whatever the data's size (at most 1500 epochs),
+    /// patience 40.
+    pub fn robocal() -> Self {
+        Self {
+            hidden: vec![64, 64],
+            activation: Activation::Tanh,
+            learning_rate: 3e-3,
+            batch_size: 32,
+            max_epochs: 1500,
+            patience: 40,
+            weight_decay: 1e-5,
+            schedule: Schedule::Plateau,
+            steps: Some(6000),
+        }
+    }
+
+    /// Epochs for `rows` training rows: `max_epochs`, or fewer when `steps` is set.
+    pub fn epochs_for(&self, rows: usize) -> usize {
+        match self.steps {
+            Some(steps) => {
+                let batches = rows.div_ceil(self.batch_size.max(1)).max(1);
+                steps.div_ceil(batches).clamp(1, self.max_epochs)
+            }
+            None => self.max_epochs,
         }
     }
 
@@ -108,6 +174,15 @@ impl NetSettings {
         }
         if self.max_epochs == 0 {
             return Err(Invalid::new("max_epochs", "must be at least 1"));
+        }
+        if !(self.weight_decay.is_finite() && self.weight_decay >= 0.0) {
+            return Err(Invalid::new(
+                "weight_decay",
+                "must be 0 or a positive number",
+            ));
+        }
+        if self.steps == Some(0) {
+            return Err(Invalid::new("steps", "must be at least 1"));
         }
         Ok(())
     }
@@ -253,6 +328,45 @@ pub struct Split<'a> {
     pub y: &'a [f32],
 }
 
+/// The learning rate through training, as the schedule sets it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Rate {
+    schedule: Schedule,
+    /// The rate of the next epoch.
+    current: f64,
+    /// The lowest rate the schedule goes to.
+    floor: f64,
+    /// Epochs without improvement before the rate is halved.
+    wait: usize,
+    /// The epoch of the last improvement or change of rate.
+    last_change: usize,
+}
+
+impl Rate {
+    fn new(settings: &NetSettings) -> Self {
+        Self {
+            schedule: settings.schedule,
+            current: settings.learning_rate,
+            floor: settings.learning_rate / 64.0,
+            wait: (settings.patience / 4).max(3),
+            last_change: 0,
+        }
+    }
+
+    /// After `epoch`: halves the rate when the schedule says so.
+    fn after_epoch(&mut self, epoch: usize, improved: bool) {
+        if improved {
+            self.last_change = epoch;
+        } else if self.schedule == Schedule::Plateau
+            && epoch - self.last_change >= self.wait
+            && self.current / 2.0 >= self.floor
+        {
+            self.current /= 2.0;
+            self.last_change = epoch;
+        }
+    }
+}
+
 fn mse(pred: &[f32], y: &[f32]) -> f64 {
     if y.is_empty() {
         return 0.0;
@@ -284,8 +398,15 @@ pub fn train(
         settings.activation,
         &device,
     );
-    let mut optim = AdamConfig::new().init();
+    let mut optim = AdamConfig::new()
+        .with_weight_decay(
+            (settings.weight_decay > 0.0)
+                .then(|| WeightDecayConfig::new(settings.weight_decay as f32)),
+        )
+        .init();
     let rows = train.y.len() / outputs;
+    let max_epochs = settings.epochs_for(rows);
+    let mut rate = Rate::new(settings);
     let mut order: Vec<usize> = (0..rows).collect();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut best = (f64::INFINITY, 0usize, model.valid());
@@ -297,7 +418,7 @@ pub fn train(
         stopped_early: false,
     };
     let (mut xb, mut yb) = (Vec::new(), Vec::new());
-    for epoch in 1..=settings.max_epochs {
+    for epoch in 1..=max_epochs {
         order.shuffle(&mut rng);
         let mut total = 0.0;
         for batch in order.chunks(settings.batch_size) {
@@ -317,7 +438,7 @@ pub fn train(
             let grads = loss.backward();
             total += f64::from(loss.into_scalar::<f32>()) * batch.len() as f64;
             let grads = GradientsParams::from_grads(grads, &model);
-            model = optim.step(settings.learning_rate, model, grads);
+            model = optim.step(rate.current, model, grads);
         }
         let current = model.valid();
         let train_loss = total / rows.max(1) as f64;
@@ -331,13 +452,71 @@ pub fn train(
         report.train_loss.push(train_loss);
         report.validation_loss.push(val);
         progress.advance(1);
-        if val < best.0 {
+        let improved = val < best.0;
+        if improved {
             best = (val, epoch, current);
         } else if epoch - best.1 >= settings.patience {
-            report.stopped_early = epoch < settings.max_epochs;
+            report.stopped_early = epoch < max_epochs;
             break;
         }
+        rate.after_epoch(epoch, improved);
     }
     report.best_epoch = best.1;
     (best.2, report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{NetSettings, Rate, Schedule};
+
+    /// The plateau schedule halves the rate after `wait` epochs without improvement (a quarter
+    /// of the patience, at least 3), counts again from each change, and stops at 1/64; the
+    /// constant schedule never changes it.
+    #[test]
+    fn the_plateau_schedule_halves_the_rate_after_a_quarter_of_the_patience() {
+        let settings = NetSettings {
+            patience: 20,
+            learning_rate: 1.0,
+            schedule: Schedule::Plateau,
+            ..NetSettings::robocal()
+        };
+        let mut rate = Rate::new(&settings);
+        let mut history = Vec::new();
+        for epoch in 1..=60 {
+            rate.after_epoch(epoch, epoch <= 2);
+            history.push(rate.current);
+        }
+        // Improvements at epochs 1 and 2; halvings at 7, 12, 17, 22, 27, 32; then the floor.
+        assert_eq!(history[5], 1.0);
+        assert_eq!(history[6], 0.5);
+        assert_eq!(history[11], 0.25);
+        assert_eq!(history[31], 1.0 / 64.0);
+        assert_eq!(history[59], 1.0 / 64.0);
+        let mut constant = Rate::new(&NetSettings {
+            schedule: Schedule::Constant,
+            ..settings
+        });
+        for epoch in 1..=60 {
+            constant.after_epoch(epoch, false);
+        }
+        assert_eq!(constant.current, 1.0);
+    }
+
+    /// Epochs sized to the data: 6000 steps of 32 rows are 240 epochs of 800 rows, 24 of 8000,
+    /// and never more than `max_epochs`.
+    #[test]
+    fn steps_size_the_epochs_to_the_data() {
+        let s = NetSettings::robocal();
+        assert_eq!(s.epochs_for(800), 240);
+        assert_eq!(s.epochs_for(8000), 24);
+        assert_eq!(s.epochs_for(10), s.max_epochs);
+        assert_eq!(
+            NetSettings {
+                steps: None,
+                ..s.clone()
+            }
+            .epochs_for(800),
+            s.max_epochs
+        );
+    }
 }

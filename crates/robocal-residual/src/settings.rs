@@ -91,6 +91,21 @@ impl ResidualSettings {
         }
     }
 
+    /// robocal's settings for `kind`: periodic inputs and [`NetSettings::robocal`] networks
+    /// (every axis, each CA-SOMM set, the MOSM network); the paper's classifier.
+    pub fn robocal(kind: ResidualKind, seed: u64) -> Self {
+        Self {
+            axes: [
+                NetSettings::robocal(),
+                NetSettings::robocal(),
+                NetSettings::robocal(),
+            ],
+            mosm: NetSettings::robocal(),
+            encoding: Encoding::Periodic,
+            ..Self::paper(kind, seed)
+        }
+    }
+
     /// A Gaussian process per axis on the periodic encoding (robocal's default residual).
     pub fn gp(seed: u64) -> Self {
         Self {

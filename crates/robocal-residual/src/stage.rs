@@ -10,15 +10,32 @@ use crate::samples::Encoding;
 use crate::search::SearchSettings;
 use crate::settings::{ResidualKind, ResidualSettings};
 
-/// `[residual]` as written. Absent networks get the paper's settings (Tables 2 and 3).
+/// Which defaults fill what a `[residual]` table leaves out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Defaults {
+    /// The paper's: raw inputs (angles in degrees, the load) and the networks of its Tables 2
+    /// and 3 (200 epochs, patience 5). The default in experiment files, which reproduce it.
+    Paper,
+    /// robocal's: periodic inputs and [`NetSettings::robocal`] networks (trained to
+    /// convergence: epochs sized to the data, L2 penalty, learning rate halved on plateaus).
+    /// The default in stage files (`calibrate --config`).
+    Robocal,
+}
+
+/// `[residual]` as written. Absent settings come from `defaults`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawResidualStage {
     /// `"somm"`, `"mosm"`, `"ca-somm"` or `"gp"`.
     pub model: String,
-    /// How inputs are presented: `"raw"` (angles in degrees and the load, the paper's; the
-    /// default for the networks) or `"periodic"` (sin and cos of every angle, and the load; the
-    /// default for the GP).
+    /// `"paper"` or `"robocal"`: what fills the settings not given (default: `"robocal"` in a
+    /// stage file, `"paper"` in an experiment).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defaults: Option<Defaults>,
+    /// How inputs are presented: `"raw"` (angles in degrees and the load, the paper's) or
+    /// `"periodic"` (sin and cos of every angle, and the load; robocal's default, and the GP's
+    /// whatever the defaults).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub encoding: Option<Encoding>,
     /// Seed of initialisation, batch order and the validation hold-out.
@@ -56,8 +73,9 @@ pub struct ResidualStage {
 pub const DEFAULT_SEED: u64 = 2020;
 
 impl RawResidualStage {
-    /// Validates; errors name the key (`residual.x.learning_rate`, …).
-    pub fn validate(&self) -> Result<ResidualStage, Invalid> {
+    /// Validates, filling what is not given from `self.defaults`, else `context`'s; errors
+    /// name the key (`residual.x.learning_rate`, …).
+    pub fn validate(&self, context: Defaults) -> Result<ResidualStage, Invalid> {
         let kind = ResidualKind::from_name(&self.model).ok_or_else(|| {
             Invalid::new(
                 "residual.model",
@@ -69,9 +87,10 @@ impl RawResidualStage {
             )
         })?;
         let seed = self.seed.unwrap_or(DEFAULT_SEED);
-        let mut settings = match kind {
-            ResidualKind::Gp => ResidualSettings::gp(seed),
-            _ => ResidualSettings::paper(kind, seed),
+        let mut settings = match (kind, self.defaults.unwrap_or(context)) {
+            (ResidualKind::Gp, _) => ResidualSettings::gp(seed),
+            (_, Defaults::Paper) => ResidualSettings::paper(kind, seed),
+            (_, Defaults::Robocal) => ResidualSettings::robocal(kind, seed),
         };
         if let Some(e) = self.encoding {
             settings.encoding = e;
