@@ -45,6 +45,14 @@ pub enum Command {
         /// Stage config (TOML), e.g. configs/stages/kinematic-bfgs.toml.
         #[arg(long, value_name = "STAGE_TOML")]
         config: Option<PathBuf>,
+        /// Write the model even when the data do not fit the robot file (positions in inches
+        /// or metres, angles in radians, swapped joint columns: refused without it).
+        #[arg(long)]
+        force: bool,
+        /// Keep the bad shots found in the fit (they are still named on stderr and in
+        /// report.json).
+        #[arg(long)]
+        keep_outliers: bool,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

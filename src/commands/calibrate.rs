@@ -6,11 +6,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use robocal_data::{ErrorStats, Measurement, MeasurementSet};
 use robocal_ident::KinematicReport;
 use robocal_model::CalibratedModel;
-use robocal_pipeline::calibration::{ResidualReport, Selection};
+use robocal_pipeline::calibration::{
+    OutlierReport, OutlierSettings, ResidualReport, Selection, check_plausible, find_outliers,
+};
 use robocal_pipeline::{AutoSettings, Stages, automatic, configured};
 use robocal_robot::Robot;
 use serde::Serialize;
@@ -45,6 +47,18 @@ struct Report {
     kinematic: KinematicReport,
     residual: Option<ResidualReport>,
     validation: Option<Validation>,
+    /// The bad shots found (rows far beyond the data's own spread), and whether they were left
+    /// out.
+    outliers: Option<OutlierReport>,
+}
+
+/// What `calibrate` checks before it writes a model.
+#[derive(Debug, Clone, Copy)]
+pub struct Checks {
+    /// Write even when the data do not fit the robot file.
+    pub force: bool,
+    /// Keep the bad shots in the fit.
+    pub keep_outliers: bool,
 }
 
 /// Runs the calibration and writes `out` atomically.
@@ -54,6 +68,7 @@ pub fn run(
     validate: Option<&Path>,
     out: &Path,
     config: Option<&Path>,
+    checks: Checks,
 ) -> Result<()> {
     let stages = config.map(Stages::load).transpose()?;
     let nominal = Robot::load(robot)?;
@@ -67,13 +82,56 @@ pub fn run(
         .as_deref()
         .zip(validation.as_ref())
         .map(|(r, v)| (r, v.source.display().to_string()));
-    let auto = AutoSettings::default();
+    let failed = || format!("{}: calibration failed", data.display());
+    if let Some(why) = check_plausible(&nominal, &rows).with_context(failed)? {
+        if checks.force {
+            eprintln!("robocal: warning: {why} (written anyway: --force)");
+        } else {
+            bail!(
+                "{}: {why}; nothing written (--force writes the model anyway)",
+                data.display()
+            );
+        }
+    }
+    let outliers = OutlierSettings {
+        keep: checks.keep_outliers,
+        ..OutlierSettings::default()
+    };
+    let auto = AutoSettings {
+        outliers: Some(outliers),
+        ..AutoSettings::default()
+    };
     let terminal = Terminal::default();
     let built = match &stages {
-        Some(stages) => configured(stages, &nominal, &rows, val, &terminal),
-        None => automatic(&auto, &nominal, &rows, val, &terminal),
+        Some(stages) => {
+            let (report, kept) = find_outliers(&nominal, &rows, &stages.kinematic, &outliers)
+                .with_context(failed)?;
+            let mut built =
+                configured(stages, &nominal, &kept, val, &terminal).with_context(failed)?;
+            built.outliers = Some(report);
+            built
+        }
+        None => automatic(&auto, &nominal, &rows, val, &terminal).with_context(failed)?,
+    };
+    if let Some(o) = &built.outliers {
+        for row in &o.rows {
+            eprintln!(
+                "robocal: bad shot: {} line {} (pose {}, load {} kg): {:.3} mm from the model, {:.0} robust standard deviations ({:.4} mm); {}",
+                data.display(),
+                row.line,
+                row.pose,
+                row.load,
+                row.error,
+                row.sigmas,
+                o.robust_std,
+                if o.left_out {
+                    "left out of the fit (--keep-outliers keeps it)"
+                } else {
+                    "kept in the fit (--keep-outliers)"
+                }
+            );
+        }
     }
-    .with_context(|| format!("{}: calibration failed", data.display()))?;
     let lightest = set.loads().first().copied().unwrap_or(0.0);
     let r = &built.kinematic.report;
     eprintln!(
@@ -173,8 +231,30 @@ pub fn run(
         kinematic: built.kinematic.report.clone(),
         residual: built.residual.as_ref().map(|(_, r)| r.clone()),
         validation,
+        outliers: built.outliers.clone(),
     };
     model.robot.name = format!("{} (calibrated by robocal)", nominal.name);
     model.save(out, &report)?;
+    let held_out = match (&report.validation, &report.selection) {
+        (Some(v), _) => format!(
+            "error on the validation file {}: mean {:.4} mm, max {:.4} mm",
+            v.file.display(),
+            v.after.mean,
+            v.after.max
+        ),
+        (None, Some(s)) => match s.candidates.iter().find(|c| c.status == "chosen") {
+            Some(c) => format!(
+                "held-out error (score of the chosen candidate, {}): {:.4} mm",
+                s.held_out,
+                c.score.unwrap_or(f64::NAN)
+            ),
+            None => format!("no held-out error ({})", s.held_out),
+        },
+        (None, None) => format!(
+            "no held-out error (pass --validate FILE); training error {:.4} mm",
+            model.stats(&rows).mean
+        ),
+    };
+    eprintln!("robocal: model written to {}; {held_out}", out.display());
     Ok(())
 }

@@ -22,7 +22,19 @@ pub fn run(cli: Cli) -> Result<()> {
             validate,
             out,
             config,
-        } => calibrate::run(&robot, &data, validate.as_deref(), &out, config.as_deref()),
+            force,
+            keep_outliers,
+        } => calibrate::run(
+            &robot,
+            &data,
+            validate.as_deref(),
+            &out,
+            config.as_deref(),
+            calibrate::Checks {
+                force,
+                keep_outliers,
+            },
+        ),
         Command::Predict {
             source,
             data,

@@ -121,6 +121,10 @@ pub struct ComplianceSettings {
     pub gravity: Vector3<f64>,
     /// The payload's centre of mass in the flange frame, mm; `None`: the measured point.
     pub payload_com: Option<Vector3<f64>>,
+    /// Hold a joint rigid, and solve again, when its compliance comes out impossible: negative,
+    /// beyond [`COMPLIANCE_BOUND`], or less than its own standard deviation (the default
+    /// calibration sets it; stage files and experiments keep every value, with a warning).
+    pub plausible_only: bool,
 }
 
 impl Default for ComplianceSettings {
@@ -129,9 +133,15 @@ impl Default for ComplianceSettings {
             joints: None,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
             payload_com: None,
+            plausible_only: false,
         }
     }
 }
+
+/// The largest joint compliance the default calibration accepts, deg per kN·m (a stiffness of
+/// 5.7 kN·m/rad: softer than the wrist of a small arm; a value beyond it is the stage
+/// absorbing an effect it does not model).
+pub const COMPLIANCE_BOUND: f64 = 10.0;
 
 /// Share of the largest joint's payload torque (RMS over the loaded points) below which a joint
 /// counts as carrying none, for the default choice of compliant joints.
@@ -572,23 +582,66 @@ fn solve_gated(
                 .map_or(0.0, |h| h.sin.hypot(h.cos).to_degrees())
         };
         let too_large = |joint: usize, order: u32| amplitude(joint, order) > HARMONIC_BOUND_DEG;
+        // Why a joint's compliance is impossible, when the settings ask (deg per kN·m).
+        let gate = settings
+            .compliance
+            .as_ref()
+            .is_some_and(|c| c.plausible_only);
+        let std_u = if gate {
+            let (r, jac) = problem.residuals_and_jacobian(&solved.0);
+            standard_deviations(&jac, &r)
+        } else {
+            None
+        };
+        let implausible = |p: usize| -> Option<String> {
+            let Column::Compliance(j) = kept[p] else {
+                return None;
+            };
+            if !gate {
+                return None;
+            }
+            let value = model.values[j] / DEG_PER_KNM;
+            let std = std_u
+                .as_ref()
+                .map(|s| (s[p] * problem.scale()[p] / DEG_PER_KNM).abs());
+            if value < 0.0 {
+                Some(format!(
+                    "came out negative ({value:.4} deg/kN·m): no joint stiffens under load"
+                ))
+            } else if value > COMPLIANCE_BOUND {
+                Some(format!(
+                    "came out at {value:.4} deg/kN·m, beyond the {COMPLIANCE_BOUND} deg/kN·m the default accepts"
+                ))
+            } else {
+                std.filter(|s| *s >= value).map(|s| {
+                    format!(
+                        "came out at {value:.4} ± {s:.4} deg/kN·m: no larger than its own uncertainty"
+                    )
+                })
+            }
+        };
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
+                && implausible(p).is_none()
         });
         if drop.is_empty() {
             break solved;
         }
         for &p in &drop {
-            let Column::Harmonic { joint, order, .. } = kept[p] else {
-                continue;
+            let reason = match kept[p] {
+                Column::Harmonic { joint, order, .. } => format!(
+                    "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
+                    amplitude(joint, order)
+                ),
+                _ => format!(
+                    "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), held rigid",
+                    implausible(p).unwrap_or_default()
+                ),
             };
             fixed.push(FixedParameter {
                 name: kept[p].to_string(),
                 independent_fraction: 1.0,
-                reason: format!(
-                    "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
-                    amplitude(joint, order)
-                ),
+                reason,
             });
         }
         *problem = problem.restricted(&keep);

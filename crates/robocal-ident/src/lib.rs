@@ -22,10 +22,10 @@ pub mod registration;
 pub mod stage;
 
 pub use calibrate::{
-    ComplianceReport, ComplianceSettings, ErrorTermReport, FixedParameter, HARMONIC_BOUND_DEG,
-    ILL_CONDITIONED, JointCompliance, JointErrorSettings, KinematicCalibration, KinematicReport,
-    KinematicSettings, POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align,
-    calibrate_kinematics, default_compliance_joints,
+    COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport, FAR_FROM_NOMINAL,
+    FixedParameter, HARMONIC_BOUND_DEG, ILL_CONDITIONED, JointCompliance, JointErrorSettings,
+    KinematicCalibration, KinematicReport, KinematicSettings, POOR_FIT, ParameterReport,
+    SolverKind, TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};

@@ -751,3 +751,53 @@ fn harmonics_beyond_a_gears_bound_are_held_at_zero() {
         .count();
     assert!(identified >= 8, "{:?}", cal.report.joint_errors);
 }
+
+/// The default's gate: a compliance that comes out negative (here the data hold one: an
+/// effect no joint can have) is kept by a stage config, with its sign in the report, and held
+/// rigid by `plausible_only`, the rest solved again until every joint left is plausible.
+#[test]
+fn implausible_compliances_are_held_rigid_when_asked() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 13);
+    let mut compliance = injected_compliance();
+    compliance.values[4] = -0.9 * DEG_PER_KNM;
+    let obs = observe_loaded(&truth, &compliance, &configs[..80], &[0.0, 5.0, 20.0]);
+    let settings = |plausible_only: bool| KinematicSettings {
+        compliance: Some(ComplianceSettings {
+            joints: Some(vec![1, 2, 3, 4, 5]),
+            payload_com: Some(compliance.payload_com),
+            plausible_only,
+            ..ComplianceSettings::default()
+        }),
+        ..KinematicSettings::default()
+    };
+    let kept = calibrate_kinematics(&nominal, &obs, &settings(false)).unwrap();
+    let joints = &kept.report.compliance.as_ref().unwrap().joints;
+    assert!(
+        joints[4].identified && joints[4].compliance < -0.8,
+        "{joints:?}"
+    );
+    let gated = calibrate_kinematics(&nominal, &obs, &settings(true)).unwrap();
+    let joints = &gated.report.compliance.as_ref().unwrap().joints;
+    assert!(!joints[4].identified, "{joints:?}");
+    assert!(
+        joints[4].reason.contains("negative"),
+        "{}",
+        joints[4].reason
+    );
+    assert_eq!(gated.compliance.as_ref().unwrap().values[4], 0.0);
+    // Every joint left is plausible, or held rigid for a stated reason (here joint 6 takes
+    // up the effect joint 5 can no longer fit, negatively, and is held rigid too).
+    for j in [1, 2, 3] {
+        assert!(
+            joints[j].identified && joints[j].compliance > 0.0,
+            "{joints:?}"
+        );
+    }
+    assert!(
+        (joints[5].identified && joints[5].compliance > 0.0)
+            || joints[5].reason.contains("implausible"),
+        "{joints:?}"
+    );
+}

@@ -12,6 +12,7 @@ use crate::error::{PipelineError, Result};
 use crate::paper;
 use crate::plots::{draw_all, report_dir};
 use crate::run::{Outcome, Summary, stats};
+use crate::split::Set;
 
 fn ours(s: &ErrorStats) -> String {
     format!("{:.3} | {:.3} | {:.3}", s.mean, s.std, s.max)
@@ -116,7 +117,11 @@ fn split_table(w: &mut String, o: &Outcome) {
             "| {} | {} {} | {} | {n} | {} |",
             set.name(),
             cfg[i],
-            if i < 2 { "trained" } else { "untrained" },
+            if set.trained_configurations() {
+                "trained"
+            } else {
+                "untrained"
+            },
             set_loads[i],
             role[i]
         );
@@ -318,13 +323,21 @@ fn compliance_table(w: &mut String, o: &Outcome) {
     }
 }
 
+/// The groups of "Every model on every group", in column order.
+const GROUPS: [Set; 5] = [Set::Ga10, Set::Gb20, Set::Ga20, Set::Gb10, Set::Gb30];
+
 /// Every model on every group of the split.
 fn groups_table(w: &mut String, o: &Outcome) {
     let _ = writeln!(
         w,
-        "## Every model on every group: mean / max (mm)\n\nGA10 trained configurations and loads (training), GB20 trained configurations at the validation loads, GA20 untrained configurations at trained loads, GB10 trained configurations at untrained loads, GB30 untrained configurations at untrained loads.\n"
+        "## Every model on every group: mean / max (mm)\n\n{}.\n",
+        GROUPS
+            .iter()
+            .map(|s| format!("{} {}", s.name(), s.description()))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
-    let groups = ["GA10", "GB20", "GA20", "GB10", "GB30"];
+    let groups = GROUPS.map(Set::name);
     let _ = writeln!(w, "| model | {} |", groups.join(" | "));
     let _ = writeln!(w, "|---|{}", "---|".repeat(groups.len()));
     let mut line = |name: &str, errors: &[nalgebra::Vector3<f64>]| {

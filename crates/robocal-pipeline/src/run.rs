@@ -569,9 +569,12 @@ impl Outcome {
 
     /// Classifier accuracy of a model on a group.
     fn accuracy(&self, model: &ModelRun, group: &str) -> Option<f64> {
-        let c = model.residual.as_ref()?.classifier()?;
         let errors = &self.kinematics[model.kinematic].errors;
-        Some(c.accuracy(&samples(&self.data.rows, errors, &self.rows(group))))
+        (model.residual.as_ref()?).classifier_accuracy(&samples(
+            &self.data.rows,
+            errors,
+            &self.rows(group),
+        ))
     }
 
     /// Table 4 rows: every joint parameter (base and tool frames are left to `results.json`'s

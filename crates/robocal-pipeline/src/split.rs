@@ -31,6 +31,23 @@ impl Set {
     /// Every set, in the paper's order.
     pub const ALL: [Set; 5] = [Set::Ga10, Set::Ga20, Set::Gb20, Set::Gb10, Set::Gb30];
 
+    /// Whether its rows are of trained configurations.
+    pub fn trained_configurations(self) -> bool {
+        matches!(self, Set::Ga10 | Set::Ga20)
+    }
+
+    /// What its rows are, in words (report captions), e.g. `trained configurations at
+    /// untrained loads (test)`.
+    pub fn description(self) -> &'static str {
+        match self {
+            Set::Ga10 => "trained configurations at trained loads (training)",
+            Set::Ga20 => "trained configurations at untrained loads (test)",
+            Set::Gb20 => "untrained configurations at the validation loads (validation)",
+            Set::Gb10 => "untrained configurations at the other trained loads (test)",
+            Set::Gb30 => "untrained configurations at untrained loads (test)",
+        }
+    }
+
     /// The paper's name.
     pub fn name(self) -> &'static str {
         match self {

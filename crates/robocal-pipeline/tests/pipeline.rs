@@ -91,6 +91,30 @@ fn the_paper_split_has_the_papers_sizes_and_keeps_untrained_things_out_of_traini
     assert_eq!(s.validation_loads.len(), 6);
     assert_eq!(s.kinematic_rows.len(), 112);
     assert_eq!(s.kinematic_held_out_rows.len(), 56);
+    // What the report's captions say of each set is what the split puts in it: the rows of a
+    // set said to hold trained configurations are all of trained ones, and the others of
+    // untrained ones; loads likewise.
+    for set in Set::ALL {
+        let said_trained = set.trained_configurations();
+        let words = set.description();
+        assert_eq!(
+            words.starts_with("trained configurations"),
+            said_trained,
+            "{words}"
+        );
+        for (row, _) in (data.rows.iter().zip(&s.set_of_row)).filter(|(_, r)| **r == set) {
+            let pose = row.sample.pose.as_str();
+            assert_eq!(
+                s.trained_configurations.iter().any(|p| p == pose),
+                said_trained
+            );
+            let untrained_load = s.untrained_loads.contains(&row.sample.load);
+            assert_eq!(words.contains("untrained loads"), untrained_load, "{words}");
+            if words.contains("validation loads") {
+                assert!(s.validation_loads.contains(&row.sample.load));
+            }
+        }
+    }
     let trained: HashSet<&str> = s
         .trained_configurations
         .iter()

@@ -253,7 +253,17 @@ impl ResidualModel {
         self.fitted.model().nets()
     }
 
-    /// The CA-SOMM gate.
+    /// The share of `samples` (raw input rows, as [`Self::predict`] takes them) whose class
+    /// the CA-SOMM gate gets right; `None` without a gate.
+    pub fn classifier_accuracy(&self, samples: &Samples) -> Option<f64> {
+        let encoded = Samples {
+            inputs: self.encoding.encode_all(&samples.inputs),
+            errors: samples.errors.clone(),
+        };
+        self.classifier().map(|c| c.accuracy(&encoded))
+    }
+
+    /// The CA-SOMM gate (it classifies encoded rows).
     pub fn classifier(&self) -> Option<&Classifier> {
         match &self.fitted {
             Fitted::CaSomm(m) => Some(&m.classifier),

@@ -15,6 +15,8 @@
 //! fits the stages themselves.
 
 pub mod folds;
+pub mod outliers;
+pub mod plausibility;
 pub mod select;
 
 use std::collections::HashSet;
@@ -33,6 +35,8 @@ use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
 
 pub use folds::{SIGNIFICANCE, blocks, folds, improves};
+pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers};
+pub use plausibility::{Implausible, check_plausible};
 pub use select::{
     AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, Selection, automatic,
 };
@@ -233,8 +237,8 @@ pub fn train_residual(
         training_after: left(&train, Some(&fitted.predict(&train.inputs))),
         validation_before: (!val.is_empty()).then(|| left(&val, None)),
         validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val.inputs)))),
-        classifier_accuracy_training: fitted.classifier().map(|c| c.accuracy(&train)),
-        classifier_accuracy_validation: fitted.classifier().map(|c| c.accuracy(&val)),
+        classifier_accuracy_training: fitted.classifier_accuracy(&train),
+        classifier_accuracy_validation: fitted.classifier_accuracy(&val),
         search: fitted.search.clone(),
         gp: fitted.gp().map_or_else(Vec::new, |g| {
             (g.axes.iter().zip(["x", "y", "z"]))
@@ -263,6 +267,8 @@ pub struct Built {
     pub stages: Stages,
     /// How the default calibration chose the stages (absent with a stage config).
     pub selection: Option<Selection>,
+    /// The bad shots found before the calibration (absent when not searched).
+    pub outliers: Option<OutlierReport>,
 }
 
 impl Built {
@@ -295,5 +301,6 @@ pub fn configured(
         residual,
         stages: stages.clone(),
         selection: None,
+        outliers: None,
     })
 }

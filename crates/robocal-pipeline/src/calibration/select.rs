@@ -13,6 +13,7 @@ use robocal_robot::Robot;
 use serde::Serialize;
 
 use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
+use super::outliers::{OutlierSettings, find_outliers};
 use super::{Built, configurations, configured, fit_kinematic, physical_model, train_residual};
 use crate::error::Result;
 use crate::stages::Stages;
@@ -99,6 +100,8 @@ pub struct AutoSettings {
     /// from its first fold) is abandoned, and none starts after it. The only setting that
     /// depends on the clock: far under budget, a seed gives the same model.
     pub budget_seconds: f64,
+    /// The search for bad shots before everything else (none: every row is used).
+    pub outliers: Option<OutlierSettings>,
 }
 
 /// Folds of the default cross-validation.
@@ -122,11 +125,12 @@ impl Default for AutoSettings {
                     holdout: 0.2,
                 },
                 ResidualStage {
-                    settings: ResidualSettings::paper(ResidualKind::Somm, seed),
+                    settings: ResidualSettings::robocal(ResidualKind::Somm, seed),
                     holdout: 0.2,
                 },
             ],
             budget_seconds: DEFAULT_BUDGET_SECONDS,
+            outliers: Some(OutlierSettings::default()),
         }
     }
 }
@@ -191,7 +195,10 @@ impl Physics {
 
     fn settings(self) -> KinematicSettings {
         KinematicSettings {
-            compliance: self.compliance.then(ComplianceSettings::default),
+            compliance: self.compliance.then(|| ComplianceSettings {
+                plausible_only: true,
+                ..ComplianceSettings::default()
+            }),
             joint_errors: (self.harmonics > 0 || self.self_weight).then(|| JointErrorSettings {
                 harmonics: self.harmonics,
                 self_weight: self.self_weight,
@@ -750,8 +757,18 @@ pub fn automatic(
     observer: &dyn Observer,
 ) -> Result<Built> {
     let start = Instant::now();
+    let (outliers, kept) = match &settings.outliers {
+        Some(o) if configurations(rows).len() >= 4 => {
+            let (report, kept) = find_outliers(nominal, rows, &KinematicSettings::default(), o)?;
+            (Some(report), kept)
+        }
+        _ => (None, rows.to_vec()),
+    };
+    let rows = kept.as_slice();
     let Some(plan) = FoldPlan::new(settings, rows, validation.as_ref()) else {
-        return kinematic_only(settings, nominal, rows, observer, start);
+        let mut built = kinematic_only(settings, nominal, rows, observer, start)?;
+        built.outliers = outliers;
+        return Ok(built);
     };
     let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
     // The progress bar counts fits: every candidate on every fold, and the final one.
@@ -829,6 +846,24 @@ pub fn automatic(
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
     }
+    // Compliances the final fit found impossible and held rigid, in the decision.
+    let implausible: Vec<&str> = (built.kinematic.report.fixed.iter())
+        .filter(|f| f.reason.starts_with("implausible"))
+        .map(|f| f.name.as_str())
+        .collect();
+    let mut decisions = decisions;
+    if let Some(d) = decisions.iter_mut().find(|d| d.stage == "compliance")
+        && !implausible.is_empty()
+    {
+        let note = format!(
+            "; held rigid as implausible in the final fit (negative, beyond {} deg/kN·m, or within their own uncertainty): {}",
+            robocal_ident::COMPLIANCE_BOUND,
+            implausible.join(", ")
+        );
+        d.reason.push_str(&note);
+        observer.message(&format!("stage compliance: {}", d.reason));
+    }
+    built.outliers = outliers;
     built.selection = Some(Selection {
         held_out: plan.held_out.clone(),
         folds: plan.splits.len(),

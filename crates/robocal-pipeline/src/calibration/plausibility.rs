@@ -1,0 +1,139 @@
+//! Data that read well but do not fit the robot file: positions in inches or metres, joint
+//! angles in radians, two joint columns swapped. The symptom is a kinematic fit that still misses
+//! the points by millimetres, or link lengths that moved far from the drawing; the likely cause
+//! is the hypothesis under which a fit of the same data would be plausible.
+
+use robocal_data::Measurement;
+use robocal_ident::{FAR_FROM_NOMINAL, KinematicCalibration, KinematicSettings, POOR_FIT};
+use robocal_robot::{ParamId, Robot, Unit};
+
+use super::fit_kinematic;
+use crate::error::Result;
+
+/// Why a calibration is not plausible, and what probably went wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Implausible {
+    /// What was seen.
+    pub symptom: String,
+    /// The hypothesis that would make the data fit, if one does.
+    pub likely_cause: Option<String>,
+}
+
+impl std::fmt::Display for Implausible {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the data do not fit the robot file: {}; {}",
+            self.symptom,
+            self.likely_cause
+                .as_deref()
+                .unwrap_or("check the units (mm, deg), the joint order and signs, the measured point (the robot file's tool) and that the robot file describes this arm")
+        )
+    }
+}
+
+/// Identified link lengths that moved more than [`FAR_FROM_NOMINAL`] mm and 10 % from the
+/// robot file (base and tool left out: their nominal values are guesses).
+fn far_lengths(fit: &KinematicCalibration, nominal: &Robot) -> Vec<String> {
+    let ids = nominal.param_ids();
+    fit.report
+        .parameters
+        .iter()
+        .zip(&ids)
+        .filter(|(p, id)| {
+            p.identified_flag
+                && id.unit() == Unit::Mm
+                && !matches!(id, ParamId::Base(_) | ParamId::Tool(_))
+                && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
+        })
+        .map(|(p, _)| format!("{} {:.1} → {:.1} mm", p.name, p.nominal, p.identified))
+        .collect()
+}
+
+/// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average and no
+/// link length moved far from the drawing.
+fn plausible(fit: &KinematicCalibration, nominal: &Robot) -> bool {
+    fit.report.after.mean <= POOR_FIT && far_lengths(fit, nominal).is_empty()
+}
+
+/// Checks the rigid kinematic fit of `rows`; when it is not plausible, tries the usual
+/// mistakes — positions in inches or metres, joint angles in radians, two joint columns
+/// swapped — and names the one under which the data fit.
+pub fn check_plausible(nominal: &Robot, rows: &[&Measurement]) -> Result<Option<Implausible>> {
+    let settings = KinematicSettings::default();
+    let fit = fit_kinematic(nominal, rows, &settings)?;
+    if plausible(&fit, nominal) {
+        return Ok(None);
+    }
+    let far = far_lengths(&fit, nominal);
+    let symptom = if fit.report.after.mean > POOR_FIT {
+        format!(
+            "the identified model still misses the points by {:.2} mm on average",
+            fit.report.after.mean
+        )
+    } else {
+        format!(
+            "identified link lengths moved far from the robot file ({})",
+            far.join(", ")
+        )
+    };
+    let transformed = |f: &dyn Fn(&mut Measurement)| -> Vec<Measurement> {
+        rows.iter()
+            .map(|r| {
+                let mut m = (*r).clone();
+                f(&mut m);
+                m
+            })
+            .collect()
+    };
+    let dof = nominal.dof();
+    let mut hypotheses: Vec<(String, Vec<Measurement>)> = vec![
+        (
+            "the positions look like inches (x, y, z must be mm)".into(),
+            transformed(&|m| m.position *= 25.4),
+        ),
+        (
+            "the positions look like metres (x, y, z must be mm)".into(),
+            transformed(&|m| m.position *= 1000.0),
+        ),
+        (
+            "the joint angles look like radians (q1..qN must be degrees)".into(),
+            transformed(&|m| {
+                for q in &mut m.sample.joints {
+                    *q = q.to_degrees();
+                }
+            }),
+        ),
+    ];
+    for i in 0..dof {
+        for j in i + 1..dof {
+            hypotheses.push((
+                format!(
+                    "columns q{} and q{} look swapped (the file's joint order must be the robot file's)",
+                    i + 1,
+                    j + 1
+                ),
+                transformed(&|m| m.sample.joints.swap(i, j)),
+            ));
+        }
+    }
+    let mut best: Option<(String, f64)> = None;
+    for (cause, data) in hypotheses {
+        let refs: Vec<&Measurement> = data.iter().collect();
+        let Ok(alternative) = fit_kinematic(nominal, &refs, &settings) else {
+            continue;
+        };
+        let mean = alternative.report.after.mean;
+        if plausible(&alternative, nominal) && best.as_ref().is_none_or(|b| mean < b.1) {
+            best = Some((cause, mean));
+        }
+    }
+    Ok(Some(Implausible {
+        symptom,
+        likely_cause: best.map(|(cause, mean)| {
+            format!(
+                "likely cause: {cause} (with that correction the fit misses by {mean:.3} mm and keeps the drawing's lengths)"
+            )
+        }),
+    }))
+}

@@ -1,0 +1,155 @@
+//! Data that read well and are wrong: bad tracker shots are named and left out; positions in
+//! inches, angles in radians and swapped joint columns are refused (nothing written) unless
+//! `--force`.
+
+use std::path::{Path, PathBuf};
+
+use crate::common::{robocal, s, select_rows, twin_rows, write};
+
+const ROBOT: &str = "configs/robots/pmc6va030.toml";
+const STAGE: &str = "configs/stages/compliance.toml";
+
+/// 48 configurations of the bundled twin at 4 loads (192 rows).
+fn clean(dir: &Path) -> PathBuf {
+    let text = select_rows(&twin_rows(), |pose, load| {
+        pose % 3 == 0 && [0.0, 5.0, 10.0, 20.0].contains(&load)
+    });
+    write(dir, "clean.csv", &text)
+}
+
+/// `csv` with `f` applied to the fields of every data row (1-based line of the row, fields).
+fn edited(csv: &Path, name: &str, f: impl Fn(usize, &mut Vec<String>)) -> PathBuf {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut out = String::new();
+    for (i, line) in text.lines().enumerate() {
+        if i == 0 {
+            out += line;
+        } else {
+            let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();
+            f(i + 1, &mut fields);
+            out += &fields.join(",");
+        }
+        out += "\n";
+    }
+    write(csv.parent().unwrap(), name, &out)
+}
+
+fn calibrate(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
+    let mut args = vec![
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(data),
+        "--out",
+        s(out),
+        "--config",
+        STAGE,
+    ];
+    args.extend(extra);
+    let o = robocal(&args);
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn outliers(model: &Path) -> serde_json::Value {
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap();
+    report["outliers"].clone()
+}
+
+#[test]
+fn bad_shots_are_named_and_left_out_and_clean_rows_are_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = clean(dir.path());
+    let model = dir.path().join("clean-model");
+    let (ok, stderr) = calibrate(&data, &model, &[]);
+    assert!(ok, "{stderr}");
+    assert!(!stderr.contains("bad shot"), "{stderr}");
+    assert_eq!(outliers(&model)["rows"].as_array().unwrap().len(), 0);
+    assert!(stderr.contains(&format!("robocal: model written to {}", s(&model))));
+
+    // 35 mm on x of line 20, 25 mm on z of line 101.
+    let dirty = edited(&data, "dirty.csv", |line, f| {
+        let add = |v: &str, d: f64| format!("{}", v.parse::<f64>().unwrap() + d);
+        if line == 20 {
+            f[8] = add(&f[8], 35.0);
+        }
+        if line == 101 {
+            f[10] = add(&f[10], -25.0);
+        }
+    });
+    let model = dir.path().join("dirty-model");
+    let (ok, stderr) = calibrate(&dirty, &model, &[]);
+    assert!(ok, "{stderr}");
+    for line in [20, 101] {
+        assert!(
+            stderr.contains(&format!("bad shot: {} line {line} ", s(&dirty))),
+            "{stderr}"
+        );
+    }
+    let found = outliers(&model);
+    let lines: Vec<u64> = (found["rows"].as_array().unwrap().iter())
+        .map(|r| r["line"].as_u64().unwrap())
+        .collect();
+    assert_eq!(lines, [20, 101]);
+    assert_eq!(found["left_out"], true);
+    // Left out, the fit is the clean one's: the same kinematic error on the clean rows.
+    let clean_mean = |m: &Path| {
+        let o = robocal(&["evaluate", "--model", s(m), "--data", s(&data), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["mean"].as_f64().unwrap()
+    };
+    let (a, b) = (
+        clean_mean(&dir.path().join("clean-model")),
+        clean_mean(&model),
+    );
+    assert!((b - a).abs() < 0.02 * a, "clean {a} vs with bad shots {b}");
+    // Kept when asked, still named.
+    let kept = dir.path().join("kept-model");
+    let (ok, stderr) = calibrate(&dirty, &kept, &["--keep-outliers"]);
+    assert!(ok && stderr.contains("kept in the fit"), "{stderr}");
+    assert_eq!(outliers(&kept)["left_out"], false);
+    assert!(clean_mean(&kept) > 1.5 * a, "kept bad shots pull the fit");
+}
+
+#[test]
+fn inches_radians_and_swapped_joints_are_refused_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = clean(dir.path());
+    let cases = [
+        (
+            edited(&data, "inches.csv", |_, f| {
+                for v in &mut f[8..11] {
+                    *v = format!("{}", v.parse::<f64>().unwrap() / 25.4);
+                }
+            }),
+            "inches",
+        ),
+        (
+            edited(&data, "radians.csv", |_, f| {
+                for v in &mut f[1..7] {
+                    *v = format!("{}", v.parse::<f64>().unwrap().to_radians());
+                }
+            }),
+            "radians",
+        ),
+        (
+            edited(&data, "swapped.csv", |_, f| f.swap(2, 3)),
+            "columns q2 and q3 look swapped",
+        ),
+    ];
+    for (file, cause) in &cases {
+        let model = dir.path().join(format!("model-{cause}"));
+        let (ok, stderr) = calibrate(file, &model, &[]);
+        assert!(!ok, "{cause}: {stderr}");
+        assert!(stderr.contains(cause), "{cause}: {stderr}");
+        assert!(stderr.contains("nothing written"), "{stderr}");
+        assert!(!model.exists(), "{cause}: a model was written");
+        let (ok, stderr) = calibrate(file, &model, &["--force"]);
+        assert!(ok, "{cause} with --force: {stderr}");
+        assert!(model.join("kinematics.toml").exists());
+    }
+}
