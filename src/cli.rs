@@ -78,6 +78,10 @@ pub enum Command {
         /// Measurement CSV: pose, q1..qN, load, x, y, z.
         #[arg(long, value_name = "CSV")]
         data: PathBuf,
+        /// Also write every row's error: pose, line, load, dx, dy, dz (measured − predicted),
+        /// error (mm).
+        #[arg(long, value_name = "CSV")]
+        per_pose: Option<PathBuf>,
         /// Print one JSON object with keys count, mean, std, rms, max.
         #[arg(long)]
         json: bool,

@@ -234,7 +234,9 @@ pub fn run(
         outliers: built.outliers.clone(),
     };
     model.robot.name = format!("{} (calibrated by robocal)", nominal.name);
+    let said = super::replacing(out);
     model.save(out, &report)?;
+    said();
     let held_out = match (&report.validation, &report.selection) {
         (Some(v), _) => format!(
             "error on the validation file {}: mean {:.4} mm, max {:.4} mm",

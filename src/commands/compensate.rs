@@ -33,6 +33,7 @@ pub fn run(model_dir: &Path, targets: &Path, out: &Path) -> Result<()> {
         }
     }
     let dof = model.robot.dof();
+    let said = super::replacing(out);
     write_atomically(out, |w: &mut dyn Write| {
         let header: Vec<String> = (1..=dof).map(|i| format!("q{i}")).collect();
         writeln!(w, "id,{}", header.join(","))?;
@@ -42,6 +43,7 @@ pub fn run(model_dir: &Path, targets: &Path, out: &Path) -> Result<()> {
         }
         Ok(())
     })?;
+    said();
     eprintln!(
         "robocal: {} of {} targets compensated (model error at most {:.2e} mm), written to {}",
         rows.len(),

@@ -3,23 +3,43 @@
 use std::path::Path;
 
 use anyhow::Result;
-use robocal_data::{ErrorStats, MeasurementSet};
+use robocal_data::{ErrorStats, MeasurementSet, csv_text, fixed6, write_atomically};
 
 use super::model;
 use crate::cli::ModelSource;
 
-/// Prints the statistics of the Euclidean error between predicted and measured points.
-pub fn run(source: &ModelSource, data: &Path, json: bool) -> Result<()> {
+/// A nominal table's mean error beyond which the data are probably in another frame, mm.
+const OTHER_FRAME: f64 = 50.0;
+
+/// Prints the statistics of the Euclidean error between predicted and measured points, and
+/// the worst rows; writes every row's error to `per_pose` when given.
+pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path>) -> Result<()> {
     let model = model::load(source)?;
     let set = MeasurementSet::read(data, model.robot.dof())?;
-    let predicted = model.predict(set.rows.iter().map(|m| &m.sample));
-    let errors: Vec<f64> = set
-        .rows
-        .iter()
-        .zip(predicted)
-        .map(|(m, p)| (p - m.position).norm())
-        .collect();
+    let residuals = model.residuals(&set.rows);
+    let errors: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let stats = ErrorStats::from_errors(&errors);
+    if let Some(path) = per_pose {
+        let said = super::replacing(path);
+        write_atomically(path, |w| {
+            writeln!(w, "pose,line,load,dx,dy,dz,error")?;
+            for ((m, r), e) in set.rows.iter().zip(&residuals).zip(&errors) {
+                writeln!(
+                    w,
+                    "{},{},{},{},{},{},{}",
+                    csv_text(&m.sample.pose),
+                    m.sample.line,
+                    m.sample.load,
+                    fixed6(r.x),
+                    fixed6(r.y),
+                    fixed6(r.z),
+                    fixed6(*e)
+                )?;
+            }
+            Ok(())
+        })?;
+        said();
+    }
     if json {
         println!("{}", serde_json::to_string(&stats)?);
     } else {
@@ -28,6 +48,22 @@ pub fn run(source: &ModelSource, data: &Path, json: bool) -> Result<()> {
         println!("std   {:.6} mm", stats.std);
         println!("rms   {:.6} mm", stats.rms);
         println!("max   {:.6} mm", stats.max);
+        let mut order: Vec<usize> = (0..errors.len()).collect();
+        order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
+        println!("worst rows:");
+        for &i in order.iter().take(5) {
+            let m = &set.rows[i];
+            println!(
+                "  {:.6} mm  pose {} (line {}, load {} kg)",
+                errors[i], m.sample.pose, m.sample.line, m.sample.load
+            );
+        }
+    }
+    if source.robot.is_some() && stats.mean > OTHER_FRAME {
+        eprintln!(
+            "robocal: hint: a mean error of {:.1} mm from a robot file: its base is only a guess of where the robot stands in the tracker frame (and the table is nominal); `robocal calibrate` registers the base, or give data in the robot file's frame",
+            stats.mean
+        );
     }
     Ok(())
 }

@@ -9,6 +9,8 @@ mod run;
 mod simulate;
 mod terminal;
 
+use std::path::Path;
+
 use anyhow::Result;
 
 use crate::cli::{Cli, Command};
@@ -41,7 +43,12 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
             sigma,
         } => predict::run(&source, &data, &out, sigma),
-        Command::Evaluate { source, data, json } => evaluate::run(&source, &data, json),
+        Command::Evaluate {
+            source,
+            data,
+            json,
+            per_pose,
+        } => evaluate::run(&source, &data, json, per_pose.as_deref()),
         Command::Compensate {
             model,
             targets,
@@ -51,3 +58,15 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
 }
+
+/// Outputs are replaced atomically when they exist (the documented rule); the replacement is
+/// said on stderr. Call before writing: the returned closure says it after a successful write.
+pub fn replacing(out: &Path) -> impl FnOnce() + '_ {
+    let existed = out.exists();
+    move || {
+        if existed {
+            eprintln!("robocal: {} existed and was replaced", out.display());
+        }
+    }
+}
+

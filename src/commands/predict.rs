@@ -39,6 +39,8 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
             s.pose
         );
     }
+    let said = super::replacing(out);
     write_predictions(out, &rows)?;
+    said();
     Ok(())
 }

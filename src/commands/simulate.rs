@@ -8,7 +8,9 @@ use robocal_twin::{PointStatus, TwinConfig};
 /// Generates the twin's dataset into `out` and says what it wrote.
 pub fn run(twin: &Path, out: &Path) -> Result<()> {
     let config = TwinConfig::load(twin)?;
+    let said = super::replacing(out);
     let data = config.write_dataset(out)?;
+    said();
     let d = &data.design;
     let kept = d.count(PointStatus::Kept);
     eprintln!(

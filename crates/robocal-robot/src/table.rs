@@ -251,8 +251,23 @@ impl RobotTable {
     }
 }
 
+/// `v` (rad) in degrees, as the shortest decimal that reads back to exactly `v`: an angle the
+/// user wrote (-120) comes back as written, not as -119.99999999999999.
+pub fn degrees(v: f64) -> f64 {
+    let d = v.to_degrees();
+    for digits in 0..=15 {
+        let scale = 10f64.powi(digits);
+        let r = (d * scale).round() / scale;
+        if r.to_radians() == v {
+            return r;
+        }
+    }
+    d
+}
+
 impl Robot {
-    /// The table in the TOML schema of interface.md section 1 (mm, degrees).
+    /// The table in the TOML schema of interface.md section 1 (mm, degrees; angles as the
+    /// shortest decimals that read back exactly, see [`degrees`]).
     pub fn to_toml_string(&self) -> String {
         let raw = RobotTable {
             name: self.name.clone(),
@@ -261,16 +276,16 @@ impl Robot {
                 .iter()
                 .map(|j| RawJoint {
                     a: j.a,
-                    alpha: j.alpha.to_degrees(),
-                    beta: j.beta.map(f64::to_degrees),
+                    alpha: degrees(j.alpha),
+                    beta: j.beta.map(degrees),
                     d: j.d,
-                    theta: j.theta.to_degrees(),
-                    limits: j.limits.map(|(lo, hi)| [lo.to_degrees(), hi.to_degrees()]),
+                    theta: degrees(j.theta),
+                    limits: j.limits.map(|(lo, hi)| [degrees(lo), degrees(hi)]),
                 })
                 .collect(),
             base: RawBase {
                 xyz: self.base.xyz.into(),
-                rpy: self.base.rpy.map(f64::to_degrees).into(),
+                rpy: self.base.rpy.map(degrees).into(),
             },
             tool: RawTool {
                 xyz: self.tool.into(),

@@ -162,6 +162,28 @@ proptest! {
     }
 }
 
+/// Angles the user wrote come back as written (shortest decimals that read back exactly), not
+/// as the noise of a degree → radian → degree round trip.
+#[test]
+fn written_angles_come_back_as_written() {
+    let text = "name = \"w\"\n[base]\nxyz = [0, 0, 0]\nrpy = [0.1, -33.3, -120]\n[tool]\nxyz = [0, 0, 50]\n\
+                [[joint]]\na = 0\nalpha = 179.99\nd = 0\ntheta = -120\nlimits = [-170.5, 170.5]\n\
+                [[joint]]\na = 300\nalpha = 0\nbeta = 0.012\nd = 0\ntheta = 33.3\n";
+    let robot = Robot::from_toml_str(text, "w.toml").unwrap();
+    let out = robot.to_toml_string();
+    for written in [
+        "rpy = [0.1, -33.3, -120.0]",
+        "alpha = 179.99",
+        "theta = -120.0",
+        "limits = [-170.5, 170.5]",
+        "beta = 0.012",
+        "theta = 33.3",
+    ] {
+        assert!(out.contains(written), "{written} not in\n{out}");
+    }
+    assert!(!out.contains("9999999"), "{out}");
+}
+
 // ---- hand-worked chains
 
 fn one_joint(a: f64, alpha_deg: f64, beta_deg: Option<f64>, d: f64, tool: [f64; 3]) -> Robot {
