@@ -91,12 +91,22 @@ pub enum Command {
         /// Calibrated model directory written by `robocal calibrate`.
         #[arg(long, value_name = "MODEL_DIR")]
         model: PathBuf,
-        /// Targets CSV: id, q1..qN (seed command, deg), load, x, y, z (target, mm, world).
+        /// Targets CSV: id, q1..qN (seed command, deg), load, x, y, z (target, mm, in the
+        /// frame --frame names).
         #[arg(long, value_name = "CSV")]
         targets: PathBuf,
         /// Output CSV: id, q1..qN (deg), targets that failed left out (and named on stderr).
         #[arg(long, value_name = "CSV")]
         out: PathBuf,
+        /// Frame of the targets: `world` (the tracker's, as measured), `base` (the robot base
+        /// frame {0} of the calibrated model), or a user-frame file (TOML: `xyz` mm and `rpy`
+        /// deg of the user frame in {0}, as a robot controller's user frame).
+        #[arg(long, value_name = "world|base|FILE", default_value = "world")]
+        frame: String,
+        /// The point to put on the targets, in the flange frame, mm (a production tool instead
+        /// of the reflector the model was measured with), e.g. `--tool 0,0,250`.
+        #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+        tool: Option<String>,
     },
     /// Generate a digital twin's measurement files (every configuration at every load).
     Simulate {

@@ -3,16 +3,88 @@
 use std::io::Write;
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
+use nalgebra::{Matrix3, Vector3};
 use robocal_compensate::{CompensationOptions, compensate};
 use robocal_data::{csv_text, fixed6, read_targets, write_atomically};
 use robocal_model::CalibratedModel;
+use robocal_robot::{TomlFault, rpy_to_matrix};
+use serde::Deserialize;
+
+/// A user frame file: the frame's origin (mm) and fixed-axis roll, pitch, yaw (deg) in the
+/// robot base frame {0}.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct UserFrame {
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
+    xyz: [f64; 3],
+    #[serde(deserialize_with = "robocal_robot::exact::array")]
+    rpy: [f64; 3],
+}
+
+/// The transform from the targets' frame to the world frame: (rotation, origin).
+fn frame_to_world(frame: &str, model: &CalibratedModel) -> Result<(Matrix3<f64>, Vector3<f64>)> {
+    let base = (model.robot.base_rotation(), model.robot.base.xyz);
+    match frame {
+        "world" => Ok((Matrix3::identity(), Vector3::zeros())),
+        "base" => Ok(base),
+        file => {
+            let path = Path::new(file);
+            let text = std::fs::read_to_string(path).with_context(|| {
+                format!("--frame {file}: not `world`, `base` or a readable user-frame file")
+            })?;
+            let user: UserFrame = toml::from_str(&text).map_err(|e| {
+                let f = TomlFault::of(&text, &e);
+                anyhow::anyhow!(
+                    "{}: line {}, column {}: {}",
+                    path.display(),
+                    f.line,
+                    f.column,
+                    f.message
+                )
+            })?;
+            if user.xyz.iter().chain(&user.rpy).any(|v| !v.is_finite()) {
+                bail!("{}: xyz and rpy must be finite numbers", path.display());
+            }
+            let rpy = Vector3::from(user.rpy).map(f64::to_radians);
+            let (r, t) = (rpy_to_matrix(&rpy), Vector3::from(user.xyz));
+            Ok((base.0 * r, base.0 * t + base.1))
+        }
+    }
+}
+
+/// `--tool x,y,z`: three finite numbers, mm.
+fn tool_point(text: &str) -> Result<Vector3<f64>> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .ok()
+        .filter(|v: &Vec<f64>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
+        .with_context(|| format!("--tool {text}: give three numbers x,y,z (mm, flange frame)"))?;
+    Ok(Vector3::new(values[0], values[1], values[2]))
+}
 
 /// Compensates every target, writes the commands of those that converged (atomically) and
 /// fails naming the others.
-pub fn run(model_dir: &Path, targets: &Path, out: &Path) -> Result<()> {
-    let model = CalibratedModel::load(model_dir)?;
-    let targets = read_targets(targets, model.robot.dof())?;
+pub fn run(
+    model_dir: &Path,
+    targets: &Path,
+    out: &Path,
+    frame: &str,
+    tool: Option<&str>,
+) -> Result<()> {
+    let mut model = CalibratedModel::load(model_dir)?;
+    let (rotation, origin) = frame_to_world(frame, &model)?;
+    if let Some(tool) = tool {
+        // The residual model was learned at the reflector; near the flange it is the same
+        // joint-driven error, the kinematics carry the new point exactly.
+        model.robot.tool = tool_point(tool)?;
+    }
+    let mut targets = read_targets(targets, model.robot.dof())?;
+    for t in &mut targets {
+        t.position = rotation * t.position + origin;
+    }
     let options = CompensationOptions::default();
     let mut rows = Vec::with_capacity(targets.len());
     let mut failed = Vec::new();

@@ -53,7 +53,9 @@ pub fn run(cli: Cli) -> Result<()> {
             model,
             targets,
             out,
-        } => compensate::run(&model, &targets, &out),
+            frame,
+            tool,
+        } => compensate::run(&model, &targets, &out, &frame, tool.as_deref()),
         Command::Simulate { twin, out } => simulate::run(&twin, &out),
         Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
@@ -69,4 +71,3 @@ pub fn replacing(out: &Path) -> impl FnOnce() + '_ {
         }
     }
 }
-

@@ -1,9 +1,10 @@
 //! End-to-end tests of the `robocal` binary, one test binary (one link of the whole
 //! dependency tree): every command on real files ([`commands`]) and bad input across every
 //! command and input file ([`hardening`]), data that read well and are wrong
-//! ([`robustness`]), with one runner and CSV helpers ([`common`]).
+//! ([`robustness`]), compensation toward a robot program ([`compensation`]), with one runner and CSV helpers ([`common`]).
 
 mod commands;
 mod common;
+mod compensation;
 mod hardening;
 mod robustness;
