@@ -18,6 +18,21 @@ fn ours(s: &ErrorStats) -> String {
     format!("{:.3} | {:.3} | {:.3}", s.mean, s.std, s.max)
 }
 
+/// A table's paper cell, `" value |"`, or nothing when the experiment is not the paper's (its
+/// numbers would sit beside another robot's).
+fn paper_cell(o: &Outcome, value: &str) -> String {
+    if o.is_papers() {
+        format!(" {value} |")
+    } else {
+        String::new()
+    }
+}
+
+/// The paper column's separator cell, or nothing (see [`paper_cell`]).
+fn paper_rule(o: &Outcome) -> &'static str {
+    if o.is_papers() { "---|" } else { "" }
+}
+
 fn theirs(p: [f64; 3]) -> String {
     format!("{:.3} / {:.3} / {:.3}", p[0], p[1], p[2])
 }
@@ -68,7 +83,7 @@ fn tables(o: &Outcome, summary: &Summary<'_>) -> String {
     groups_table(w, o);
     table5(w, o);
     table6(w, o);
-    residual_training(w, summary);
+    residual_training(w, o, summary);
     by_load_table(w, o);
     t
 }
@@ -138,13 +153,22 @@ fn split_table(w: &mut String, o: &Outcome) {
 /// Kinematic calibration: every solver on the fitted and the held-out rows.
 fn kinematic_table(w: &mut String, o: &Outcome) {
     let s = &o.splits;
-    let _ = writeln!(w, "## Kinematic calibration (paper section V-A)\n");
+    if o.is_papers() {
+        let _ = writeln!(w, "## Kinematic calibration (paper section V-A)\n");
+        let _ = writeln!(
+            w,
+            "Mean | std | max of the Euclidean error, mm. The paper's column is its real robot: 168 unloaded configurations (before/after) and 56 held out.\n"
+        );
+    } else {
+        let _ = writeln!(w, "## Kinematic calibration\n");
+        let _ = writeln!(w, "Mean | std | max of the Euclidean error, mm.\n");
+    }
     let _ = writeln!(
         w,
-        "Mean | std | max of the Euclidean error, mm. The paper's column is its real robot: 168 unloaded configurations (before/after) and 56 held out.\n"
+        "| rows | model | mean | std | max |{}",
+        paper_cell(o, "paper")
     );
-    let _ = writeln!(w, "| rows | model | mean | std | max | paper |");
-    let _ = writeln!(w, "|---|---|---|---|---|---|");
+    let _ = writeln!(w, "|---|---|---|---|---|{}", paper_rule(o));
     // Fitted rows, then held-out rows: "before", then each solver; the paper's figure beside
     // BFGS (its solver).
     let sets = [
@@ -167,8 +191,9 @@ fn kinematic_table(w: &mut String, o: &Outcome) {
         let n = rows.len();
         let _ = writeln!(
             w,
-            "| {label} ({n}) | {before} | {} | {paper_before} |",
-            ours(&stats(&o.before, rows))
+            "| {label} ({n}) | {before} | {} |{}",
+            ours(&stats(&o.before, rows)),
+            paper_cell(o, &paper_before)
         );
         for k in &o.kinematics {
             let p = if k.settings.solver == robocal_ident::SolverKind::Bfgs {
@@ -178,9 +203,10 @@ fn kinematic_table(w: &mut String, o: &Outcome) {
             };
             let _ = writeln!(
                 w,
-                "| {label} ({n}) | {} | {} | {p} |",
+                "| {label} ({n}) | {} | {} |{}",
                 k.label,
-                ours(&stats(&k.errors, rows))
+                ours(&stats(&k.errors, rows)),
+                paper_cell(o, p)
             );
         }
     }
@@ -369,9 +395,10 @@ fn table5(w: &mut String, o: &Outcome) {
         );
         let _ = writeln!(
             w,
-            "| status | rows | mean | std | max | paper (BFGS + SOMM-ANN) |"
+            "| status | rows | mean | std | max |{}",
+            paper_cell(o, "paper (BFGS + SOMM-ANN)")
         );
-        let _ = writeln!(w, "|---|---|---|---|---|---|");
+        let _ = writeln!(w, "|---|---|---|---|---|{}", paper_rule(o));
         for (label, group, p) in [
             ("training (GA10)", "GA10", paper::TABLE5_TRAINING),
             ("validation (GB20)", "GB20", paper::TABLE5_VALIDATION),
@@ -380,10 +407,10 @@ fn table5(w: &mut String, o: &Outcome) {
             let rows = o.rows(group);
             let _ = writeln!(
                 w,
-                "| {label} | {} | {} | {} |",
+                "| {label} | {} | {} |{}",
                 rows.len(),
                 ours(&stats(&m.errors, &rows)),
-                theirs(p)
+                paper_cell(o, &theirs(p))
             );
         }
         let _ = writeln!(w);
@@ -399,27 +426,36 @@ fn table6(w: &mut String, o: &Outcome) {
         "## Table 6: the {} GB10 + GB30 rows (untrained configurations)\n",
         t6.len()
     );
-    let _ = writeln!(w, "| before/after calibration | mean | std | max | paper |");
-    let _ = writeln!(w, "|---|---|---|---|---|");
     let _ = writeln!(
         w,
-        "| before calibration | {} | {} |",
+        "| before/after calibration | mean | std | max |{}",
+        paper_cell(o, "paper")
+    );
+    let _ = writeln!(w, "|---|---|---|---|{}", paper_rule(o));
+    let _ = writeln!(
+        w,
+        "| before calibration | {} |{}",
         ours(&stats(&o.before, &t6)),
-        theirs(paper::TABLE6_BEFORE)
+        paper_cell(o, &theirs(paper::TABLE6_BEFORE))
     );
     for (m, plan) in o.models.iter().zip(&e.models) {
         let p = plan.paper_row().map_or("-".into(), |(_, p)| theirs(p));
         let _ = writeln!(
             w,
-            "| after {} | {} | {p} |",
+            "| after {} | {} |{}",
             m.name,
-            ours(&stats(&m.errors, &t6))
+            ours(&stats(&m.errors, &t6)),
+            paper_cell(o, &p)
         );
     }
-    let _ = writeln!(
-        w,
-        "\nThe paper prints 0.991 as both the standard deviation and the maximum of its BFGS + SOMM row; kept as printed.\n"
-    );
+    if o.is_papers() {
+        let _ = writeln!(
+            w,
+            "\nThe paper prints 0.991 as both the standard deviation and the maximum of its BFGS + SOMM row; kept as printed.\n"
+        );
+    } else {
+        let _ = writeln!(w);
+    }
 
     let _ = writeln!(
         w,
@@ -441,7 +477,7 @@ fn table6(w: &mut String, o: &Outcome) {
 }
 
 /// How each residual model trained.
-fn residual_training(w: &mut String, summary: &Summary<'_>) {
+fn residual_training(w: &mut String, o: &Outcome, summary: &Summary<'_>) {
     let mut residual_lines = Vec::new();
     for m in &summary.models {
         if m.networks.is_empty() {
@@ -466,10 +502,14 @@ fn residual_training(w: &mut String, summary: &Summary<'_>) {
                 .collect();
             let _ = write!(
                 line,
-                "; classifier (X error split at {:.3} mm) accuracy {} (paper: {:.0} %)",
+                "; classifier (X error split at {:.3} mm) accuracy {}{}",
                 c.threshold,
                 acc.join(", "),
-                100.0 * paper::CLASSIFIER_ACCURACY
+                if o.is_papers() {
+                    format!(" (paper: {:.0} %)", 100.0 * paper::CLASSIFIER_ACCURACY)
+                } else {
+                    String::new()
+                }
             );
         }
         residual_lines.push(line);
@@ -481,11 +521,15 @@ fn residual_training(w: &mut String, summary: &Summary<'_>) {
 
 /// Mean error against load on the untrained configurations (Fig. 13).
 fn by_load_table(w: &mut String, o: &Outcome) {
-    let _ = writeln!(
-        w,
-        "## Mean error against load, untrained configurations (Fig. 13; paper: rising to {:.2} mm at 20 kg after BFGS)\n",
-        paper::FIG13_HEAVIEST_MEAN
-    );
+    if o.is_papers() {
+        let _ = writeln!(
+            w,
+            "## Mean error against load, untrained configurations (Fig. 13; paper: rising to {:.2} mm at 20 kg after BFGS)\n",
+            paper::FIG13_HEAVIEST_MEAN
+        );
+    } else {
+        let _ = writeln!(w, "## Mean error against load, untrained configurations\n");
+    }
     let _ = write!(w, "| load (kg) | before |");
     for m in &o.models {
         let _ = write!(w, " {} |", m.name);
@@ -524,8 +568,7 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
             };
             let _ = writeln!(
                 w,
-                "**The data come from robocal's digital twin, not from a real robot.** Twin `{}` (`{}`, seed {}), {how}: {} rows, {} configurations × {} loads. It contains {}.\n\n\
-                 The paper's numbers, printed beside ours, were measured on its real PMC6VA030 robot with a laser tracker; they are a reference for scale, not results of this run.\n",
+                "**The data come from robocal's digital twin, not from a real robot.** Twin `{}` (`{}`, seed {}), {how}: {} rows, {} configurations × {} loads. It contains {}.\n{}",
                 t.name,
                 e.data
                     .twin()
@@ -534,13 +577,18 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
                 o.data.len(),
                 o.splits.trained_configurations.len() + o.splits.untrained_configurations.len(),
                 o.data.loads().len(),
-                twin_contents(t)
+                twin_contents(t),
+                if o.is_papers() {
+                    "\nThe paper's numbers, printed beside ours, were measured on its real PMC6VA030 robot with a laser tracker; they are a reference for scale, not results of this run.\n"
+                } else {
+                    ""
+                }
             );
         }
         None => {
             let _ = writeln!(
                 w,
-                "Data: `{}` ({} rows), robot table `{}`. The paper's numbers beside ours are from its own robot, for scale only.\n",
+                "Data: `{}` ({} rows), robot table `{}`.{}\n",
                 e.data
                     .measurements()
                     .map_or(String::new(), |p| p.display().to_string()),
@@ -548,6 +596,11 @@ fn markdown(o: &Outcome, tables: &str, figures: &[(String, Vec<String>)]) -> Str
                 e.data
                     .robot()
                     .map_or(String::new(), |p| p.display().to_string()),
+                if o.is_papers() {
+                    " The paper's numbers beside ours are from its own robot, for scale only."
+                } else {
+                    ""
+                }
             );
         }
     }

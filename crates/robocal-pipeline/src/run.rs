@@ -536,6 +536,12 @@ pub struct Table4Row {
 }
 
 impl Outcome {
+    /// Whether the experiment is on the paper's robot (the robot file named `PMC6VA030`): only
+    /// then do the reports print the paper's numbers beside ours.
+    pub fn is_papers(&self) -> bool {
+        self.nominal.name == "PMC6VA030"
+    }
+
     /// Rows of a named group.
     pub fn rows(&self, group: &str) -> Vec<usize> {
         group_rows(&self.splits, group)

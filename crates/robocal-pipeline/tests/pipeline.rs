@@ -457,3 +457,41 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         assert_eq!(built.kinematic.report.points, rows.len());
     }
 }
+
+/// The paper's numbers, notes and captions appear only beside the paper's robot: an experiment
+/// on another arm's twin gets tables without a paper column and no note about the paper's
+/// printed values; the paper's own experiment keeps them.
+#[test]
+fn the_papers_numbers_stay_out_of_other_robots_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("arm5.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "name = \"arm5-lm\"\noutput = \"{}\"\n[data]\ntwin = \"{}\"\n[split]\ntrained_configurations = 60\nvalidation_loads = 1\n[[model]]\nname = \"LM\"\n",
+            dir.path().join("reports").display(),
+            root().join("configs/twin/arm5.toml").display()
+        ),
+    )
+    .unwrap();
+    let e = Experiment::load(&file).unwrap();
+    let mut outcome = robocal_pipeline::run(&e, &robocal_data::Silent).unwrap();
+    assert!(!outcome.is_papers());
+    let written = robocal_pipeline::write_report(&mut outcome, None).unwrap();
+    let report = std::fs::read_to_string(written.dir.join("report.md")).unwrap();
+    for paper_only in [
+        "| paper |",
+        "paper section V-A",
+        "0.991",
+        "PMC6VA030 robot",
+        "Fig. 13; paper",
+    ] {
+        assert!(!report.contains(paper_only), "{paper_only} in\n{report}");
+    }
+    assert!(
+        report.contains("| rows | model | mean | std | max |\n"),
+        "{report}"
+    );
+    let (paper, _, _) = paper();
+    assert!(paper.source.ends_with("configs/experiments/paper.toml"));
+}
