@@ -316,7 +316,12 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
         };
         let panels: Vec<Panel> = (0..3)
             .map(|a| Panel {
-                title: format!("{} error", ["X", "Y", "Z"][a]),
+                // The model is in the legend; rows and frame here.
+                title: format!(
+                    "{} error, {} GB10+GB30 rows, world frame",
+                    ["X", "Y", "Z"][a],
+                    t6.len()
+                ),
                 x_label: "signed error (mm)".into(),
                 y_label: "share of rows (%)".into(),
                 series: histograms(
