@@ -9,7 +9,7 @@ use crate::common::{robocal, s, select_rows, twin_rows, write};
 const ROBOT: &str = "configs/robots/pmc6va030.toml";
 const STAGE: &str = "configs/stages/compliance.toml";
 
-/// 48 configurations of the bundled twin at 4 loads (192 rows).
+/// 56 configurations of the bundled twin at 4 loads (224 rows).
 fn clean(dir: &Path) -> PathBuf {
     let text = select_rows(&twin_rows(), |pose, load| {
         pose % 3 == 0 && [0.0, 5.0, 10.0, 20.0].contains(&load)
@@ -152,4 +152,60 @@ fn inches_radians_and_swapped_joints_are_refused_unless_forced() {
         assert!(ok, "{cause} with --force: {stderr}");
         assert!(model.join("kinematics.toml").exists());
     }
+}
+
+/// `evaluate --per-pose` writes every row's signed error and its length, the text output names
+/// the worst rows (a bad shot first), and a replaced output is said on stderr.
+#[test]
+fn evaluate_per_pose_finds_the_bad_shot_and_replaced_outputs_are_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = clean(dir.path());
+    let model = dir.path().join("model");
+    let (ok, stderr) = calibrate(&data, &model, &[]);
+    assert!(ok, "{stderr}");
+    let dirty = edited(&data, "dirty.csv", |line, f| {
+        if line == 30 {
+            f[9] = format!("{}", f[9].parse::<f64>().unwrap() + 12.0);
+        }
+    });
+    let per_pose = dir.path().join("errors.csv");
+    let evaluate = || {
+        robocal(&[
+            "evaluate",
+            "--model",
+            s(&model),
+            "--data",
+            s(&dirty),
+            "--per-pose",
+            s(&per_pose),
+        ])
+    };
+    let o = evaluate();
+    assert!(o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let worst = stdout
+        .lines()
+        .skip_while(|l| *l != "worst rows:")
+        .nth(1)
+        .unwrap();
+    assert!(worst.contains("(line 30,"), "{stdout}");
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("replaced"));
+    let text = std::fs::read_to_string(&per_pose).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("pose,line,load,dx,dy,dz,error"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 224);
+    let row = rows.iter().find(|r| r[1] == "30").unwrap();
+    let (dy, error): (f64, f64) = (row[4].parse().unwrap(), row[6].parse().unwrap());
+    assert!(dy > 11.0 && error >= dy, "{row:?}");
+    for r in &rows {
+        let d: Vec<f64> = r[3..7].iter().map(|v| v.parse().unwrap()).collect();
+        assert!((d[0].hypot(d[1]).hypot(d[2]) - d[3]).abs() < 2e-6, "{r:?}");
+    }
+    // Again: the file existed, and stderr says it was replaced.
+    let o = evaluate();
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains(&format!("{} existed and was replaced", s(&per_pose)))
+    );
 }
