@@ -24,4 +24,4 @@ pub use csvio::{
 };
 pub use error::{DataError, Invalid, Result, one_of};
 pub use observe::{Lines, Observer, Silent};
-pub use stats::ErrorStats;
+pub use stats::{ErrorStats, robust_std};

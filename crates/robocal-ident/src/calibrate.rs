@@ -2,7 +2,7 @@
 //! identifiability, the chosen solver, statistics and parameter uncertainties.
 
 use nalgebra::Vector3;
-use robocal_data::ErrorStats;
+use robocal_data::{ErrorStats, robust_std};
 use robocal_robot::{Compliance, DEG_PER_KNM, ErrorParam, JointErrors, ParamId, Robot, Unit};
 use serde::Serialize;
 
@@ -56,7 +56,28 @@ pub struct KinematicSettings {
     pub compliance: Option<ComplianceSettings>,
     /// Transmission harmonics and self-weight terms identified with the geometry.
     pub joint_errors: Option<JointErrorSettings>,
+    /// How the points' errors are weighed.
+    pub loss: Loss,
 }
+
+/// How the identification weighs the points' errors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Loss {
+    /// Least squares: every point weighs the same (the paper's, and every stage config's).
+    #[default]
+    Squared,
+    /// Huber: squared up to [`HUBER_K`] robust standard deviations of the error components
+    /// (1.4826 × their median absolute deviation), linear beyond, by iteratively reweighted
+    /// least squares (weight `min(1, k σ / |rᵢ|)` per point, at most [`IRLS_ROUNDS`] solves):
+    /// a few wild points cannot pull the fit towards themselves.
+    Huber,
+}
+
+/// Where the Huber loss turns linear, in robust standard deviations of the error components.
+pub const HUBER_K: f64 = 3.0;
+
+/// Most reweighted solves of the Huber loss.
+pub const IRLS_ROUNDS: usize = 8;
 
 /// Which configuration-dependent joint errors are identified with the geometry.
 #[derive(Debug, Clone, PartialEq)]
@@ -107,6 +128,7 @@ impl Default for KinematicSettings {
             rank_tolerance: 1e-6,
             compliance: None,
             joint_errors: None,
+            loss: Loss::Squared,
         }
     }
 }
@@ -705,7 +727,32 @@ pub fn calibrate_kinematics(
         })
         .collect();
 
-    let (u, iterations, termination) = solve_gated(&mut problem, &mut kept, &mut fixed, settings)?;
+    let (mut u, mut iterations, mut termination) =
+        solve_gated(&mut problem, &mut kept, &mut fixed, settings)?;
+    if settings.loss == Loss::Huber {
+        let mut previous: Option<Vec<f64>> = None;
+        for _ in 0..IRLS_ROUNDS {
+            let errors = problem.point_errors(&u);
+            let components: Vec<f64> = errors.iter().flat_map(|e| [e.x, e.y, e.z]).collect();
+            let corner = HUBER_K * robust_std(&components);
+            if corner <= 0.0 {
+                break;
+            }
+            let weights: Vec<f64> = (errors.iter())
+                .map(|e| (corner / e.norm()).min(1.0))
+                .collect();
+            if previous
+                .as_ref()
+                .is_some_and(|p| p.iter().zip(&weights).all(|(a, b)| (a - b).abs() < 1e-3))
+            {
+                break;
+            }
+            problem.set_point_weights(&weights);
+            let solved = solve_gated(&mut problem, &mut kept, &mut fixed, settings)?;
+            (u, iterations, termination) = (solved.0, iterations + solved.1, solved.2);
+            previous = Some(weights);
+        }
+    }
     let robot = problem.robot_at(&u);
     let compliance = problem.compliance_at(&u);
     let finite = robot.params().iter().all(|v| v.is_finite())

@@ -23,9 +23,10 @@ pub mod stage;
 
 pub use calibrate::{
     COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport, FAR_FROM_NOMINAL,
-    FixedParameter, HARMONIC_BOUND_DEG, ILL_CONDITIONED, JointCompliance, JointErrorSettings,
-    KinematicCalibration, KinematicReport, KinematicSettings, POOR_FIT, ParameterReport,
-    SolverKind, TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints,
+    FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance,
+    JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings, Loss, POOR_FIT,
+    ParameterReport, SolverKind, TORQUE_SHARE, align, calibrate_kinematics,
+    default_compliance_joints,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};

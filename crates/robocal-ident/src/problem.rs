@@ -114,6 +114,9 @@ pub struct CalibrationProblem<'a> {
     scale: Vec<f64>,
     compliance: Option<ComplianceFit>,
     obs: &'a Observations,
+    /// Square roots of the points' weights (none: every point weighs 1); the iteratively
+    /// reweighted least squares of a robust loss set them.
+    root_weights: Option<Vec<f64>>,
 }
 
 /// The joint-error part of a problem.
@@ -160,6 +163,7 @@ impl<'a> CalibrationProblem<'a> {
             scale: column_scales(&norms),
             compliance: None,
             obs,
+            root_weights: None,
         }
     }
 
@@ -214,7 +218,28 @@ impl<'a> CalibrationProblem<'a> {
             scale: order.iter().map(|&p| self.scale[p]).collect(),
             compliance,
             obs: self.obs,
+            root_weights: self.root_weights.clone(),
         }
+    }
+
+    /// Weights each point's residual by `weights` (one per point, ≥ 0): least squares on
+    /// `Σ wᵢ |rᵢ|²`.
+    pub fn set_point_weights(&mut self, weights: &[f64]) {
+        self.root_weights = Some(weights.iter().map(|w| w.max(0.0).sqrt()).collect());
+    }
+
+    /// The weight root of point `i` (1 without weights).
+    fn root_weight(&self, i: usize) -> f64 {
+        self.root_weights.as_ref().map_or(1.0, |w| w[i])
+    }
+
+    /// Every point's unweighted error vector (predicted − measured), mm, at `u`.
+    pub fn point_errors(&self, u: &[f64]) -> Vec<nalgebra::Vector3<f64>> {
+        let robot = self.robot_at(u);
+        let compliance = self.compliance_at(u);
+        (0..self.obs.len())
+            .map(|i| self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i])
+            .collect()
     }
 
     /// Indices (into `param_ids()`) of the geometric parameters being identified.
@@ -278,7 +303,8 @@ impl<'a> CalibrationProblem<'a> {
         let compliance = self.compliance_at(u);
         let mut r = Vec::with_capacity(3 * self.obs.len());
         for i in 0..self.obs.len() {
-            let d = self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i];
+            let d = (self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i])
+                * self.root_weight(i);
             r.extend_from_slice(d.as_slice());
         }
         r
@@ -308,7 +334,7 @@ impl<'a> CalibrationProblem<'a> {
                 }
                 None => robot.write_param_jacobian(q, &mut full, 3 * i),
             };
-            r.extend_from_slice((p - self.obs.points[i]).as_slice());
+            r.extend_from_slice(((p - self.obs.points[i]) * self.root_weight(i)).as_slice());
         }
         let jac = Mat::from_fn(3 * m, self.unknowns(), |row, col| {
             let v = if col < ng {
@@ -316,7 +342,7 @@ impl<'a> CalibrationProblem<'a> {
             } else {
                 cjac[(row, col - ng)]
             };
-            v * self.scale[col]
+            v * self.scale[col] * self.root_weight(row / 3)
         });
         (r, jac)
     }

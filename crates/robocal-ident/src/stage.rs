@@ -3,7 +3,9 @@
 use robocal_data::{Invalid, one_of};
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::{ComplianceSettings, JointErrorSettings, KinematicSettings, SolverKind};
+use crate::calibrate::{
+    ComplianceSettings, JointErrorSettings, KinematicSettings, Loss, SolverKind,
+};
 
 /// `[kinematic]` as written.
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
@@ -17,6 +19,9 @@ pub struct RawKinematicStage {
     pub max_iterations: Option<u64>,
     /// Relative column norm below which a parameter counts as unidentifiable.
     pub rank_tolerance: Option<f64>,
+    /// `"squared"` (least squares, the default) or `"huber"` (robust to a few wild points).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loss: Option<String>,
 }
 
 impl RawKinematicStage {
@@ -33,6 +38,21 @@ impl RawKinematicStage {
                     ),
                 )
             })?;
+        }
+        if let Some(loss) = &self.loss {
+            s.loss = match loss.as_str() {
+                "squared" => Loss::Squared,
+                "huber" => Loss::Huber,
+                other => {
+                    return Err(Invalid::new(
+                        "kinematic.loss",
+                        format!(
+                            "`{other}` is not a loss; use {}",
+                            one_of(&["squared", "huber"])
+                        ),
+                    ));
+                }
+            };
         }
         if let Some(params) = &self.parameters {
             if params.is_empty() {

@@ -430,6 +430,7 @@ impl Experiment {
                             parameters: k.parameters.clone(),
                             max_iterations: Some(k.max_iterations),
                             rank_tolerance: Some(k.rank_tolerance),
+                            loss: (k.loss == robocal_ident::Loss::Huber).then(|| "huber".into()),
                         }),
                         compliance: k
                             .compliance

@@ -5,7 +5,7 @@
 
 use std::collections::BTreeSet;
 
-use robocal_data::Measurement;
+use robocal_data::{Measurement, robust_std};
 use robocal_ident::{ComplianceSettings, KinematicSettings};
 use robocal_robot::Robot;
 use serde::Serialize;
@@ -68,30 +68,11 @@ pub struct OutlierReport {
     pub rows: Vec<Outlier>,
 }
 
-/// 1.4826 × the median absolute deviation of `values` (the standard deviation of a normal
-/// sample, robust to a few wild values).
-pub fn robust_std(values: &[f64]) -> f64 {
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        if n == 0 {
-            return 0.0;
-        }
-        if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            0.5 * (v[n / 2 - 1] + v[n / 2])
-        }
-    };
-    let mut v = values.to_vec();
-    let m = median(&mut v);
-    let mut dev: Vec<f64> = values.iter().map(|x| (x - m).abs()).collect();
-    1.4826 * median(&mut dev)
-}
-
 /// The physics the search fits: `settings`, with joint compliances when the data hold two or
 /// more loads and `settings` have none (a rigid table cannot tell a heavy load's deflection
-/// from a bad shot).
+/// from a bad shot). Least squares, on purpose: the threshold is in robust standard deviations
+/// of a least-squares fit's errors (a Huber fit hugs the bulk closer, and the same rows then
+/// sit further out); the refits without the flagged rows keep the shots from pulling it.
 fn search_physics(settings: &KinematicSettings, rows: &[&Measurement]) -> KinematicSettings {
     let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
     loads.sort_by(f64::total_cmp);
@@ -162,20 +143,4 @@ pub fn find_outliers<'a>(
             .collect()
     };
     Ok((report, kept))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::robust_std;
-
-    /// 1.4826 × MAD by hand: values 1..9 have median 5 and absolute deviations 0,1,1,2,2,3,3,4,4
-    /// (median 2); one wild value moves neither.
-    #[test]
-    fn the_robust_spread_ignores_a_wild_value() {
-        let v: Vec<f64> = (1..=9).map(f64::from).collect();
-        assert!((robust_std(&v) - 2.0 * 1.4826).abs() < 1e-12);
-        let mut w = v.clone();
-        w[8] = 1e6;
-        assert!((robust_std(&w) - 2.0 * 1.4826).abs() < 1e-12);
-    }
 }
