@@ -53,8 +53,17 @@ twin:
 fuzz cases="20000":
     PROPTEST_CASES={{cases}} cargo test --release --test fuzz_loaders
 
-# the accuracy suite: default calibrate and each stage on twins of four arms (two seeds, effects
+# the accuracy suite: default calibrate and each stage on twins of five arms (two seeds, effects
 # all on / modelled only, configuration and extrapolation splits), errors against the twins'
-# noise-free points; ARM6S, the family kept aside, only with ASIDE="--aside" (docs/accuracy.md)
+# noise-free points; the families kept aside (ARM6S, ARM6H) only with ASIDE="--aside"
+# (docs/accuracy.md)
 accuracy seeds="2" aside="":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}}
+
+# bad shots: clean rows in robust σ, 1-3 shots of 20-50 mm named, the held-out change
+accuracy-outliers seeds="3":
+    cargo run --release -p robocal-pipeline --example accuracy -- --outliers --seeds {{seeds}}
+
+# the residual models side by side on the identified physics (paper's SOMM, robocal's, GP)
+accuracy-networks seeds="1":
+    cargo run --release -p robocal-pipeline --example accuracy -- --networks --seeds {{seeds}}
