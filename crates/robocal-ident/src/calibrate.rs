@@ -457,6 +457,27 @@ fn fit_warnings(
     warnings
 }
 
+/// Identified link lengths that moved more than [`FAR_FROM_NOMINAL`] mm and 10 % from the
+/// robot file: the data are in other units (a table scaled with them fits exactly), or the
+/// robot file is not this arm's. Base and tool are frames whose nominal values are guesses, so
+/// they are left out. `ids` are the table's parameters, in the order of `parameters`.
+pub fn far_from_nominal<'a>(
+    parameters: &'a [ParameterReport],
+    ids: &[ParamId],
+) -> Vec<&'a ParameterReport> {
+    parameters
+        .iter()
+        .zip(ids)
+        .filter(|(p, id)| {
+            p.identified_flag
+                && id.unit() == Unit::Mm
+                && !matches!(id, ParamId::Base(_) | ParamId::Tool(_))
+                && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
+        })
+        .map(|(p, _)| p)
+        .collect()
+}
+
 /// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
 /// payload torque and why it was held rigid.
 fn compliance_report(
@@ -795,19 +816,9 @@ pub fn calibrate_kinematics(
             }
         })
         .collect();
-    // A link length that moved far from the drawing: the data are in other units (a table
-    // scaled with them fits exactly), or the robot file is not this arm's. Base and tool are
-    // frames whose nominal values are guesses, so they are left out.
-    let far: Vec<String> = parameters
+    let far: Vec<String> = far_from_nominal(&parameters, &ids)
         .iter()
-        .zip(&ids)
-        .filter(|(p, id)| {
-            p.identified_flag
-                && id.unit() == Unit::Mm
-                && !matches!(id, ParamId::Base(_) | ParamId::Tool(_))
-                && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
-        })
-        .map(|(p, _)| format!("{} {:.3} → {:.3} mm", p.name, p.nominal, p.identified))
+        .map(|p| format!("{} {:.3} → {:.3} mm", p.name, p.nominal, p.identified))
         .collect();
     if !far.is_empty() {
         warnings.push(format!(

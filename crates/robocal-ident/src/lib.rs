@@ -26,7 +26,7 @@ pub use calibrate::{
     FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance,
     JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings, Loss, POOR_FIT,
     ParameterReport, SolverKind, TORQUE_SHARE, align, calibrate_kinematics,
-    default_compliance_joints,
+    default_compliance_joints, far_from_nominal,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};

@@ -136,6 +136,15 @@ fn split<'a>(
         .partition(|r| !test.contains(r.sample.pose.as_str()))
 }
 
+/// The twin's noise-free point of every measured row: (pose, load bits) → point.
+fn truth_of(
+    data: &robocal_twin::TwinDataset,
+) -> std::collections::HashMap<(String, u64), Vector3<f64>> {
+    (data.truth.rows.iter())
+        .map(|r| ((r.sample.pose.clone(), r.sample.load.to_bits()), r.position))
+        .collect()
+}
+
 /// Mean error of `model` against the noise-free points of `test` (`truth`: pose/load → point).
 fn versus_truth(
     model: &CalibratedModel,
@@ -260,12 +269,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     twin.backlash.clear();
                 }
                 let data = twin.generate()?;
-                let truth: std::collections::HashMap<(String, u64), Vector3<f64>> = data
-                    .truth
-                    .rows
-                    .iter()
-                    .map(|r| ((r.sample.pose.clone(), r.sample.load.to_bits()), r.position))
-                    .collect();
+                let truth = truth_of(&data);
                 let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
                 for how in [Split::Configurations, Split::Extrapolation] {
                     let (train, test) = split(&rows, how, seed);
@@ -454,12 +458,7 @@ fn bad_shots(arms: &[String], seeds: u64) -> Result<(), Box<dyn std::error::Erro
         for seed in 0..seeds {
             let twin = member(&base, seed);
             let data = twin.generate()?;
-            let truth: std::collections::HashMap<(String, u64), Vector3<f64>> = data
-                .truth
-                .rows
-                .iter()
-                .map(|r| ((r.sample.pose.clone(), r.sample.load.to_bits()), r.position))
-                .collect();
+            let truth = truth_of(&data);
             let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
             let (train, test) = split(&rows, Split::Configurations, seed);
             let train: Vec<Measurement> = train.into_iter().take(500).cloned().collect();

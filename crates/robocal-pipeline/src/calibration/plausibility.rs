@@ -4,8 +4,8 @@
 //! is the hypothesis under which a fit of the same data would be plausible.
 
 use robocal_data::Measurement;
-use robocal_ident::{FAR_FROM_NOMINAL, KinematicCalibration, KinematicSettings, POOR_FIT};
-use robocal_robot::{ParamId, Robot, Unit};
+use robocal_ident::{KinematicCalibration, KinematicSettings, POOR_FIT, far_from_nominal};
+use robocal_robot::Robot;
 
 use super::fit_kinematic;
 use crate::error::Result;
@@ -32,21 +32,11 @@ impl std::fmt::Display for Implausible {
     }
 }
 
-/// Identified link lengths that moved more than [`FAR_FROM_NOMINAL`] mm and 10 % from the
-/// robot file (base and tool left out: their nominal values are guesses).
+/// Identified link lengths that moved far from the robot file (see [`far_from_nominal`]).
 fn far_lengths(fit: &KinematicCalibration, nominal: &Robot) -> Vec<String> {
-    let ids = nominal.param_ids();
-    fit.report
-        .parameters
+    far_from_nominal(&fit.report.parameters, &nominal.param_ids())
         .iter()
-        .zip(&ids)
-        .filter(|(p, id)| {
-            p.identified_flag
-                && id.unit() == Unit::Mm
-                && !matches!(id, ParamId::Base(_) | ParamId::Tool(_))
-                && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
-        })
-        .map(|(p, _)| format!("{} {:.1} → {:.1} mm", p.name, p.nominal, p.identified))
+        .map(|p| format!("{} {:.1} → {:.1} mm", p.name, p.nominal, p.identified))
         .collect()
 }
 
