@@ -643,6 +643,13 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
             assert!(String::from_utf8_lossy(&bytes).contains("<svg"), "{f}");
         }
     }
+    // The per-axis plots say which rows and which frame (the model is in the legend).
+    let axes = std::fs::read_to_string(report.join("axes-lm.svg")).unwrap();
+    assert!(
+        axes.contains("X error, 1224 GB10+GB30 rows, world frame"),
+        "axes-lm.svg"
+    );
+    assert!(axes.contains("after LM"), "axes-lm.svg");
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(report.join("results.json")).unwrap())
             .unwrap();
