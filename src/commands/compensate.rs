@@ -33,16 +33,8 @@ fn frame_to_world(frame: &str, model: &CalibratedModel) -> Result<(Matrix3<f64>,
             let text = std::fs::read_to_string(path).with_context(|| {
                 format!("--frame {file}: not `world`, `base` or a readable user-frame file")
             })?;
-            let user: UserFrame = toml::from_str(&text).map_err(|e| {
-                let f = TomlFault::of(&text, &e);
-                anyhow::anyhow!(
-                    "{}: line {}, column {}: {}",
-                    path.display(),
-                    f.line,
-                    f.column,
-                    f.message
-                )
-            })?;
+            let user: UserFrame =
+                toml::from_str(&text).map_err(|e| TomlFault::of(path, &text, &e))?;
             if user.xyz.iter().chain(&user.rpy).any(|v| !v.is_finite()) {
                 bail!("{}: xyz and rpy must be finite numbers", path.display());
             }

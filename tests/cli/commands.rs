@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::common::{robocal, s, select_rows, twin_rows, write};
+use crate::common::{report, robocal, s, select_rows, twin_rows, write};
 
 use robocal_robot::Robot;
 
@@ -757,10 +757,6 @@ fn simulate(twin: &str, dir: &Path) -> PathBuf {
 fn subset(csv: &Path, name: &str, keep: impl Fn(usize, f64) -> bool) -> PathBuf {
     let text = std::fs::read_to_string(csv).unwrap();
     write(csv.parent().unwrap(), name, &select_rows(&text, keep))
-}
-
-fn report(model: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap()
 }
 
 /// Decision `stage` of a default calibration's report: (kept, reason).

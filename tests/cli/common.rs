@@ -55,3 +55,8 @@ pub fn twin_rows() -> String {
     )
     .unwrap()
 }
+
+/// A model directory's `report.json`.
+pub fn report(model: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap()
+}

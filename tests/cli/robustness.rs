@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::common::{robocal, s, select_rows, twin_rows, write};
+use crate::common::{report, robocal, s, select_rows, twin_rows, write};
 
 const ROBOT: &str = "configs/robots/pmc6va030.toml";
 const STAGE: &str = "configs/stages/compliance.toml";
@@ -55,9 +55,7 @@ fn calibrate(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
 }
 
 fn outliers(model: &Path) -> serde_json::Value {
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap();
-    report["outliers"].clone()
+    report(model)["outliers"].clone()
 }
 
 #[test]

@@ -297,17 +297,15 @@ impl<'a> CalibrationProblem<'a> {
         })
     }
 
-    /// Predicted minus measured coordinates, mm, `3m` entries.
+    /// Predicted minus measured coordinates, mm, `3m` entries (each point's times the root of its
+    /// weight when the problem is weighted).
     pub fn residuals(&self, u: &[f64]) -> Vec<f64> {
-        let robot = self.robot_at(u);
-        let compliance = self.compliance_at(u);
-        let mut r = Vec::with_capacity(3 * self.obs.len());
-        for i in 0..self.obs.len() {
-            let d = (self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i])
-                * self.root_weight(i);
-            r.extend_from_slice(d.as_slice());
-        }
-        r
+        (self.point_errors(u).iter().enumerate())
+            .flat_map(|(i, d)| {
+                let d = d * self.root_weight(i);
+                [d.x, d.y, d.z]
+            })
+            .collect()
     }
 
     /// Residuals and the `3m × k` Jacobian with respect to `u`.

@@ -126,9 +126,8 @@ impl CalibratedModel {
 
     /// Euclidean errors on measured rows, mm.
     pub fn errors(&self, rows: &[&Measurement]) -> Vec<f64> {
-        let predicted = self.predict(rows.iter().map(|m| &m.sample));
-        (predicted.iter().zip(rows))
-            .map(|(p, m)| (p - m.position).norm())
+        (self.residuals(rows.iter().copied()).iter())
+            .map(|r| r.norm())
             .collect()
     }
 

@@ -370,16 +370,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     if compensation && effects == Effects::All && how == Split::Configurations {
                         landings.push((name.to_string(), seed, land(&twin, &model, &test)));
                     }
+                    let (e, h) = label(effects, how);
                     println!(
-                        "| {name} | {seed} | {} | {} | {} | {floor:.4} | {previous:.4} | {kin} | {comp} | {physics} | {gp} | **{default:.4}** | {:+.0} % | {choice} | {secs:.1} |",
-                        match effects {
-                            Effects::All => "all",
-                            Effects::Modelled => "modelled only",
-                        },
-                        match how {
-                            Split::Configurations => "configurations",
-                            Split::Extrapolation => "extrapolation (q1)",
-                        },
+                        "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {previous:.4} | {kin} | {comp} | {physics} | {gp} | **{default:.4}** | {:+.0} % | {choice} | {secs:.1} |",
                         test.len(),
                         100.0 * (default / previous - 1.0),
                     );

@@ -25,17 +25,8 @@ pub enum PipelineError {
         message: String,
     },
     /// A config file is not valid TOML, or has an unknown, missing or mistyped key.
-    #[error("{path}: line {line}, column {column}: {message}")]
-    Toml {
-        /// File at fault.
-        path: PathBuf,
-        /// 1-based line of the offending text.
-        line: usize,
-        /// 1-based column of the offending text.
-        column: usize,
-        /// What the TOML parser said.
-        message: String,
-    },
+    #[error(transparent)]
+    Toml(robocal_robot::TomlFault),
     /// A plot could not be drawn or written.
     #[error("{path}: cannot draw the plot: {message}")]
     Plot {
@@ -78,13 +69,7 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
 impl PipelineError {
     /// The TOML error `err` of the file at `path`, whose text is `text`.
     pub fn toml(path: &std::path::Path, text: &str, err: &toml::de::Error) -> Self {
-        let f = robocal_robot::TomlFault::of(text, err);
-        Self::Toml {
-            path: path.to_path_buf(),
-            line: f.line,
-            column: f.column,
-            message: f.message,
-        }
+        Self::Toml(robocal_robot::TomlFault::of(path, text, err))
     }
 
     /// A setting of the file at `path` with an unacceptable value.

@@ -115,11 +115,7 @@ impl ResidualModel {
         }
         let seed = settings.seed;
         let encoding = settings.encoding;
-        let encoded = |s: &Samples| Samples {
-            inputs: encoding.encode_all(&s.inputs),
-            errors: s.errors.clone(),
-        };
-        let (train_set, validation) = (&encoded(train_set), &encoded(validation));
+        let (train_set, validation) = (&train_set.encoded(encoding), &validation.encoded(encoding));
         let (settings, search) = if settings.kind == ResidualKind::Gp {
             (settings.clone(), Vec::new())
         } else {
@@ -256,11 +252,7 @@ impl ResidualModel {
     /// The share of `samples` (raw input rows, as [`Self::predict`] takes them) whose class
     /// the CA-SOMM gate gets right; `None` without a gate.
     pub fn classifier_accuracy(&self, samples: &Samples) -> Option<f64> {
-        let encoded = Samples {
-            inputs: self.encoding.encode_all(&samples.inputs),
-            errors: samples.errors.clone(),
-        };
-        self.classifier().map(|c| c.accuracy(&encoded))
+        (self.classifier()).map(|c| c.accuracy(&samples.encoded(self.encoding)))
     }
 
     /// The CA-SOMM gate (it classifies encoded rows).

@@ -103,6 +103,14 @@ impl Samples {
             .collect()
     }
 
+    /// The same samples with their inputs as `encoding` presents them.
+    pub fn encoded(&self, encoding: Encoding) -> Self {
+        Self {
+            inputs: encoding.encode_all(&self.inputs),
+            errors: self.errors.clone(),
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.errors.len()

@@ -121,10 +121,13 @@ pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
-/// Where a TOML file went wrong, for any crate's error type: the 1-based line and column of
-/// the offending text and the parser's message on one line.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// Where a TOML file went wrong, for any crate's error type (a variant that wraps it): the file,
+/// the 1-based line and column of the offending text and the parser's message on one line.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}: line {line}, column {column}: {message}", path.display())]
 pub struct TomlFault {
+    /// File at fault.
+    pub path: PathBuf,
     /// 1-based line.
     pub line: usize,
     /// 1-based column.
@@ -134,12 +137,13 @@ pub struct TomlFault {
 }
 
 impl TomlFault {
-    /// The fault of a `toml` deserialisation error in `text`.
-    pub fn of(text: &str, err: &toml::de::Error) -> Self {
+    /// The fault of a `toml` deserialisation error in `text`, the contents of `path`.
+    pub fn of(path: &Path, text: &str, err: &toml::de::Error) -> Self {
         let (line, column) = err
             .span()
             .map_or((1, 1), |span| line_column(text, span.start));
         Self {
+            path: path.to_path_buf(),
             line,
             column,
             message: err.message().trim().replace('\n', " "),
@@ -150,12 +154,13 @@ impl TomlFault {
 /// Turns a `toml` deserialisation error into a [`RobotError::Toml`] naming the file, line and column.
 pub fn toml_error(path: &Path, text: &str, err: &toml::de::Error) -> RobotError {
     let TomlFault {
+        path,
         line,
         column,
         message,
-    } = TomlFault::of(text, err);
+    } = TomlFault::of(path, text, err);
     RobotError::Toml {
-        path: path.to_path_buf(),
+        path,
         line,
         column,
         message,

@@ -316,15 +316,8 @@ impl TwinConfig {
             path: path.to_path_buf(),
             source,
         })?;
-        let raw: RawTwin = toml::from_str(&text).map_err(|e| {
-            let f = TomlFault::of(&text, &e);
-            TwinError::Toml {
-                path: path.to_path_buf(),
-                line: f.line,
-                column: f.column,
-                message: f.message,
-            }
-        })?;
+        let raw: RawTwin =
+            toml::from_str(&text).map_err(|e| TwinError::Toml(TomlFault::of(path, &text, &e)))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let nominal = Robot::load(dir.join(&raw.nominal))?;
         let truth = raw.truth.clone().validate(path, "truth.")?;

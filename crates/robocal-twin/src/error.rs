@@ -14,17 +14,8 @@ pub enum TwinError {
         source: std::io::Error,
     },
     /// The twin file is not valid TOML, or has an unknown, missing or mistyped key.
-    #[error("{path}: line {line}, column {column}: {message}")]
-    Toml {
-        /// File at fault.
-        path: PathBuf,
-        /// 1-based line of the offending text.
-        line: usize,
-        /// 1-based column of the offending text.
-        column: usize,
-        /// What the TOML parser said.
-        message: String,
-    },
+    #[error(transparent)]
+    Toml(robocal_robot::TomlFault),
     /// A robot table (the nominal file, or the embedded truth) is bad.
     #[error(transparent)]
     Robot(#[from] robocal_robot::RobotError),

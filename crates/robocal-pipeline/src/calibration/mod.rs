@@ -125,6 +125,14 @@ pub(crate) fn configurations<'a>(rows: &[&'a Measurement]) -> Vec<&'a str> {
     poses
 }
 
+/// The loads (kg) of `rows`, ascending, each once.
+pub(crate) fn loads(rows: &[&Measurement]) -> Vec<f64> {
+    let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
+    loads.sort_by(f64::total_cmp);
+    loads.dedup();
+    loads
+}
+
 /// Splits `rows` into (kept, held out) by whole configurations: `share` of them (at least one,
 /// never all), drawn by `seed`. `None` when there are fewer than two configurations.
 pub fn hold_out<'a>(

@@ -10,7 +10,7 @@ use robocal_ident::{ComplianceSettings, KinematicSettings};
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::{fit_kinematic, physical_model};
+use super::{fit_kinematic, loads, physical_model};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -74,11 +74,8 @@ pub struct OutlierReport {
 /// of a least-squares fit's errors (a Huber fit hugs the bulk closer, and the same rows then
 /// sit further out); the refits without the flagged rows keep the shots from pulling it.
 fn search_physics(settings: &KinematicSettings, rows: &[&Measurement]) -> KinematicSettings {
-    let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
-    loads.sort_by(f64::total_cmp);
-    loads.dedup();
     let mut s = settings.clone();
-    if loads.len() >= 2 && s.compliance.is_none() {
+    if loads(rows).len() >= 2 && s.compliance.is_none() {
         s.compliance = Some(ComplianceSettings::default());
     }
     s

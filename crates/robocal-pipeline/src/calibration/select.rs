@@ -14,7 +14,9 @@ use serde::Serialize;
 
 use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
 use super::outliers::{OutlierSettings, find_outliers};
-use super::{Built, configurations, configured, fit_kinematic, physical_model, train_residual};
+use super::{
+    Built, configurations, configured, fit_kinematic, loads, physical_model, train_residual,
+};
 use crate::error::Result;
 use crate::stages::Stages;
 
@@ -434,9 +436,7 @@ fn physics_chain(
         compliance_skip: None,
     };
     chain.step("kinematic", score(Physics::RIGID), groups);
-    let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();
-    loads.sort_by(f64::total_cmp);
-    loads.dedup();
+    let loads = loads(rows);
     if loads.len() >= 2 {
         let elastic = Physics {
             compliance: true,
