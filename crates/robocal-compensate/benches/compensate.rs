@@ -38,7 +38,7 @@ fn somm() -> ResidualModel {
             [s, 0.1 * r[2].to_radians().cos(), -0.02 * r[6]]
         })
         .collect();
-    let train = Samples { inputs, errors };
+    let train = Samples::new(inputs, errors);
     let mut settings = ResidualSettings::paper(ResidualKind::Somm, 1);
     for n in &mut settings.axes {
         n.max_epochs = 5;

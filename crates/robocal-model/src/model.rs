@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Sample};
-use robocal_residual::{ResidualModel, inputs_of};
+use robocal_residual::{ClassifierSettings, GatePhysics, ResidualModel, Samples, inputs_of};
 use robocal_robot::{JointErrors, Robot};
 
 /// A calibrated model: the identified table, the joint-error physics identified with it and the
@@ -65,9 +65,23 @@ impl CalibratedModel {
             Some(r) => {
                 let mut row: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
                 row.push(load);
-                Vector3::from(r.predict(&[row])[0])
+                let mut rows = Samples::rows(vec![row]);
+                if let Some(p) = r.gate_physics() {
+                    rows.physics = vec![gate_physics_row(&self.robot, &p, q, load)];
+                }
+                Vector3::from(r.predict(&rows)[0])
             }
             None => Vector3::zeros(),
+        }
+    }
+
+    /// The residual model's rows for `samples`: their inputs and, when its gate reads physics,
+    /// their physics rows ([`gate_physics_row`] with this model's table).
+    pub fn residual_rows(&self, samples: &[&Sample]) -> Samples {
+        let rows = Samples::rows(samples.iter().map(|s| inputs_of(s)).collect());
+        match self.residual.as_ref().and_then(ResidualModel::gate_physics) {
+            Some(p) => rows.with_physics(gate_physics_rows(&self.robot, &p, samples)),
+            None => rows,
         }
     }
 
@@ -99,8 +113,7 @@ impl CalibratedModel {
         let Some(residual) = &self.residual else {
             return (points, None);
         };
-        let inputs: Vec<Vec<f64>> = samples.iter().map(|s| inputs_of(s)).collect();
-        let (mean, std) = residual.predict_with_std(&inputs, sigma);
+        let (mean, std) = residual.predict_with_std(&self.residual_rows(&samples), sigma);
         for (p, e) in points.iter_mut().zip(mean) {
             *p += Vector3::from(e);
         }
@@ -135,4 +148,49 @@ impl CalibratedModel {
     pub fn stats(&self, rows: &[&Measurement]) -> ErrorStats {
         ErrorStats::from_errors(&self.errors(rows))
     }
+}
+
+/// What a CA-SOMM gate reading physics sees of command `q` (rad) under `load` kg, besides the
+/// angles: per joint, the gravity torque that one kilogram at the payload's centre of mass puts
+/// on the joint's axis (N·m per kg: the payload's lever), then the torque of the row's load
+/// (N·m), from `robot`'s table. A joint with play rests on the flank such a torque presses it
+/// to, so the sign of one of these is what splits a bimodal error.
+pub fn gate_physics_row(robot: &Robot, p: &GatePhysics, q: &[f64], load: f64) -> Vec<f64> {
+    let unit = JointErrors::new(
+        vec![0.0; robot.dof()],
+        p.gravity.into(),
+        p.payload_com.into(),
+    );
+    let lever = unit.torques(robot, q, 1.0);
+    let mut row = lever.clone();
+    row.extend(lever.iter().map(|l| l * load));
+    row
+}
+
+/// The gravity and payload a gate reading physics uses: the classifier settings' own, else the
+/// joint-error model's (`joint_errors`), else gravity along −z of the base frame and the
+/// payload at the measured point (`robot`'s tool).
+pub fn resolve_gate_physics(
+    settings: &ClassifierSettings,
+    robot: &Robot,
+    joint_errors: Option<&JointErrors>,
+) -> GatePhysics {
+    let gravity = settings.gravity.unwrap_or_else(|| {
+        joint_errors.map_or([0.0, 0.0, -9.80665], |e| e.gravity.into())
+    });
+    let payload_com = settings.payload_com.unwrap_or_else(|| {
+        joint_errors.map_or(robot.tool, |e| e.payload_com).into()
+    });
+    GatePhysics {
+        gravity,
+        payload_com,
+    }
+}
+
+/// [`gate_physics_row`] of every sample.
+pub fn gate_physics_rows(robot: &Robot, p: &GatePhysics, samples: &[&Sample]) -> Vec<Vec<f64>> {
+    samples
+        .iter()
+        .map(|s| gate_physics_row(robot, p, &s.joints_rad(), s.load))
+        .collect()
 }

@@ -57,6 +57,7 @@ fn full_model() -> CalibratedModel {
                 [0.05 * q[0].sin(), 0.03 * q[1].cos(), 0.01 * s.load]
             })
             .collect(),
+        physics: Vec::new(),
     };
     let mut settings = ResidualSettings::gp(7);
     settings.gp.iterations = 10;

@@ -8,6 +8,7 @@ use std::time::Instant;
 use robocal_data::{ErrorStats, write_dir_atomically, write_text_in};
 use robocal_twin::{BacklashSide, TwinConfig};
 
+use crate::calibration::GateSummary;
 use crate::error::{PipelineError, Result};
 use crate::paper;
 use crate::plots::{draw_all, report_dir};
@@ -417,6 +418,39 @@ fn table5(w: &mut String, o: &Outcome) {
     }
 }
 
+/// One line on a CA-SOMM gate: its classes, what the tree reads, its first splits.
+pub fn gate_line(g: &GateSummary) -> String {
+    let splits: Vec<String> = (g.splits.iter().take(3))
+        .map(|s| format!("{} < {:.3}", s.feature, s.below))
+        .collect();
+    let mut line = format!(
+        "classes A {} rows (mean {} error {:+.3} mm), B {} rows ({:+.3} mm); the tree reads {} inputs and splits first on {}",
+        g.class_rows[0],
+        g.axis.to_uppercase(),
+        g.class_mean_error[0][axis_index(g.axis)],
+        g.class_rows[1],
+        g.class_mean_error[1][axis_index(g.axis)],
+        g.inputs,
+        if splits.is_empty() {
+            "nothing (one leaf)".to_string()
+        } else {
+            splits.join(", then ")
+        }
+    );
+    if let Some(d) = &g.decision {
+        let _ = write!(line, "; {d}");
+    }
+    line
+}
+
+fn axis_index(axis: &str) -> usize {
+    match axis {
+        "y" => 1,
+        "z" => 2,
+        _ => 0,
+    }
+}
+
 /// Table 6: every model on the untrained configurations, and per axis.
 fn table6(w: &mut String, o: &Outcome) {
     let e = &o.experiment;
@@ -511,6 +545,9 @@ fn residual_training(w: &mut String, o: &Outcome, summary: &Summary<'_>) {
                     String::new()
                 }
             );
+            if let Some(g) = &c.gate {
+                let _ = write!(line, "; {}", gate_line(g));
+            }
         }
         residual_lines.push(line);
     }

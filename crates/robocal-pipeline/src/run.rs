@@ -6,18 +6,18 @@ use std::path::Path;
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use robocal_data::{ErrorStats, Invalid, Measurement, MeasurementSet, Observer};
+use robocal_data::{ErrorStats, Invalid, Measurement, MeasurementSet, Observer, Sample};
 use robocal_ident::{
     KinematicCalibration, KinematicReport, KinematicSettings, Observations, align,
     calibrate_kinematics,
 };
-use robocal_model::CalibratedModel;
-use robocal_residual::{ResidualModel, Samples, inputs_of};
+use robocal_model::{CalibratedModel, gate_physics_rows};
+use robocal_residual::{GatePhysics, ResidualModel, Samples, inputs_of};
 use robocal_robot::{ParamId, Robot};
 use robocal_twin::TwinConfig;
 use serde::Serialize;
 
-use crate::calibration::physical_model;
+use crate::calibration::{GateSummary, gate_ready, gate_summary, physical_model};
 use crate::error::{PipelineError, Result};
 use crate::experiment::{DataSource, Experiment};
 use crate::split::{Set, Splits};
@@ -71,10 +71,24 @@ pub fn axis_rms(errors: &[Vector3<f64>], rows: &[usize]) -> [f64; 3] {
 
 /// Residual samples of `rows`: their inputs, and the kinematic errors already computed for every
 /// row (no second pass through the kinematics).
-fn samples(data: &[Measurement], errors: &[Vector3<f64>], rows: &[usize]) -> Samples {
-    Samples {
-        inputs: rows.iter().map(|&i| inputs_of(&data[i].sample)).collect(),
-        errors: rows.iter().map(|&i| errors[i].into()).collect(),
+/// With `gate` (the identified model and the physics of a CA-SOMM gate that reads it), each
+/// row's physics features too.
+fn samples(
+    data: &[Measurement],
+    errors: &[Vector3<f64>],
+    rows: &[usize],
+    gate: Option<(&CalibratedModel, &GatePhysics)>,
+) -> Samples {
+    let s = Samples::new(
+        rows.iter().map(|&i| inputs_of(&data[i].sample)).collect(),
+        rows.iter().map(|&i| errors[i].into()).collect(),
+    );
+    match gate {
+        Some((model, p)) => {
+            let picked: Vec<&Sample> = rows.iter().map(|&i| &data[i].sample).collect();
+            s.with_physics(gate_physics_rows(&model.robot, p, &picked))
+        }
+        None => s,
     }
 }
 
@@ -319,8 +333,12 @@ pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> 
             });
             continue;
         };
-        let train = samples(&data.rows, &kin.errors, &train_rows);
-        let val = samples(&data.rows, &kin.errors, &val_rows);
+        let physical = physical_model(&kin.calibration);
+        let settings = gate_ready(&stage.settings, &physical);
+        let physics = settings.classifier.physics();
+        let gate = physics.as_ref().map(|p| (&physical, p));
+        let train = samples(&data.rows, &kin.errors, &train_rows, gate);
+        let val = samples(&data.rows, &kin.errors, &val_rows, gate);
         if train.is_empty() || val.is_empty() {
             return Err(key_error(
                 experiment,
@@ -345,12 +363,12 @@ pub fn run(experiment: &Experiment, observer: &dyn Observer) -> Result<Outcome> 
             ResidualModel::max_epochs(&stage.settings),
         );
         let r0 = Instant::now();
-        let model = ResidualModel::fit(&stage.settings, &train, &val, observer);
+        let model = ResidualModel::fit(&settings, &train, &val, observer);
         observer.finish();
         let model = model?;
         let residual_seconds = r0.elapsed().as_secs_f64();
-        let inputs: Vec<Vec<f64>> = data.rows.iter().map(|m| inputs_of(&m.sample)).collect();
-        let predicted = model.predict(&inputs);
+        let every: Vec<usize> = (0..data.rows.len()).collect();
+        let predicted = model.predict(&samples(&data.rows, &kin.errors, &every, gate));
         let errors: Vec<Vector3<f64>> = kin
             .errors
             .iter()
@@ -516,6 +534,8 @@ pub struct ClassifierSummary {
     pub threshold: f64,
     /// Accuracy on GA10 (training), GB20 (validation), test.
     pub accuracy: BTreeMap<String, f64>,
+    /// Its classes, what it reads and splits on.
+    pub gate: Option<GateSummary>,
 }
 
 /// One parameter of Table 4.
@@ -573,13 +593,32 @@ impl Outcome {
             .collect()
     }
 
+    /// The CA-SOMM gate of a model, summarised on its training rows (GA10).
+    fn gate(&self, model: &ModelRun) -> Option<GateSummary> {
+        let kin = &self.kinematics[model.kinematic];
+        let residual = model.residual.as_ref()?;
+        let physical = physical_model(&kin.calibration);
+        let physics = residual.gate_physics();
+        let train = samples(
+            &self.data.rows,
+            &kin.errors,
+            &self.rows("GA10"),
+            physics.as_ref().map(|p| (&physical, p)),
+        );
+        gate_summary(residual, self.nominal.dof(), &train)
+    }
+
     /// Classifier accuracy of a model on a group.
     fn accuracy(&self, model: &ModelRun, group: &str) -> Option<f64> {
-        let errors = &self.kinematics[model.kinematic].errors;
-        (model.residual.as_ref()?).classifier_accuracy(&samples(
+        let kin = &self.kinematics[model.kinematic];
+        let residual = model.residual.as_ref()?;
+        let physical = physical_model(&kin.calibration);
+        let physics = residual.gate_physics();
+        residual.classifier_accuracy(&samples(
             &self.data.rows,
-            errors,
+            &kin.errors,
             &self.rows(group),
+            physics.as_ref().map(|p| (&physical, p)),
         ))
     }
 
@@ -711,6 +750,7 @@ impl Outcome {
                                     .iter()
                                     .filter_map(|g| Some((g.to_string(), self.accuracy(m, g)?)))
                                     .collect(),
+                                gate: self.gate(m),
                             }
                         }),
                         residual_seconds: m.residual_seconds,

@@ -30,7 +30,7 @@ fn samples(n: usize, seed: u64) -> Samples {
             [s, 0.1 * r[2].to_radians().cos(), -0.02 * r[6]]
         })
         .collect();
-    Samples { inputs, errors }
+    Samples::new(inputs, errors)
 }
 
 /// The paper's settings, every network trained for exactly 200 epochs (no early stop).
@@ -75,8 +75,8 @@ fn model() -> (Robot, ResidualModel) {
 #[divan::bench]
 fn predict_one_sample_kinematics_plus_somm(b: Bencher) {
     let (robot, model) = model();
-    let input = vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]];
-    let q: Vec<f64> = input[0][..6].iter().map(|d: &f64| d.to_radians()).collect();
+    let input = Samples::rows(vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]]);
+    let q: Vec<f64> = input.inputs[0][..6].iter().map(|d: &f64| d.to_radians()).collect();
     b.bench_local(|| {
         let p = robot.point(black_box(&q));
         let e = model.predict(black_box(&input))[0];
@@ -87,8 +87,9 @@ fn predict_one_sample_kinematics_plus_somm(b: Bencher) {
 #[divan::bench(sample_count = 20)]
 fn predict_batch_10000_kinematics_plus_somm(b: Bencher) {
     let (robot, model) = model();
-    let inputs = samples(10_000, 5).inputs;
+    let inputs = samples(10_000, 5);
     let qs: Vec<Vec<f64>> = inputs
+        .inputs
         .iter()
         .map(|r| r[..6].iter().map(|d| d.to_radians()).collect())
         .collect();
@@ -123,7 +124,7 @@ fn gp_model(rows: usize) -> ResidualModel {
 #[divan::bench(args = [1000, 2500])]
 fn gp_predict_one_sample(b: Bencher, rows: usize) {
     let model = gp_model(rows);
-    let input = vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]];
+    let input = Samples::rows(vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]]);
     b.bench_local(|| model.predict(black_box(&input))[0]);
 }
 
@@ -131,7 +132,7 @@ fn gp_predict_one_sample(b: Bencher, rows: usize) {
 #[divan::bench(args = [1000, 2500])]
 fn gp_predict_one_sample_with_sigma(b: Bencher, rows: usize) {
     let model = gp_model(rows);
-    let input = vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]];
+    let input = Samples::rows(vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]]);
     let _ = model.predict_with_std(&input, true);
     b.bench_local(|| model.predict_with_std(black_box(&input), true).1);
 }

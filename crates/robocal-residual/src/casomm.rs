@@ -11,7 +11,9 @@ use linfa_trees::DecisionTree;
 use ndarray::{Array1, Array2};
 use robocal_data::Observer;
 
-use crate::classifier::{Classifier, ClassifierSettings, PerClass, two_means_threshold};
+use crate::classifier::{
+    Classifier, ClassifierSettings, GateInputs, PerClass, gate_rows, two_means_threshold,
+};
 use crate::error::{ResidualError, Result};
 use crate::mlp::NetSettings;
 use crate::model::Residual;
@@ -29,16 +31,28 @@ pub struct CaSomm {
 }
 
 impl CaSomm {
-    /// Splits the training rows into classes, fits the tree on `features`-long encoded rows and
-    /// trains each class's networks (class A seeded like a SOMM, class B with offset 10).
+    /// Splits the training rows into classes, fits the tree on the rows it reads (from the
+    /// encoded `train_set` and the `raw` training samples: see [`gate_rows`]) and trains each
+    /// class's networks (class A seeded like a SOMM, class B with offset 10).
+    #[expect(clippy::too_many_arguments, reason = "the training data in its two forms")]
     pub fn fit(
         c: &ClassifierSettings,
         axes: &[NetSettings; 3],
         train_set: &Samples,
         validation: &Samples,
+        raw: &Samples,
         seed: u64,
         progress: &dyn Observer,
     ) -> Result<Self> {
+        let inputs = c.gate_inputs();
+        let physics = c.physics();
+        if inputs == GateInputs::Physics
+            && (physics.is_none() || raw.physics.len() != raw.inputs.len())
+        {
+            return Err(ResidualError::Data(
+                "a classifier reading physics needs the payload's centre of mass, gravity and one physics row per sample".into(),
+            ));
+        }
         let axis = c.axis.index();
         let values: Vec<f64> = train_set.errors.iter().map(|e| e[axis]).collect();
         let threshold = two_means_threshold(&values).ok_or_else(|| {
@@ -51,8 +65,9 @@ impl CaSomm {
             .iter()
             .map(|v| usize::from(*v >= threshold))
             .collect();
-        let features = train_set.inputs.first().map_or(0, Vec::len);
-        let x = Array2::from_shape_fn((train_set.len(), features), |(i, j)| train_set.inputs[i][j]);
+        let rows = gate_rows(inputs, &train_set.inputs, raw);
+        let features = rows.first().map_or(0, Vec::len);
+        let x = Array2::from_shape_fn((rows.len(), features), |(i, j)| rows[i][j]);
         let data = Dataset::new(x, Array1::from_vec(labels.clone()));
         let tree = DecisionTree::params()
             .max_depth(Some(c.max_depth))
@@ -65,9 +80,15 @@ impl CaSomm {
             tree,
             gate: c.gate,
             leaf_share_b: BTreeMap::new(),
+            inputs,
+            physics,
+            class_rows: [
+                labels.iter().filter(|l| **l == 0).count(),
+                labels.iter().filter(|l| **l == 1).count(),
+            ],
         };
         let mut counts: BTreeMap<String, (usize, usize)> = BTreeMap::new();
-        for (row, label) in train_set.inputs.iter().zip(&labels) {
+        for (row, label) in rows.iter().zip(&labels) {
             let n = counts.entry(classifier.leaf_path(row)).or_default();
             n.0 += 1;
             n.1 += label;
@@ -121,9 +142,14 @@ impl CaSomm {
 }
 
 impl Residual for CaSomm {
-    fn predict(&self, inputs: &[Vec<f64>], _std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+    fn predict(
+        &self,
+        inputs: &[Vec<f64>],
+        raw: &Samples,
+        _std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
         let mut out = vec![[0.0; 3]; inputs.len()];
-        let share = self.classifier.share_b(inputs);
+        let share = self.classifier.share_b(&self.classifier.rows(inputs, raw));
         for (class, set) in self.sets.iter().enumerate() {
             let weight = |i: usize| if class == 1 { share[i] } else { 1.0 - share[i] };
             let keep: Vec<usize> = (0..inputs.len()).filter(|&i| weight(i) > 0.0).collect();

@@ -8,7 +8,7 @@ use linfa_trees::DecisionTree;
 use ndarray::Array2;
 use serde::{Deserialize, Serialize};
 
-use crate::samples::Samples;
+use crate::samples::{Encoding, Samples};
 
 /// A world axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -77,6 +77,78 @@ pub struct ClassifierSettings {
     /// both sets share).
     #[serde(default)]
     pub per_class: PerClass,
+    /// What the tree reads: `model` (the residual model's own inputs: the paper's raw angles
+    /// and load under the paper's defaults), `periodic` (sin and cos of every angle, and the
+    /// load) or `physics` (periodic, plus the gravity torque that the payload puts on each
+    /// joint and that torque per kg, from the identified table). Absent: `model` under the
+    /// paper's defaults, `physics` under robocal's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inputs: Option<GateInputs>,
+    /// The payload's centre of mass in the flange frame (mm) for the `physics` inputs; absent:
+    /// the joint-error model's, else the measured point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub payload_com: Option<[f64; 3]>,
+    /// Gravity in the robot base frame (m/s²) for the `physics` inputs; absent: the
+    /// joint-error model's, else `[0, 0, -9.80665]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<[f64; 3]>,
+    /// Whether to keep one class when two do not pay: a SOMM is trained on every row beside
+    /// the two sets, and the one with the lower mean error on the validation rows is kept.
+    /// Absent: no under the paper's defaults (its CA-SOMM as printed), yes under robocal's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fallback: Option<bool>,
+}
+
+/// What the CA-SOMM tree reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GateInputs {
+    /// The residual model's encoded inputs (the paper's: raw angles and the load).
+    #[default]
+    Model,
+    /// `sin q, cos q` of every angle, then the load.
+    Periodic,
+    /// [`GateInputs::Periodic`], then per joint the gravity lever of the payload (N·m per kg)
+    /// and its torque under the row's load (N·m): the flank a joint with play rests on is set
+    /// by the sign of such a torque.
+    Physics,
+}
+
+impl GateInputs {
+    /// Every kind, in order.
+    pub const ALL: [Self; 3] = [Self::Model, Self::Periodic, Self::Physics];
+
+    /// Features the tree reads for a residual model of `inputs` raw inputs (the joints, then
+    /// the load) that encodes them with `encoding`.
+    pub fn features(self, encoding: Encoding, inputs: usize) -> usize {
+        match self {
+            Self::Model => encoding.features(inputs),
+            Self::Periodic => Encoding::Periodic.features(inputs),
+            Self::Physics => {
+                Encoding::Periodic.features(inputs) + 2 * inputs.saturating_sub(1)
+            }
+        }
+    }
+
+    /// Name in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Model => "model",
+            Self::Periodic => "periodic",
+            Self::Physics => "physics",
+        }
+    }
+}
+
+/// Where the `physics` gate's gravity torques come from, as resolved when the model was trained
+/// and saved with it (prediction computes the same features).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GatePhysics {
+    /// Gravity in the robot base frame {0}, m/s².
+    pub gravity: [f64; 3],
+    /// The payload's centre of mass in the flange frame, mm.
+    pub payload_com: [f64; 3],
 }
 
 /// Which axes CA-SOMM models per class.
@@ -109,6 +181,28 @@ impl Default for ClassifierSettings {
             min_samples_leaf: default_leaf(),
             gate: Gate::Hard,
             per_class: PerClass::All,
+            inputs: None,
+            payload_com: None,
+            gravity: None,
+            fallback: None,
+        }
+    }
+}
+
+impl ClassifierSettings {
+    /// What the tree reads (`model` when not resolved).
+    pub fn gate_inputs(&self) -> GateInputs {
+        self.inputs.unwrap_or_default()
+    }
+
+    /// The physics the tree reads, when it reads physics and both quantities are resolved.
+    pub fn physics(&self) -> Option<GatePhysics> {
+        match (self.gate_inputs(), self.gravity, self.payload_com) {
+            (GateInputs::Physics, Some(gravity), Some(payload_com)) => Some(GatePhysics {
+                gravity,
+                payload_com,
+            }),
+            _ => None,
         }
     }
 }
@@ -129,6 +223,15 @@ pub struct Classifier {
     /// the root (`l`/`r` per split; the root alone is `""`).
     #[serde(default)]
     pub leaf_share_b: BTreeMap<String, f64>,
+    /// What the tree reads.
+    #[serde(default)]
+    pub inputs: GateInputs,
+    /// The gravity and payload the `physics` inputs were computed with.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub physics: Option<GatePhysics>,
+    /// Training rows in class A and in class B.
+    #[serde(default)]
+    pub class_rows: [usize; 2],
 }
 
 impl Classifier {
@@ -160,6 +263,18 @@ impl Classifier {
                     node.split().0
                 ));
             }
+        }
+        let physics_ok = match (self.inputs, &self.physics) {
+            (GateInputs::Physics, Some(p)) => {
+                p.gravity.iter().chain(&p.payload_com).all(|v| v.is_finite())
+            }
+            (GateInputs::Physics, None) => false,
+            (_, p) => p.is_none(),
+        };
+        if !physics_ok {
+            return Err(
+                "classifier: `physics` (finite gravity and payload_com) goes with inputs = \"physics\" and only with it".into(),
+            );
         }
         if self.leaf_share_b.values().any(|v| !(0.0..=1.0).contains(v)) {
             return Err("classifier: leaf_share_b values must lie in 0..1".into());
@@ -218,18 +333,98 @@ impl Classifier {
             .collect()
     }
 
-    /// Fraction of samples whose predicted class is the true one.
-    pub fn accuracy(&self, samples: &Samples) -> f64 {
+    /// The rows the tree reads, from the model's `encoded` rows and the `raw` samples (their
+    /// input rows and, for the `physics` inputs, their physics rows).
+    pub fn rows(&self, encoded: &[Vec<f64>], raw: &Samples) -> Vec<Vec<f64>> {
+        gate_rows(self.inputs, encoded, raw)
+    }
+
+    /// Fraction of samples whose predicted class is the true one; `rows` are the tree's rows
+    /// of the samples ([`Self::rows`]).
+    pub fn accuracy(&self, rows: &[Vec<f64>], samples: &Samples) -> f64 {
         if samples.is_empty() {
             return f64::NAN;
         }
         let hit = self
-            .classify(&samples.inputs)
+            .classify(rows)
             .iter()
             .zip(self.truth(samples))
             .filter(|(p, t)| **p == *t)
             .count();
         hit as f64 / samples.len() as f64
+    }
+}
+
+/// The rows a tree reading `inputs` sees, from the model's `encoded` rows and the `raw`
+/// samples. `physics` rows must be present for [`GateInputs::Physics`] (the caller's contract:
+/// the calibrated model and the pipeline compute them).
+pub fn gate_rows(inputs: GateInputs, encoded: &[Vec<f64>], raw: &Samples) -> Vec<Vec<f64>> {
+    match inputs {
+        GateInputs::Model => encoded.to_vec(),
+        GateInputs::Periodic => Encoding::Periodic.encode_all(&raw.inputs),
+        GateInputs::Physics => {
+            assert_eq!(
+                raw.physics.len(),
+                raw.inputs.len(),
+                "a gate reading physics needs one physics row per input row"
+            );
+            (raw.inputs.iter().zip(&raw.physics))
+                .map(|(row, physics)| {
+                    let mut out = Encoding::Periodic.encode(row);
+                    out.extend_from_slice(physics);
+                    out
+                })
+                .collect()
+        }
+    }
+}
+
+/// The names of the features a tree reading `inputs` sees, for a robot of `joints` joints
+/// whose residual model encodes its inputs with `encoding`.
+pub fn gate_feature_names(inputs: GateInputs, encoding: Encoding, joints: usize) -> Vec<String> {
+    let periodic = || -> Vec<String> {
+        let mut v: Vec<String> = (1..=joints)
+            .flat_map(|j| [format!("sin q{j}"), format!("cos q{j}")])
+            .collect();
+        v.push("load".into());
+        v
+    };
+    match (inputs, encoding) {
+        (GateInputs::Model, Encoding::Raw) => {
+            let mut v: Vec<String> = (1..=joints).map(|j| format!("q{j}")).collect();
+            v.push("load".into());
+            v
+        }
+        (GateInputs::Model | GateInputs::Periodic, _) => periodic(),
+        (GateInputs::Physics, _) => {
+            let mut v = periodic();
+            v.extend((1..=joints).map(|j| format!("payload lever j{j}")));
+            v.extend((1..=joints).map(|j| format!("payload torque j{j}")));
+            v
+        }
+    }
+}
+
+impl Classifier {
+    /// The tree's splits from the root, breadth first: (feature index, threshold, depth).
+    pub fn splits(&self) -> Vec<(usize, f64, usize)> {
+        let mut out = Vec::new();
+        let mut level = vec![self.tree.root_node()];
+        let mut depth = 0;
+        while !level.is_empty() {
+            let mut next = Vec::new();
+            for node in level {
+                if node.is_leaf() {
+                    continue;
+                }
+                let (feature, value, _) = node.split();
+                out.push((feature, value, depth));
+                next.extend(node.children().into_iter().filter_map(|c| c.as_deref()));
+            }
+            level = next;
+            depth += 1;
+        }
+        out
     }
 }
 

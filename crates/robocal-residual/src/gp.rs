@@ -468,7 +468,12 @@ impl GpResidual {
 }
 
 impl Residual for GpResidual {
-    fn predict(&self, encoded: &[Vec<f64>], std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+    fn predict(
+        &self,
+        encoded: &[Vec<f64>],
+        _raw: &Samples,
+        std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
         self.predict_rows(encoded, std)
     }
 }

@@ -30,7 +30,10 @@ pub mod somm;
 pub mod stage;
 
 pub use casomm::CaSomm;
-pub use classifier::{Axis, Classifier, ClassifierSettings, Gate, PerClass, two_means_threshold};
+pub use classifier::{
+    Axis, Classifier, ClassifierSettings, Gate, GateInputs, GatePhysics, PerClass, gate_feature_names,
+    gate_rows, two_means_threshold,
+};
 pub use error::{ResidualError, Result};
 pub use gp::{GpAxis, GpResidual, GpSettings};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Schedule, Split, TrainReport, train};

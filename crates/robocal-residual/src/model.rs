@@ -14,7 +14,7 @@
 use robocal_data::{Observer, Silent};
 
 use crate::casomm::CaSomm;
-use crate::classifier::Classifier;
+use crate::classifier::{Classifier, GatePhysics};
 use crate::error::{ResidualError, Result};
 use crate::gp::GpResidual;
 use crate::mlp::NetSettings;
@@ -29,7 +29,13 @@ use crate::somm::Somm;
 pub trait Residual {
     /// Predicted error (mm, world X/Y/Z) for each encoded input row, and — for a model that
     /// knows how sure it is, when `std` is asked for — each axis's standard deviation (mm).
-    fn predict(&self, encoded: &[Vec<f64>], std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>);
+    /// `raw` holds the same rows unencoded, with their physics rows (what a gate may read).
+    fn predict(
+        &self,
+        encoded: &[Vec<f64>],
+        raw: &Samples,
+        std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>);
 
     /// Its networks, in the order they are saved (none for a model without networks).
     fn nets(&self) -> Vec<&AxisNet> {
@@ -87,11 +93,15 @@ pub struct ResidualModel {
     pub search: Vec<SearchLog>,
     /// The model.
     pub fitted: Fitted,
+    /// CA-SOMM with a fallback: whether two classes or one were kept, and the validation
+    /// errors that decided it.
+    pub gate_decision: Option<String>,
 }
 
 impl ResidualModel {
-    /// Trains the model `settings` describe on `train_set`, early-stopping on `validation`.
-    /// `progress` advances by one per epoch of every network.
+    /// Trains the model `settings` describe on `train_set`, early-stopping on `validation`
+    /// (raw input rows; with their physics rows when a gate reads physics). `progress`
+    /// advances by one per epoch of every network.
     pub fn fit(
         settings: &ResidualSettings,
         train_set: &Samples,
@@ -115,6 +125,7 @@ impl ResidualModel {
         }
         let seed = settings.seed;
         let encoding = settings.encoding;
+        let (raw_train, raw_validation) = (train_set, validation);
         let (train_set, validation) = (&train_set.encoded(encoding), &validation.encoded(encoding));
         let (settings, search) = if settings.kind == ResidualKind::Gp {
             (settings.clone(), Vec::new())
@@ -142,17 +153,59 @@ impl ResidualModel {
                 &settings.axes,
                 train_set,
                 validation,
+                raw_train,
                 seed,
                 progress,
             )?),
             ResidualKind::Gp => Fitted::Gp(GpResidual::fit(&settings.gp, train_set, seed)?),
         };
-        Ok(Self {
+        let mut model = Self {
             inputs,
             encoding,
             search,
             fitted,
-        })
+            gate_decision: None,
+        };
+        if settings.kind == ResidualKind::CaSomm
+            && settings.classifier.fallback == Some(true)
+            && !validation.is_empty()
+        {
+            model.keep_classes_that_pay(&settings, train_set, raw_validation, progress);
+        }
+        Ok(model)
+    }
+
+    /// CA-SOMM's fallback: a SOMM trained on every row beside the two sets; the one with the
+    /// lower mean error on the validation rows is kept, and the decision recorded.
+    fn keep_classes_that_pay(
+        &mut self,
+        settings: &ResidualSettings,
+        train_set: &Samples,
+        raw_validation: &Samples,
+        progress: &dyn Observer,
+    ) {
+        let encoded = raw_validation.encoded(self.encoding);
+        let somm = Somm::fit(&settings.axes, train_set, &encoded, settings.seed, 0, progress);
+        let mean = |predicted: Vec<[f64; 3]>| {
+            let left = raw_validation.remaining(Some(&predicted));
+            left.iter().sum::<f64>() / left.len().max(1) as f64
+        };
+        let two = mean(self.predict(raw_validation));
+        let one = mean(somm.predict(&encoded.inputs, raw_validation, false).0);
+        let accuracy = self.classifier_accuracy(raw_validation).unwrap_or(f64::NAN);
+        let rows = raw_validation.len();
+        if one <= two {
+            self.gate_decision = Some(format!(
+                "one class kept: a SOMM on every row leaves {one:.4} mm mean on the {rows} validation rows, the two classes {two:.4} mm (classifier accuracy {:.1} %)",
+                100.0 * accuracy
+            ));
+            self.fitted = Fitted::Somm(somm);
+        } else {
+            self.gate_decision = Some(format!(
+                "two classes kept: they leave {two:.4} mm mean on the {rows} validation rows, a SOMM on every row {one:.4} mm (classifier accuracy {:.1} %)",
+                100.0 * accuracy
+            ));
+        }
     }
 
     /// The settings after the TPE search `settings.search` asks for (each network searched on
@@ -222,21 +275,28 @@ impl ResidualModel {
         }) as u64
     }
 
-    /// Predicted error (mm, world X/Y/Z) for each input row.
-    pub fn predict(&self, inputs: &[Vec<f64>]) -> Vec<[f64; 3]> {
-        self.predict_with_std(inputs, false).0
+    /// Predicted error (mm, world X/Y/Z) for each row of `rows` (raw input rows, and their
+    /// physics rows when the gate reads physics: [`Self::gate_physics`]; errors not read).
+    pub fn predict(&self, rows: &Samples) -> Vec<[f64; 3]> {
+        self.predict_with_std(rows, false).0
     }
 
-    /// Predicted error (mm, world X/Y/Z) for each input row, and — for a model that knows how
-    /// sure it is (the GP) and when `std` is asked for — the standard deviation of each axis's
+    /// Predicted error (mm, world X/Y/Z) for each row, and — for a model that knows how sure
+    /// it is (the GP) and when `std` is asked for — the standard deviation of each axis's
     /// correction (mm).
     pub fn predict_with_std(
         &self,
-        inputs: &[Vec<f64>],
+        rows: &Samples,
         std: bool,
     ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
-        let encoded = self.encoding.encode_all(inputs);
-        self.fitted.model().predict(&encoded, std)
+        let encoded = self.encoding.encode_all(&rows.inputs);
+        self.fitted.model().predict(&encoded, rows, std)
+    }
+
+    /// The gravity and payload a gate reading physics was trained with: the caller computes
+    /// each row's physics features with them before [`Self::predict`]. `None`: no such gate.
+    pub fn gate_physics(&self) -> Option<GatePhysics> {
+        self.classifier().and_then(|c| c.physics)
     }
 
     /// Which model.
@@ -252,7 +312,10 @@ impl ResidualModel {
     /// The share of `samples` (raw input rows, as [`Self::predict`] takes them) whose class
     /// the CA-SOMM gate gets right; `None` without a gate.
     pub fn classifier_accuracy(&self, samples: &Samples) -> Option<f64> {
-        (self.classifier()).map(|c| c.accuracy(&samples.encoded(self.encoding)))
+        (self.classifier()).map(|c| {
+            let encoded = self.encoding.encode_all(&samples.inputs);
+            c.accuracy(&c.rows(&encoded, samples), samples)
+        })
     }
 
     /// The CA-SOMM gate (it classifies encoded rows).

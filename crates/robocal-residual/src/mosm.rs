@@ -37,7 +37,12 @@ impl Mosm {
 }
 
 impl Residual for Mosm {
-    fn predict(&self, encoded: &[Vec<f64>], _std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+    fn predict(
+        &self,
+        encoded: &[Vec<f64>],
+        _raw: &Samples,
+        _std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
         let mut out = vec![[0.0; 3]; encoded.len()];
         self.net.predict_into(encoded, &mut out);
         (out, None)

@@ -51,6 +51,8 @@ struct Manifest {
     encoding: Encoding,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     gp: Option<GpResidual>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    gate_decision: Option<String>,
 }
 
 /// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
@@ -107,6 +109,7 @@ impl ResidualModel {
             search: self.search.clone(),
             encoding: self.encoding,
             gp: self.gp().cloned(),
+            gate_decision: self.gate_decision.clone(),
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
@@ -172,7 +175,8 @@ impl ResidualModel {
         }
         let features = m.encoding.features(m.inputs);
         if let Some(c) = &m.classifier {
-            c.check(features).map_err(format)?;
+            c.check(c.inputs.features(m.encoding, m.inputs))
+                .map_err(format)?;
         }
         if let Some(gp) = &m.gp {
             gp.check(features).map_err(format)?;
@@ -256,6 +260,7 @@ impl ResidualModel {
             encoding: m.encoding,
             search: m.search,
             fitted,
+            gate_decision: m.gate_decision,
         })
     }
 }

@@ -11,8 +11,11 @@ use serde::{Deserialize, Serialize};
 pub struct Samples {
     /// Input rows, all of one length.
     pub inputs: Vec<Vec<f64>>,
-    /// Errors, mm.
+    /// Errors, mm (empty for rows to predict).
     pub errors: Vec<[f64; 3]>,
+    /// What the identified model knows about each row that a gate reading physics needs
+    /// ([`GateInputs::Physics`](crate::GateInputs)): empty, or one row per input row.
+    pub physics: Vec<Vec<f64>>,
 }
 
 /// The residual model's input row for a sample: joint angles (deg), then the load (kg).
@@ -103,30 +106,58 @@ impl Samples {
             .collect()
     }
 
+    /// Samples of known errors, no physics rows.
+    pub fn new(inputs: Vec<Vec<f64>>, errors: Vec<[f64; 3]>) -> Self {
+        Self {
+            inputs,
+            errors,
+            physics: Vec::new(),
+        }
+    }
+
+    /// Rows to predict: inputs, no errors.
+    pub fn rows(inputs: Vec<Vec<f64>>) -> Self {
+        Self::new(inputs, Vec::new())
+    }
+
+    /// The same samples with each row's physics features.
+    pub fn with_physics(mut self, physics: Vec<Vec<f64>>) -> Self {
+        self.physics = physics;
+        self
+    }
+
     /// The same samples with their inputs as `encoding` presents them.
     pub fn encoded(&self, encoding: Encoding) -> Self {
         Self {
             inputs: encoding.encode_all(&self.inputs),
-            errors: self.errors.clone(),
+            ..self.clone()
         }
     }
 
-    /// Number of samples.
+    /// Number of samples (input rows).
     pub fn len(&self) -> usize {
-        self.errors.len()
+        self.inputs.len()
     }
 
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
-        self.errors.is_empty()
+        self.inputs.is_empty()
     }
 
     pub(crate) fn subset(&self, keep: &[bool]) -> Self {
         let pick = |i: &usize| keep[*i];
         let idx: Vec<usize> = (0..self.len()).filter(pick).collect();
+        let rows = |v: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            if v.is_empty() {
+                Vec::new()
+            } else {
+                idx.iter().map(|&i| v[i].clone()).collect()
+            }
+        };
         Self {
-            inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
-            errors: idx.iter().map(|&i| self.errors[i]).collect(),
+            inputs: rows(&self.inputs),
+            errors: idx.iter().filter_map(|&i| self.errors.get(i).copied()).collect(),
+            physics: rows(&self.physics),
         }
     }
 }

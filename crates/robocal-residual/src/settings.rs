@@ -3,7 +3,7 @@
 use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
-use crate::classifier::ClassifierSettings;
+use crate::classifier::{ClassifierSettings, GateInputs};
 use crate::error::{ResidualError, Result};
 use crate::gp::GpSettings;
 use crate::mlp::NetSettings;
@@ -83,7 +83,11 @@ impl ResidualSettings {
                 NetSettings::paper_z(),
             ],
             mosm: NetSettings::paper_z(),
-            classifier: ClassifierSettings::default(),
+            classifier: ClassifierSettings {
+                inputs: Some(GateInputs::Model),
+                fallback: Some(false),
+                ..ClassifierSettings::default()
+            },
             search: None,
             gp: GpSettings::default(),
             encoding: Encoding::Raw,
@@ -92,7 +96,8 @@ impl ResidualSettings {
     }
 
     /// robocal's settings for `kind`: periodic inputs and [`NetSettings::robocal`] networks
-    /// (every axis, each CA-SOMM set, the MOSM network); the paper's classifier.
+    /// (every axis, each CA-SOMM set, the MOSM network); the paper's tree reading physics
+    /// ([`GateInputs::Physics`]), with a fallback to one class when two do not pay.
     pub fn robocal(kind: ResidualKind, seed: u64) -> Self {
         Self {
             axes: [
@@ -102,6 +107,11 @@ impl ResidualSettings {
             ],
             mosm: NetSettings::robocal(),
             encoding: Encoding::Periodic,
+            classifier: ClassifierSettings {
+                inputs: Some(GateInputs::Physics),
+                fallback: Some(true),
+                ..ClassifierSettings::default()
+            },
             ..Self::paper(kind, seed)
         }
     }
@@ -127,6 +137,22 @@ impl ResidualSettings {
         self.gp.check().map_err(|e| e.within("gp"))?;
         if self.classifier.max_depth == 0 {
             return Err(Invalid::new("classifier.max_depth", "must be at least 1"));
+        }
+        if let Some(c) = self.classifier.payload_com
+            && c.iter().any(|v| !v.is_finite())
+        {
+            return Err(Invalid::new(
+                "classifier.payload_com",
+                "must be finite (mm, flange frame)",
+            ));
+        }
+        if let Some(g) = self.classifier.gravity
+            && (g.iter().any(|v| !v.is_finite()) || g.iter().all(|v| *v == 0.0))
+        {
+            return Err(Invalid::new(
+                "classifier.gravity",
+                "must be a finite, non-zero vector (m/s², robot base frame)",
+            ));
         }
         Ok(())
     }

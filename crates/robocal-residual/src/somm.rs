@@ -61,7 +61,12 @@ impl Somm {
 }
 
 impl Residual for Somm {
-    fn predict(&self, encoded: &[Vec<f64>], _std: bool) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+    fn predict(
+        &self,
+        encoded: &[Vec<f64>],
+        _raw: &Samples,
+        _std: bool,
+    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
         let mut out = vec![[0.0; 3]; encoded.len()];
         self.predict_into(encoded, &mut out);
         (out, None)

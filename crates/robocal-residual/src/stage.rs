@@ -107,7 +107,13 @@ impl RawResidualStage {
             settings.mosm = s.clone();
         }
         if let Some(c) = &self.classifier {
-            settings.classifier = c.clone();
+            // What the table leaves out of the gate comes from the defaults too.
+            let defaults = &settings.classifier;
+            settings.classifier = ClassifierSettings {
+                inputs: c.inputs.or(defaults.inputs),
+                fallback: c.fallback.or(defaults.fallback),
+                ..c.clone()
+            };
         }
         settings.search = self.search.clone();
         settings.validate().map_err(|e| e.within("residual"))?;

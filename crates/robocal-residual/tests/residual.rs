@@ -29,7 +29,7 @@ fn samples(n: usize, seed: u64, f: impl Fn(&[f64]) -> [f64; 3]) -> Samples {
         .map(|_| (0..7).map(|_| rng.random_range(-1.0..1.0)).collect())
         .collect();
     let errors = inputs.iter().map(|r| f(r)).collect();
-    Samples { inputs, errors }
+    Samples::new(inputs, errors)
 }
 
 fn smooth(x: &[f64]) -> f64 {
@@ -37,7 +37,7 @@ fn smooth(x: &[f64]) -> f64 {
 }
 
 fn rms(model: &ResidualModel, s: &Samples, axis: usize) -> f64 {
-    let p = model.predict(&s.inputs);
+    let p = model.predict(&s);
     (p.iter()
         .zip(&s.errors)
         .map(|(p, e)| (p[axis] - e[axis]).powi(2))
@@ -80,12 +80,12 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
     let s = somm(settings(vec![8, 8], 3e-3, 4), 11);
     let a = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     let b = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
-    let (pa, pb) = (a.predict(&val.inputs), b.predict(&val.inputs));
+    let (pa, pb) = (a.predict(&val), b.predict(&val));
     assert_eq!(pa, pb, "same seed, same model");
     let dir = tempfile::tempdir().unwrap();
     a.save(dir.path()).unwrap();
     let loaded = ResidualModel::load(dir.path()).unwrap();
-    let pl = loaded.predict(&val.inputs);
+    let pl = loaded.predict(&val);
     for (x, y) in pa.iter().flatten().zip(pl.iter().flatten()) {
         assert_eq!(x.to_bits(), y.to_bits());
     }
@@ -102,7 +102,7 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
     }
     // A different seed gives a different model.
     let c = ResidualModel::fit(&ResidualSettings { seed: 12, ..s }, &train, &val, &Silent).unwrap();
-    assert_ne!(c.predict(&val.inputs), pa);
+    assert_ne!(c.predict(&val), pa);
 }
 
 #[test]
@@ -129,7 +129,7 @@ fn early_stopping_stops_and_keeps_the_best_epoch() {
     // The model returned is the best epoch's: its validation loss (standardised MSE over all
     // three outputs, recomputed here) equals the best recorded.
     let net = &model.nets()[0];
-    let p = model.predict(&val.inputs);
+    let p = model.predict(&val);
     let mse: f64 = p
         .iter()
         .zip(&val.errors)
@@ -163,12 +163,11 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     let gated = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     let again = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     assert_eq!(
-        again.predict(&test.inputs),
-        gated.predict(&test.inputs),
+        again.predict(&test),
+        gated.predict(&test),
         "CA-SOMM training is deterministic too"
     );
-    let classifier = gated.classifier().unwrap();
-    let accuracy = classifier.accuracy(&test);
+    let accuracy = gated.classifier_accuracy(&test).unwrap();
     assert!(accuracy > 0.95, "classification accuracy {accuracy}");
     let (e_plain, e_gated) = (rms(&plain, &test, 0), rms(&gated, &test, 0));
     assert!(
@@ -179,7 +178,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     let dir = tempfile::tempdir().unwrap();
     gated.save(dir.path()).unwrap();
     let loaded = ResidualModel::load(dir.path()).unwrap();
-    assert_eq!(loaded.predict(&test.inputs), gated.predict(&test.inputs));
+    assert_eq!(loaded.predict(&test), gated.predict(&test));
 
     // The soft gate weights the sets by the class shares of the leaf: shares are those of the
     // training rows (counted here independently), and where a leaf is pure it predicts exactly
@@ -201,7 +200,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
         assert!(!rows.is_empty());
         assert_eq!(*share, b as f64 / rows.len() as f64, "leaf {leaf}");
     }
-    let (hard_p, soft_p) = (gated.predict(&test.inputs), soft.predict(&test.inputs));
+    let (hard_p, soft_p) = (gated.predict(&test), soft.predict(&test));
     let shares = c.share_b(&test.inputs);
     let pure = shares.iter().filter(|p| **p == 0.0 || **p == 1.0).count();
     assert!(pure > 0, "some leaf is pure on this separable set");
@@ -214,7 +213,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     assert_eq!(
         ResidualModel::load(dir.path())
             .unwrap()
-            .predict(&test.inputs),
+            .predict(&test),
         soft_p
     );
     // A tampered tree (linfa would index out of bounds or unwrap a missing branch) is refused.
@@ -232,8 +231,8 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     let mut axis_only = s.clone();
     axis_only.classifier.per_class = PerClass::Axis;
     let m = ResidualModel::fit(&axis_only, &train, &val, &Silent).unwrap();
-    let plain_p = plain.predict(&test.inputs);
-    let m_p = m.predict(&test.inputs);
+    let plain_p = plain.predict(&test);
+    let m_p = m.predict(&test);
     for (a, b) in m_p.iter().zip(&plain_p) {
         assert_eq!(a[1], b[1], "Y is the SOMM network trained on every row");
         assert_eq!(a[2], b[2]);
@@ -361,7 +360,7 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
             })
             .collect();
         let errors = inputs.iter().map(|r| f(r)).collect();
-        Samples { inputs, errors }
+        Samples::new(inputs, errors)
     };
     let train = make(300, 1, 90.0);
     let test = make(100, 2, 90.0);
@@ -380,8 +379,8 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
     let dir = tempfile::tempdir().unwrap();
     model.save(dir.path()).unwrap();
     let loaded = ResidualModel::load(dir.path()).unwrap();
-    let (a, sa) = model.predict_with_std(&test.inputs, true);
-    let (b, sb) = loaded.predict_with_std(&test.inputs, true);
+    let (a, sa) = model.predict_with_std(&test, true);
+    let (b, sb) = loaded.predict_with_std(&test, true);
     assert_eq!(a, b);
     assert_eq!(sa, sb);
     // Far outside the trained joint range (±170° on every joint), the model is less sure.
@@ -391,7 +390,7 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
         .into_iter()
         .filter(|r| r[..6].iter().any(|q| q.abs() > 120.0))
         .collect();
-    let (_, s_far) = model.predict_with_std(&far, true);
+    let (_, s_far) = model.predict_with_std(&Samples::rows(far), true);
     let mean = |s: &[[f64; 3]]| s.iter().map(|v| v[0]).sum::<f64>() / s.len() as f64;
     assert!(mean(&s_far.unwrap()) > 2.0 * mean(&sa.unwrap()));
     // The networks give no standard deviation.
@@ -419,7 +418,7 @@ fn weight_decay_shrinks_the_fit_and_robocal_networks_learn() {
         samples(300, 23, f),
     );
     let spread = |m: &ResidualModel| {
-        let p: Vec<f64> = m.predict(&test.inputs).iter().map(|p| p[0]).collect();
+        let p: Vec<f64> = m.predict(&test).iter().map(|p| p[0]).collect();
         let mean = p.iter().sum::<f64>() / p.len() as f64;
         (p.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / p.len() as f64).sqrt()
     };
@@ -443,5 +442,5 @@ fn weight_decay_shrinks_the_fit_and_robocal_networks_learn() {
     ours.save(dir.path()).unwrap();
     let back = ResidualModel::load(dir.path()).unwrap();
     assert_eq!(back.nets()[0].settings, NetSettings::robocal());
-    assert_eq!(back.predict(&test.inputs), ours.predict(&test.inputs));
+    assert_eq!(back.predict(&test), ours.predict(&test));
 }

@@ -26,8 +26,11 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, Observer, Sample};
 use robocal_ident::{KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics};
-use robocal_model::CalibratedModel;
-use robocal_residual::{ResidualModel, ResidualStage, Samples, SearchLog};
+use robocal_model::{CalibratedModel, gate_physics_rows, resolve_gate_physics};
+use robocal_residual::{
+    GateInputs, ResidualKind, ResidualModel, ResidualSettings, ResidualStage, Samples, SearchLog,
+    gate_feature_names,
+};
 use robocal_robot::Robot;
 use serde::Serialize;
 
@@ -92,11 +95,45 @@ pub struct ResidualReport {
     pub classifier_accuracy_training: Option<f64>,
     /// See `classifier_accuracy_training`.
     pub classifier_accuracy_validation: Option<f64>,
+    /// CA-SOMM: its classes, what the tree reads and splits on, and whether two classes paid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gate: Option<GateSummary>,
     /// TPE searches that chose the settings (when the stage asked for one).
     pub search: Vec<SearchLog>,
     /// The Gaussian process of each axis (a GP residual).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub gp: Vec<GpSummary>,
+}
+
+/// The CA-SOMM gate, in the report.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct GateSummary {
+    /// The world axis whose error splits the classes.
+    pub axis: &'static str,
+    /// Training errors on that axis at or above this (mm) are class B.
+    pub threshold: f64,
+    /// What the tree reads: `model`, `periodic` or `physics`.
+    pub inputs: &'static str,
+    /// Training rows in class A and class B.
+    pub class_rows: [usize; 2],
+    /// Mean X, Y, Z error of each class's training rows, mm.
+    pub class_mean_error: [[f64; 3]; 2],
+    /// The tree's splits, root first: the feature and the value below which a row goes left.
+    pub splits: Vec<GateSplit>,
+    /// With a fallback: whether two classes or one were kept, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decision: Option<String>,
+}
+
+/// One split of the CA-SOMM tree.
+#[derive(Debug, Clone, Serialize)]
+pub struct GateSplit {
+    /// 0 at the root.
+    pub depth: usize,
+    /// The feature it reads (`payload torque j4`, `sin q1`, `load`, …).
+    pub feature: String,
+    /// Rows below this value go left.
+    pub below: f64,
 }
 
 /// One axis's Gaussian process, in the report.
@@ -179,6 +216,66 @@ pub fn fit_kinematic(
     Ok(calibrate_kinematics(nominal, &obs, settings)?)
 }
 
+/// `settings` with a CA-SOMM gate's physics resolved against `base` (its table and joint
+/// errors: [`resolve_gate_physics`]); unchanged for any other model or gate.
+pub fn gate_ready(settings: &ResidualSettings, base: &CalibratedModel) -> ResidualSettings {
+    let mut settings = settings.clone();
+    if settings.kind == ResidualKind::CaSomm
+        && settings.classifier.gate_inputs() == GateInputs::Physics
+    {
+        let p = resolve_gate_physics(
+            &settings.classifier,
+            &base.robot,
+            base.joint_errors.as_ref(),
+        );
+        settings.classifier.gravity = Some(p.gravity);
+        settings.classifier.payload_com = Some(p.payload_com);
+    }
+    settings
+}
+
+/// The CA-SOMM gate in the report: its classes, what it reads and splits on, and whether two
+/// classes paid (`None` for any other model).
+pub fn gate_summary(model: &ResidualModel, joints: usize, train: &Samples) -> Option<GateSummary> {
+    let decision = model.gate_decision.clone();
+    let Some(c) = model.classifier() else {
+        return decision.map(|d| GateSummary {
+            decision: Some(d),
+            ..GateSummary::default()
+        });
+    };
+    let names = gate_feature_names(c.inputs, model.encoding, joints);
+    let splits = c
+        .splits()
+        .into_iter()
+        .map(|(f, value, depth)| GateSplit {
+            depth,
+            feature: names.get(f).cloned().unwrap_or_else(|| format!("input {f}")),
+            below: value,
+        })
+        .collect();
+    let mut class_means = [[0.0; 3]; 2];
+    let truth = c.truth(train);
+    for (class, means) in class_means.iter_mut().enumerate() {
+        let rows: Vec<&[f64; 3]> = (train.errors.iter().zip(&truth))
+            .filter(|(_, t)| **t == class)
+            .map(|(e, _)| e)
+            .collect();
+        for (a, m) in means.iter_mut().enumerate() {
+            *m = rows.iter().map(|e| e[a]).sum::<f64>() / rows.len().max(1) as f64;
+        }
+    }
+    Some(GateSummary {
+        axis: ["x", "y", "z"][c.axis.min(2)],
+        threshold: c.threshold,
+        inputs: c.inputs.name(),
+        class_rows: c.class_rows,
+        class_mean_error: class_means,
+        splits,
+        decision,
+    })
+}
+
 /// Trains a residual stage on what `base` leaves of `train`; early stopping on `validation`
 /// (rows and where they came from), or on a hold-out of whole configurations of `train`.
 pub fn train_residual(
@@ -189,19 +286,27 @@ pub fn train_residual(
     observer: &dyn Observer,
 ) -> Result<(ResidualModel, ResidualReport)> {
     let seed = stage.settings.seed;
+    let settings = gate_ready(&stage.settings, base);
+    let physics = settings.classifier.physics();
     let model = |s: &Sample| base.base_point(s);
+    let make = |rows: &[&Measurement]| {
+        let samples = Samples::from_model(model, rows.iter().copied());
+        match &physics {
+            Some(p) => {
+                let s: Vec<&Sample> = rows.iter().map(|m| &m.sample).collect();
+                samples.with_physics(gate_physics_rows(&base.robot, p, &s))
+            }
+            None => samples,
+        }
+    };
     let (train, val, source) = match validation {
-        Some((v, source)) => (
-            Samples::from_model(model, train.iter().copied()),
-            Samples::from_model(model, v.iter().copied()),
-            source,
-        ),
-        None if !stage.settings.kind.early_stops() => (
-            Samples::from_model(model, train.iter().copied()),
+        Some((v, source)) => (make(train), make(v), source),
+        None if !settings.kind.early_stops() => (
+            make(train),
             Samples::default(),
             format!(
                 "none: a {} needs no early stopping and trains on every row",
-                stage.settings.kind.name()
+                settings.kind.name()
             ),
         ),
         None => {
@@ -210,18 +315,14 @@ pub fn train_residual(
                     "the residual stage needs a --validate file or at least two configurations to hold one out".into(),
                 ));
             };
-            (
-                Samples::from_model(model, t),
-                Samples::from_model(model, v),
-                how,
-            )
+            (make(&t), make(&v), how)
         }
     };
     observer.start(
         "residual, epochs (at most)",
         ResidualModel::max_epochs(&stage.settings),
     );
-    let fitted = ResidualModel::fit(&stage.settings, &train, &val, observer);
+    let fitted = ResidualModel::fit(&settings, &train, &val, observer);
     observer.finish();
     let fitted = fitted?;
     let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
@@ -242,11 +343,12 @@ pub fn train_residual(
             })
             .collect(),
         training_before: left(&train, None),
-        training_after: left(&train, Some(&fitted.predict(&train.inputs))),
+        training_after: left(&train, Some(&fitted.predict(&train))),
         validation_before: (!val.is_empty()).then(|| left(&val, None)),
-        validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val.inputs)))),
+        validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val)))),
         classifier_accuracy_training: fitted.classifier_accuracy(&train),
         classifier_accuracy_validation: fitted.classifier_accuracy(&val),
+        gate: gate_summary(&fitted, base.dof(), &train),
         search: fitted.search.clone(),
         gp: fitted.gp().map_or_else(Vec::new, |g| {
             (g.axes.iter().zip(["x", "y", "z"]))
