@@ -2,7 +2,9 @@
 
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Sample};
-use robocal_residual::{ClassifierSettings, GatePhysics, ResidualModel, Samples, inputs_of};
+use robocal_residual::{
+    ClassifierSettings, GatePhysics, PHYSICS_PER_JOINT, ResidualModel, Samples, inputs_of,
+};
 use robocal_robot::{JointErrors, Robot};
 
 /// A calibrated model: the identified table, the joint-error physics identified with it and the
@@ -151,10 +153,12 @@ impl CalibratedModel {
 }
 
 /// What a CA-SOMM gate reading physics sees of command `q` (rad) under `load` kg, besides the
-/// angles: per joint, the gravity torque that one kilogram at the payload's centre of mass puts
-/// on the joint's axis (N·m per kg: the payload's lever), then the torque of the row's load
-/// (N·m), from `robot`'s table. A joint with play rests on the flank such a torque presses it
-/// to, so the sign of one of these is what splits a bimodal error.
+/// angles, from `robot`'s table: per joint, the gravity torque that one kilogram at the
+/// payload's centre of mass puts on the joint's axis (N·m per kg: the payload's lever); the
+/// torque of the row's load (N·m); then the world X, Y and Z motion of the measured point per
+/// degree of the joint (mm/deg). A joint with play rests on the flank such a torque presses it
+/// to, and the point jumps along that joint's motion: a class of the error along one world axis
+/// is the sign of a torque times the sign of a motion.
 pub fn gate_physics_row(robot: &Robot, p: &GatePhysics, q: &[f64], load: f64) -> Vec<f64> {
     let unit = JointErrors::new(
         vec![0.0; robot.dof()],
@@ -162,8 +166,13 @@ pub fn gate_physics_row(robot: &Robot, p: &GatePhysics, q: &[f64], load: f64) ->
         p.payload_com.into(),
     );
     let lever = unit.torques(robot, q, 1.0);
+    let jacobian = robot.joint_jacobian(q);
     let mut row = lever.clone();
     row.extend(lever.iter().map(|l| l * load));
+    for axis in 0..3 {
+        row.extend((0..robot.dof()).map(|j| jacobian[(axis, j)].to_radians()));
+    }
+    debug_assert_eq!(row.len(), PHYSICS_PER_JOINT * robot.dof());
     row
 }
 

@@ -424,12 +424,20 @@ pub fn gate_line(g: &GateSummary) -> String {
         .map(|s| format!("{} < {:.3}", s.feature, s.below))
         .collect();
     let mut line = format!(
-        "classes A {} rows (mean {} error {:+.3} mm), B {} rows ({:+.3} mm); the tree reads {} inputs and splits first on {}",
+        "{} classes A {} rows (mean {} error {:+.3} mm), B {} rows ({:+.3} mm); the tree (depth ≤ {}, ≥ {} rows a leaf{}) reads {} inputs and splits first on {}",
+        g.classes,
         g.class_rows[0],
         g.axis.to_uppercase(),
         g.class_mean_error[0][axis_index(g.axis)],
         g.class_rows[1],
         g.class_mean_error[1][axis_index(g.axis)],
+        g.tree[0],
+        g.tree[1],
+        if g.tree_searched > 0 {
+            format!(", the best of {} on the validation rows", g.tree_searched)
+        } else {
+            String::new()
+        },
         g.inputs,
         if splits.is_empty() {
             "nothing (one leaf)".to_string()

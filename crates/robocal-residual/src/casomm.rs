@@ -12,7 +12,8 @@ use ndarray::{Array1, Array2};
 use robocal_data::Observer;
 
 use crate::classifier::{
-    Classifier, ClassifierSettings, GateInputs, PerClass, gate_rows, two_means_threshold,
+    ClassRule, Classifier, ClassifierSettings, GateInputs, PerClass, gate_rows,
+    two_means_threshold,
 };
 use crate::error::{ResidualError, Result};
 use crate::mlp::NetSettings;
@@ -20,6 +21,11 @@ use crate::model::Residual;
 use crate::net::AxisNet;
 use crate::samples::Samples;
 use crate::somm::Somm;
+
+/// Depths a tree search tries ([`ClassifierSettings::tree_search`]).
+pub const TREE_DEPTHS: [usize; 7] = [2, 3, 4, 6, 8, 10, 12];
+/// Fewest rows per leaf a tree search tries, largest first (simpler trees first among equals).
+pub const TREE_LEAVES: [usize; 5] = [66, 40, 20, 10, 5];
 
 /// The gate and the two model sets.
 #[derive(Debug, Clone)]
@@ -41,6 +47,7 @@ impl CaSomm {
         train_set: &Samples,
         validation: &Samples,
         raw: &Samples,
+        raw_validation: &Samples,
         seed: u64,
         progress: &dyn Observer,
     ) -> Result<Self> {
@@ -61,7 +68,7 @@ impl CaSomm {
                 c.axis
             ))
         })?;
-        let labels: Vec<usize> = values
+        let mut labels: Vec<usize> = values
             .iter()
             .map(|v| usize::from(*v >= threshold))
             .collect();
@@ -69,11 +76,41 @@ impl CaSomm {
         let features = rows.first().map_or(0, Vec::len);
         let x = Array2::from_shape_fn((rows.len(), features), |(i, j)| rows[i][j]);
         let data = Dataset::new(x, Array1::from_vec(labels.clone()));
-        let tree = DecisionTree::params()
-            .max_depth(Some(c.max_depth))
-            .min_weight_leaf(c.min_samples_leaf as f32)
-            .fit(&data)
-            .map_err(|e| ResidualError::Data(format!("classifier: {e}")))?;
+        let grow = |depth: usize, leaf: usize| {
+            DecisionTree::params()
+                .max_depth(Some(depth))
+                .min_weight_leaf(leaf as f32)
+                .fit(&data)
+                .map_err(|e| ResidualError::Data(format!("classifier: {e}")))
+        };
+        // The tree's size: as given, or the grid point whose tree classifies the validation
+        // rows best (the smallest tree among equals).
+        let mut size = (c.max_depth, c.min_samples_leaf);
+        let mut search = Vec::new();
+        if c.tree_search == Some(true) && !raw_validation.is_empty() {
+            let val_rows = gate_rows(inputs, &validation.inputs, raw_validation);
+            let val_x = Array2::from_shape_fn(
+                (val_rows.len(), features),
+                |(i, j)| val_rows[i][j],
+            );
+            let truth: Vec<usize> = (raw_validation.errors.iter())
+                .map(|e| usize::from(e[axis] >= threshold))
+                .collect();
+            let mut best = f64::NEG_INFINITY;
+            for &depth in &TREE_DEPTHS {
+                for &leaf in &TREE_LEAVES {
+                    let predicted = grow(depth, leaf)?.predict(&val_x);
+                    let hit = predicted.iter().zip(&truth).filter(|(p, t)| p == t).count();
+                    let accuracy = hit as f64 / truth.len() as f64;
+                    search.push((depth, leaf, accuracy));
+                    if accuracy > best {
+                        best = accuracy;
+                        size = (depth, leaf);
+                    }
+                }
+            }
+        }
+        let tree = grow(size.0, size.1)?;
         let mut classifier = Classifier {
             axis,
             threshold,
@@ -86,6 +123,10 @@ impl CaSomm {
                 labels.iter().filter(|l| **l == 0).count(),
                 labels.iter().filter(|l| **l == 1).count(),
             ],
+            classes: c.classes.unwrap_or_default(),
+            max_depth: size.0,
+            min_samples_leaf: size.1,
+            tree_search: search,
         };
         let mut counts: BTreeMap<String, (usize, usize)> = BTreeMap::new();
         for (row, label) in rows.iter().zip(&labels) {
@@ -97,13 +138,22 @@ impl CaSomm {
             .into_iter()
             .map(|(leaf, (n, b))| (leaf, b as f64 / n as f64))
             .collect();
+        let routed = c.classes == Some(ClassRule::Routed);
+        if routed {
+            labels = classifier.classify(&rows);
+            classifier.class_rows = [
+                labels.iter().filter(|l| **l == 0).count(),
+                labels.iter().filter(|l| **l == 1).count(),
+            ];
+        }
         let in_b: Vec<bool> = labels.iter().map(|l| *l == 1).collect();
         let in_a: Vec<bool> = in_b.iter().map(|b| !b).collect();
-        let val_b: Vec<bool> = classifier
-            .truth(validation)
-            .iter()
-            .map(|l| *l == 1)
-            .collect();
+        let val_labels = if routed {
+            classifier.classify(&gate_rows(inputs, &validation.inputs, raw_validation))
+        } else {
+            classifier.truth(raw_validation)
+        };
+        let val_b: Vec<bool> = val_labels.iter().map(|l| *l == 1).collect();
         let val_a: Vec<bool> = val_b.iter().map(|b| !b).collect();
         for (name, keep) in [("A", &in_a), ("B", &in_b)] {
             if keep.iter().filter(|k| **k).count() < 2 {

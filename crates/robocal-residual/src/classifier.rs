@@ -97,7 +97,48 @@ pub struct ClassifierSettings {
     /// Absent: no under the paper's defaults (its CA-SOMM as printed), yes under robocal's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fallback: Option<bool>,
+    /// Which rows each class's networks train on: `threshold` (the paper: the rows on each side
+    /// of the two-means threshold of the axis's error) or `routed` (the threshold's classes
+    /// teach the tree; each set then trains on the rows the tree sends it). Absent: `threshold`
+    /// under the paper's defaults, `routed` under robocal's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub classes: Option<ClassRule>,
+    /// Whether to choose the tree's depth and fewest rows per leaf from a grid
+    /// ([`TREE_DEPTHS`](crate::casomm::TREE_DEPTHS) × [`TREE_LEAVES`](crate::casomm::TREE_LEAVES))
+    /// by its accuracy on the validation rows, instead of `max_depth` and `min_samples_leaf`.
+    /// Absent: no under the paper's defaults, yes under robocal's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tree_search: Option<bool>,
 }
+
+/// How CA-SOMM's two classes are made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClassRule {
+    /// The two-means threshold of the axis's error (the paper's).
+    #[default]
+    Threshold,
+    /// The threshold's classes teach the tree; each set then trains on the rows the tree sends
+    /// it, as it will see them when predicting (a row whose error crosses the threshold for a
+    /// reason the inputs cannot tell is left where the tree puts it).
+    Routed,
+}
+
+impl ClassRule {
+    /// Name in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Threshold => "threshold",
+            Self::Routed => "routed",
+        }
+    }
+}
+
+/// Physics features per joint that a gate reading physics gets (computed by the model that
+/// knows the robot): the payload's lever (N·m/kg), its torque (N·m), and the measured point's
+/// world X, Y, Z motion per degree of the joint (mm/deg), in that order, each block over every
+/// joint.
+pub const PHYSICS_PER_JOINT: usize = 5;
 
 /// What the CA-SOMM tree reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -125,7 +166,7 @@ impl GateInputs {
             Self::Model => encoding.features(inputs),
             Self::Periodic => Encoding::Periodic.features(inputs),
             Self::Physics => {
-                Encoding::Periodic.features(inputs) + 2 * inputs.saturating_sub(1)
+                Encoding::Periodic.features(inputs) + PHYSICS_PER_JOINT * inputs.saturating_sub(1)
             }
         }
     }
@@ -185,6 +226,8 @@ impl Default for ClassifierSettings {
             payload_com: None,
             gravity: None,
             fallback: None,
+            classes: None,
+            tree_search: None,
         }
     }
 }
@@ -232,6 +275,19 @@ pub struct Classifier {
     /// Training rows in class A and in class B.
     #[serde(default)]
     pub class_rows: [usize; 2],
+    /// Which rows each class's networks trained on.
+    #[serde(default)]
+    pub classes: ClassRule,
+    /// The tree's depth limit.
+    #[serde(default)]
+    pub max_depth: usize,
+    /// The tree's fewest training rows per leaf.
+    #[serde(default)]
+    pub min_samples_leaf: usize,
+    /// The tree search: (depth, fewest rows per leaf, validation accuracy) of every grid point
+    /// tried (empty without a search).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tree_search: Vec<(usize, usize, f64)>,
 }
 
 impl Classifier {
@@ -324,7 +380,16 @@ impl Classifier {
             .collect()
     }
 
-    /// The true class of each sample, from its error.
+    /// The class each sample's networks trained on: the tree's class (routed) or the side of
+    /// the threshold. `encoded`: the samples' inputs as the model encodes them.
+    pub fn training_classes(&self, encoded: &[Vec<f64>], samples: &Samples) -> Vec<usize> {
+        match self.classes {
+            ClassRule::Routed => self.classify(&self.rows(encoded, samples)),
+            ClassRule::Threshold => self.truth(samples),
+        }
+    }
+
+    /// The true class of each sample, from its error: the side of the threshold.
     pub fn truth(&self, samples: &Samples) -> Vec<usize> {
         samples
             .errors
@@ -400,6 +465,9 @@ pub fn gate_feature_names(inputs: GateInputs, encoding: Encoding, joints: usize)
             let mut v = periodic();
             v.extend((1..=joints).map(|j| format!("payload lever j{j}")));
             v.extend((1..=joints).map(|j| format!("payload torque j{j}")));
+            for axis in ["X", "Y", "Z"] {
+                v.extend((1..=joints).map(|j| format!("{axis} motion per degree of j{j}")));
+            }
             v
         }
     }

@@ -31,7 +31,8 @@ pub mod stage;
 
 pub use casomm::CaSomm;
 pub use classifier::{
-    Axis, Classifier, ClassifierSettings, Gate, GateInputs, GatePhysics, PerClass, gate_feature_names,
+    Axis, ClassRule, Classifier, ClassifierSettings, Gate, GateInputs, GatePhysics, PHYSICS_PER_JOINT,
+    PerClass, gate_feature_names,
     gate_rows, two_means_threshold,
 };
 pub use error::{ResidualError, Result};

@@ -154,6 +154,7 @@ impl ResidualModel {
                 train_set,
                 validation,
                 raw_train,
+                raw_validation,
                 seed,
                 progress,
             )?),

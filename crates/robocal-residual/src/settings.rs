@@ -3,7 +3,7 @@
 use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
-use crate::classifier::{ClassifierSettings, GateInputs};
+use crate::classifier::{ClassRule, ClassifierSettings, GateInputs};
 use crate::error::{ResidualError, Result};
 use crate::gp::GpSettings;
 use crate::mlp::NetSettings;
@@ -86,6 +86,8 @@ impl ResidualSettings {
             classifier: ClassifierSettings {
                 inputs: Some(GateInputs::Model),
                 fallback: Some(false),
+                classes: Some(ClassRule::Threshold),
+                tree_search: Some(false),
                 ..ClassifierSettings::default()
             },
             search: None,
@@ -110,6 +112,8 @@ impl ResidualSettings {
             classifier: ClassifierSettings {
                 inputs: Some(GateInputs::Physics),
                 fallback: Some(true),
+                classes: Some(ClassRule::Routed),
+                tree_search: Some(true),
                 ..ClassifierSettings::default()
             },
             ..Self::paper(kind, seed)

@@ -112,6 +112,8 @@ impl RawResidualStage {
             settings.classifier = ClassifierSettings {
                 inputs: c.inputs.or(defaults.inputs),
                 fallback: c.fallback.or(defaults.fallback),
+                classes: c.classes.or(defaults.classes),
+                tree_search: c.tree_search.or(defaults.tree_search),
                 ..c.clone()
             };
         }

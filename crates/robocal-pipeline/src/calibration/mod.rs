@@ -114,8 +114,14 @@ pub struct GateSummary {
     pub threshold: f64,
     /// What the tree reads: `model`, `periodic` or `physics`.
     pub inputs: &'static str,
+    /// Which rows each class's networks trained on: `threshold` or `routed`.
+    pub classes: &'static str,
     /// Training rows in class A and class B.
     pub class_rows: [usize; 2],
+    /// The tree's depth limit and fewest rows per leaf.
+    pub tree: [usize; 2],
+    /// Whether the tree's size was chosen on the validation rows (from how many grid points).
+    pub tree_searched: usize,
     /// Mean X, Y, Z error of each class's training rows, mm.
     pub class_mean_error: [[f64; 3]; 2],
     /// The tree's splits, root first: the feature and the value below which a row goes left.
@@ -255,7 +261,7 @@ pub fn gate_summary(model: &ResidualModel, joints: usize, train: &Samples) -> Op
         })
         .collect();
     let mut class_means = [[0.0; 3]; 2];
-    let truth = c.truth(train);
+    let truth = c.training_classes(&model.encoding.encode_all(&train.inputs), train);
     for (class, means) in class_means.iter_mut().enumerate() {
         let rows: Vec<&[f64; 3]> = (train.errors.iter().zip(&truth))
             .filter(|(_, t)| **t == class)
@@ -269,7 +275,10 @@ pub fn gate_summary(model: &ResidualModel, joints: usize, train: &Samples) -> Op
         axis: ["x", "y", "z"][c.axis.min(2)],
         threshold: c.threshold,
         inputs: c.inputs.name(),
+        classes: c.classes.name(),
         class_rows: c.class_rows,
+        tree: [c.max_depth, c.min_samples_leaf],
+        tree_searched: c.tree_search.len(),
         class_mean_error: class_means,
         splits,
         decision,
