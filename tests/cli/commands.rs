@@ -413,7 +413,7 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
          [residual.x]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
          [residual.y]\nhidden = [8]\nactivation = \"relu\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
          [residual.z]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.classifier]\nmin_samples_leaf = 10\n",
+         [residual.classifier]\nmin_samples_leaf = 10\nfallback = false\n",
     );
     let model = dir.path().join("model");
     let o = robocal(&[

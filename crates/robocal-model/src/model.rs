@@ -184,12 +184,12 @@ pub fn resolve_gate_physics(
     robot: &Robot,
     joint_errors: Option<&JointErrors>,
 ) -> GatePhysics {
-    let gravity = settings.gravity.unwrap_or_else(|| {
-        joint_errors.map_or([0.0, 0.0, -9.80665], |e| e.gravity.into())
-    });
-    let payload_com = settings.payload_com.unwrap_or_else(|| {
-        joint_errors.map_or(robot.tool, |e| e.payload_com).into()
-    });
+    let gravity = settings
+        .gravity
+        .unwrap_or_else(|| joint_errors.map_or([0.0, 0.0, -9.80665], |e| e.gravity.into()));
+    let payload_com = settings
+        .payload_com
+        .unwrap_or_else(|| joint_errors.map_or(robot.tool, |e| e.payload_com).into());
     GatePhysics {
         gravity,
         payload_com,

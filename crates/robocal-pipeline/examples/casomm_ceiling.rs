@@ -20,7 +20,7 @@ use std::path::Path;
 use robocal_data::Silent;
 use robocal_model::gate_physics_rows;
 use robocal_pipeline::{Experiment, physical_model, run};
-use robocal_residual::{Residual, ResidualSettings, ResidualKind, Samples, Somm, inputs_of};
+use robocal_residual::{Residual, ResidualKind, ResidualSettings, Samples, Somm, inputs_of};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -83,8 +83,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let by_flank = |i: usize| flank[i];
     let by_jump = |i: usize| jump_x[i] > 0.0;
-    let oracles: [(&str, &dyn Fn(usize) -> bool); 2] =
-        [("the flank", &by_flank), ("the sign of the X jump", &by_jump)];
+    let oracles: [(&str, &dyn Fn(usize) -> bool); 2] = [
+        ("the flank", &by_flank),
+        ("the sign of the X jump", &by_jump),
+    ];
     for (name, class) in oracles {
         let sets: Vec<Somm> = [false, true]
             .iter()
@@ -112,8 +114,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let mean = test.iter().map(|&i| m.errors[i].norm()).sum::<f64>() / test.len() as f64;
         println!("{}: Table 6 mean {mean:.3} mm", m.name);
-        let Some(residual) = &m.residual else { continue };
-        let Some(c) = residual.classifier() else { continue };
+        let Some(residual) = &m.residual else {
+            continue;
+        };
+        let Some(c) = residual.classifier() else {
+            continue;
+        };
         let kin = &o.kinematics[m.kinematic];
         let picked: Vec<&robocal_data::Sample> = test.iter().map(|&i| &rows[i].sample).collect();
         let mut raw = Samples::new(

@@ -76,7 +76,10 @@ fn model() -> (Robot, ResidualModel) {
 fn predict_one_sample_kinematics_plus_somm(b: Bencher) {
     let (robot, model) = model();
     let input = Samples::rows(vec![vec![10.0, -50.0, -20.0, 30.0, 45.0, -60.0, 5.0]]);
-    let q: Vec<f64> = input.inputs[0][..6].iter().map(|d: &f64| d.to_radians()).collect();
+    let q: Vec<f64> = input.inputs[0][..6]
+        .iter()
+        .map(|d: &f64| d.to_radians())
+        .collect();
     b.bench_local(|| {
         let p = robot.point(black_box(&q));
         let e = model.predict(black_box(&input))[0];

@@ -12,8 +12,7 @@ use ndarray::{Array1, Array2};
 use robocal_data::Observer;
 
 use crate::classifier::{
-    ClassRule, Classifier, ClassifierSettings, GateInputs, PerClass, gate_rows,
-    two_means_threshold,
+    ClassRule, Classifier, ClassifierSettings, GateInputs, PerClass, gate_rows, two_means_threshold,
 };
 use crate::error::{ResidualError, Result};
 use crate::mlp::NetSettings;
@@ -40,7 +39,10 @@ impl CaSomm {
     /// Splits the training rows into classes, fits the tree on the rows it reads (from the
     /// encoded `train_set` and the `raw` training samples: see [`gate_rows`]) and trains each
     /// class's networks (class A seeded like a SOMM, class B with offset 10).
-    #[expect(clippy::too_many_arguments, reason = "the training data in its two forms")]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the training data in its two forms"
+    )]
     pub fn fit(
         c: &ClassifierSettings,
         axes: &[NetSettings; 3],
@@ -89,10 +91,7 @@ impl CaSomm {
         let mut search = Vec::new();
         if c.tree_search == Some(true) && !raw_validation.is_empty() {
             let val_rows = gate_rows(inputs, &validation.inputs, raw_validation);
-            let val_x = Array2::from_shape_fn(
-                (val_rows.len(), features),
-                |(i, j)| val_rows[i][j],
-            );
+            let val_x = Array2::from_shape_fn((val_rows.len(), features), |(i, j)| val_rows[i][j]);
             let truth: Vec<usize> = (raw_validation.errors.iter())
                 .map(|e| usize::from(e[axis] >= threshold))
                 .collect();

@@ -321,9 +321,11 @@ impl Classifier {
             }
         }
         let physics_ok = match (self.inputs, &self.physics) {
-            (GateInputs::Physics, Some(p)) => {
-                p.gravity.iter().chain(&p.payload_com).all(|v| v.is_finite())
-            }
+            (GateInputs::Physics, Some(p)) => p
+                .gravity
+                .iter()
+                .chain(&p.payload_com)
+                .all(|v| v.is_finite()),
             (GateInputs::Physics, None) => false,
             (_, p) => p.is_none(),
         };

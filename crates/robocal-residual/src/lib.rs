@@ -31,14 +31,13 @@ pub mod stage;
 
 pub use casomm::CaSomm;
 pub use classifier::{
-    Axis, ClassRule, Classifier, ClassifierSettings, Gate, GateInputs, GatePhysics, PHYSICS_PER_JOINT,
-    PerClass, gate_feature_names,
-    gate_rows, two_means_threshold,
+    Axis, ClassRule, Classifier, ClassifierSettings, Gate, GateInputs, GatePhysics,
+    PHYSICS_PER_JOINT, PerClass, gate_feature_names, gate_rows, two_means_threshold,
 };
 pub use error::{ResidualError, Result};
 pub use gp::{GpAxis, GpResidual, GpSettings};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Schedule, Split, TrainReport, train};
-pub use model::{Fitted, Residual, ResidualModel};
+pub use model::{Fitted, GateDecision, Residual, ResidualModel};
 pub use mosm::Mosm;
 pub use net::AxisNet;
 pub use persist::{MANIFEST, MAX_INPUTS, RESIDUAL_FORMAT};

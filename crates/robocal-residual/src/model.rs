@@ -95,7 +95,47 @@ pub struct ResidualModel {
     pub fitted: Fitted,
     /// CA-SOMM with a fallback: whether two classes or one were kept, and the validation
     /// errors that decided it.
-    pub gate_decision: Option<String>,
+    pub gate_decision: Option<GateDecision>,
+}
+
+/// CA-SOMM's fallback decision: the two classes' mean error on the validation rows against a
+/// SOMM trained on every row; the lower is kept (the SOMM on a tie).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GateDecision {
+    /// Mean Euclidean error left on the validation rows by the two classes, mm.
+    pub two_classes: f64,
+    /// By a SOMM on every row, mm.
+    pub one_class: f64,
+    /// Validation rows.
+    pub rows: usize,
+    /// The classifier's accuracy on them.
+    pub accuracy: f64,
+}
+
+impl GateDecision {
+    /// Whether the two classes were kept.
+    pub fn kept_two(&self) -> bool {
+        self.two_classes < self.one_class
+    }
+}
+
+impl std::fmt::Display for GateDecision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (two, one, rows) = (self.two_classes, self.one_class, self.rows);
+        let accuracy = 100.0 * self.accuracy;
+        if self.kept_two() {
+            write!(
+                f,
+                "two classes kept: they leave {two:.4} mm mean on the {rows} validation rows, a SOMM on every row {one:.4} mm (classifier accuracy {accuracy:.1} %)"
+            )
+        } else {
+            write!(
+                f,
+                "one class kept: a SOMM on every row leaves {one:.4} mm mean on the {rows} validation rows, the two classes {two:.4} mm (classifier accuracy {accuracy:.1} %)"
+            )
+        }
+    }
 }
 
 impl ResidualModel {
@@ -186,27 +226,28 @@ impl ResidualModel {
         progress: &dyn Observer,
     ) {
         let encoded = raw_validation.encoded(self.encoding);
-        let somm = Somm::fit(&settings.axes, train_set, &encoded, settings.seed, 0, progress);
+        let somm = Somm::fit(
+            &settings.axes,
+            train_set,
+            &encoded,
+            settings.seed,
+            0,
+            progress,
+        );
         let mean = |predicted: Vec<[f64; 3]>| {
             let left = raw_validation.remaining(Some(&predicted));
             left.iter().sum::<f64>() / left.len().max(1) as f64
         };
-        let two = mean(self.predict(raw_validation));
-        let one = mean(somm.predict(&encoded.inputs, raw_validation, false).0);
-        let accuracy = self.classifier_accuracy(raw_validation).unwrap_or(f64::NAN);
-        let rows = raw_validation.len();
-        if one <= two {
-            self.gate_decision = Some(format!(
-                "one class kept: a SOMM on every row leaves {one:.4} mm mean on the {rows} validation rows, the two classes {two:.4} mm (classifier accuracy {:.1} %)",
-                100.0 * accuracy
-            ));
+        let decision = GateDecision {
+            two_classes: mean(self.predict(raw_validation)),
+            one_class: mean(somm.predict(&encoded.inputs, raw_validation, false).0),
+            rows: raw_validation.len(),
+            accuracy: self.classifier_accuracy(raw_validation).unwrap_or(f64::NAN),
+        };
+        if !decision.kept_two() {
             self.fitted = Fitted::Somm(somm);
-        } else {
-            self.gate_decision = Some(format!(
-                "two classes kept: they leave {two:.4} mm mean on the {rows} validation rows, a SOMM on every row {one:.4} mm (classifier accuracy {:.1} %)",
-                100.0 * accuracy
-            ));
         }
+        self.gate_decision = Some(decision);
     }
 
     /// The settings after the TPE search `settings.search` asks for (each network searched on

@@ -14,7 +14,7 @@ use crate::classifier::Classifier;
 use crate::error::{ResidualError, Result};
 use crate::gp::GpResidual;
 use crate::mlp::{Mlp, NetSettings, TrainReport};
-use crate::model::{Fitted, ResidualModel};
+use crate::model::{Fitted, GateDecision, ResidualModel};
 use crate::mosm::Mosm;
 use crate::net::{AxisNet, SequentialIds};
 use crate::samples::{Encoding, Standardizer};
@@ -52,7 +52,7 @@ struct Manifest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     gp: Option<GpResidual>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    gate_decision: Option<String>,
+    gate_decision: Option<GateDecision>,
 }
 
 /// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
@@ -109,7 +109,7 @@ impl ResidualModel {
             search: self.search.clone(),
             encoding: self.encoding,
             gp: self.gp().cloned(),
-            gate_decision: self.gate_decision.clone(),
+            gate_decision: self.gate_decision,
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {

@@ -156,7 +156,10 @@ impl Samples {
         };
         Self {
             inputs: rows(&self.inputs),
-            errors: idx.iter().filter_map(|&i| self.errors.get(i).copied()).collect(),
+            errors: idx
+                .iter()
+                .filter_map(|&i| self.errors.get(i).copied())
+                .collect(),
             physics: rows(&self.physics),
         }
     }

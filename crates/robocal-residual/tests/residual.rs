@@ -4,8 +4,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robocal_data::Silent;
 use robocal_residual::{
-    Activation, Gate, NetSettings, PerClass, ResidualKind, ResidualModel, ResidualSettings,
-    Samples, Schedule, Split, two_means_threshold,
+    Activation, ClassRule, Encoding, Gate, GateInputs, NetSettings, PHYSICS_PER_JOINT, PerClass,
+    ResidualKind, ResidualModel, ResidualSettings, Samples, Schedule, Split, gate_feature_names,
+    two_means_threshold,
 };
 
 fn settings(hidden: Vec<usize>, lr: f64, epochs: usize) -> NetSettings {
@@ -37,7 +38,7 @@ fn smooth(x: &[f64]) -> f64 {
 }
 
 fn rms(model: &ResidualModel, s: &Samples, axis: usize) -> f64 {
-    let p = model.predict(&s);
+    let p = model.predict(s);
     (p.iter()
         .zip(&s.errors)
         .map(|(p, e)| (p[axis] - e[axis]).powi(2))
@@ -211,9 +212,7 @@ fn ca_somm_separates_two_classes_and_beats_somm_on_a_bimodal_axis() {
     }
     soft.save(dir.path()).unwrap();
     assert_eq!(
-        ResidualModel::load(dir.path())
-            .unwrap()
-            .predict(&test),
+        ResidualModel::load(dir.path()).unwrap().predict(&test),
         soft_p
     );
     // A tampered tree (linfa would index out of bounds or unwrap a missing branch) is refused.
@@ -443,4 +442,135 @@ fn weight_decay_shrinks_the_fit_and_robocal_networks_learn() {
     let back = ResidualModel::load(dir.path()).unwrap();
     assert_eq!(back.nets()[0].settings, NetSettings::robocal());
     assert_eq!(back.predict(&test), ours.predict(&test));
+}
+
+/// Rows of three angles (degrees, ±170) and a load (0–5 kg) whose X error jumps by ±1 with the
+/// sign of `torque` = 3 sin q1 + 2 cos q2 + load − 1 (oblique in the raw inputs), given to a
+/// physics gate as its first physics feature (the other 14 are noise). Y and Z are smooth.
+fn flank_samples(n: usize, seed: u64) -> Samples {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut s = Samples::default();
+    for _ in 0..n {
+        let q: Vec<f64> = (0..3).map(|_| rng.random_range(-170.0..170.0)).collect();
+        let load = rng.random_range(0.0..5.0);
+        let (q1, q2) = (f64::to_radians(q[0]), f64::to_radians(q[1]));
+        let torque = 3.0 * q1.sin() + 2.0 * q2.cos() + load - 1.0;
+        let jump = if torque >= 0.0 { 1.0 } else { -1.0 };
+        let mut row = q.clone();
+        row.push(load);
+        s.inputs.push(row);
+        s.errors
+            .push([jump + 0.2 * q1.cos(), 0.3 * q2.sin(), 0.05 * load]);
+        let mut physics = vec![torque];
+        physics.extend((1..PHYSICS_PER_JOINT * 3).map(|_| rng.random_range(-1.0..1.0)));
+        s.physics.push(physics);
+    }
+    s
+}
+
+#[test]
+fn a_physics_gate_learns_a_flank_the_raw_angles_hide_and_the_fallback_keeps_what_pays() {
+    let (train, val, test) = (
+        flank_samples(1200, 21),
+        flank_samples(300, 22),
+        flank_samples(400, 23),
+    );
+    let net = settings(vec![16, 16], 5e-3, 40);
+    let mut s = somm(net.clone(), 5);
+    s.kind = ResidualKind::CaSomm;
+    s.encoding = Encoding::Periodic;
+    let raw_gate = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    s.classifier.inputs = Some(GateInputs::Physics);
+    s.classifier.gravity = Some([0.0, 0.0, -9.81]);
+    s.classifier.payload_com = Some([0.0, 0.0, 50.0]);
+    let physics_gate = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let (raw_acc, physics_acc) = (
+        raw_gate.classifier_accuracy(&test).unwrap(),
+        physics_gate.classifier_accuracy(&test).unwrap(),
+    );
+    assert!(
+        physics_acc > 0.97 && physics_acc > raw_acc + 0.05,
+        "physics gate {physics_acc}, angles {raw_acc}"
+    );
+    let c = physics_gate.classifier().unwrap();
+    let names = gate_feature_names(GateInputs::Physics, Encoding::Periodic, 3);
+    assert_eq!(
+        names.len(),
+        GateInputs::Physics.features(Encoding::Periodic, 4)
+    );
+    assert_eq!(
+        names[c.splits()[0].0],
+        "payload lever j1",
+        "the root splits on the torque"
+    );
+    // Saved with its physics and read back, it predicts the same from the same physics rows.
+    let dir = tempfile::tempdir().unwrap();
+    physics_gate.save(dir.path()).unwrap();
+    let back = ResidualModel::load(dir.path()).unwrap();
+    assert_eq!(back.gate_physics(), physics_gate.gate_physics());
+    assert_eq!(back.predict(&test), physics_gate.predict(&test));
+    refused_after(dir.path(), "physics", |m| {
+        m["classifier"]["physics"] = serde_json::Value::Null;
+    });
+
+    // Routed classes: each set trained on the rows the tree sends it.
+    s.classifier.classes = Some(ClassRule::Routed);
+    let routed = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let c = routed.classifier().unwrap();
+    let encoded = Encoding::Periodic.encode_all(&train.inputs);
+    let sent = c.classify(&c.rows(&encoded, &train));
+    assert_eq!(c.class_rows[1], sent.iter().filter(|k| **k == 1).count());
+    assert_eq!(c.training_classes(&encoded, &train), sent);
+
+    // Tree search: the size kept is the best of the grid on the validation rows.
+    s.classifier.tree_search = Some(true);
+    let searched = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let c = searched.classifier().unwrap();
+    let best = c
+        .tree_search
+        .iter()
+        .map(|t| t.2)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let kept = c
+        .tree_search
+        .iter()
+        .find(|t| (t.0, t.1) == (c.max_depth, c.min_samples_leaf));
+    assert_eq!(kept.map(|t| t.2), Some(best));
+    assert!((searched.classifier_accuracy(&val).unwrap() - best).abs() < 1e-12);
+
+    // Fallback: on the bimodal axis two classes pay; on a smooth one they are compared with a
+    // SOMM, and the model kept leaves the lower validation error, as recorded.
+    s.classifier.fallback = Some(true);
+    let mean_left = |m: &ResidualModel, set: &Samples| {
+        let left = set.remaining(Some(&m.predict(set)));
+        left.iter().sum::<f64>() / left.len() as f64
+    };
+    let kept = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let d = kept.gate_decision.unwrap();
+    assert!(d.kept_two() && kept.classifier().is_some(), "{d}");
+    assert!((mean_left(&kept, &val) - d.two_classes).abs() < 1e-12);
+    let smooth_only = |set: &Samples| {
+        let mut set = set.clone();
+        for (e, row) in set.errors.iter_mut().zip(&set.inputs) {
+            e[0] = 0.2 * row[0].to_radians().cos();
+        }
+        set
+    };
+    let (train, val) = (smooth_only(&train), smooth_only(&val));
+    let m = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    let d = m.gate_decision.unwrap();
+    let left = mean_left(&m, &val);
+    assert!(
+        (left - d.two_classes.min(d.one_class)).abs() < 1e-12,
+        "{d}: {left}"
+    );
+    assert_eq!(m.classifier().is_some(), d.kept_two());
+    assert_eq!(
+        m.kind(),
+        if d.kept_two() {
+            ResidualKind::CaSomm
+        } else {
+            ResidualKind::Somm
+        }
+    );
 }

@@ -243,7 +243,7 @@ pub fn gate_ready(settings: &ResidualSettings, base: &CalibratedModel) -> Residu
 /// The CA-SOMM gate in the report: its classes, what it reads and splits on, and whether two
 /// classes paid (`None` for any other model).
 pub fn gate_summary(model: &ResidualModel, joints: usize, train: &Samples) -> Option<GateSummary> {
-    let decision = model.gate_decision.clone();
+    let decision = model.gate_decision.map(|d| d.to_string());
     let Some(c) = model.classifier() else {
         return decision.map(|d| GateSummary {
             decision: Some(d),
@@ -256,7 +256,10 @@ pub fn gate_summary(model: &ResidualModel, joints: usize, train: &Samples) -> Op
         .into_iter()
         .map(|(f, value, depth)| GateSplit {
             depth,
-            feature: names.get(f).cloned().unwrap_or_else(|| format!("input {f}")),
+            feature: names
+                .get(f)
+                .cloned()
+                .unwrap_or_else(|| format!("input {f}")),
             below: value,
         })
         .collect();
