@@ -67,3 +67,8 @@ accuracy-outliers seeds="3":
 # the residual models side by side on the identified physics (paper's SOMM, robocal's, GP)
 accuracy-networks seeds="1":
     cargo run --release -p robocal-pipeline --example accuracy -- --networks --seeds {{seeds}}
+
+# CA-SOMM against the twin's truth: how often the paper's classes agree with the joint-4 flank,
+# what oracle classes would give, how robocal's gate routes the Table 6 rows (docs/method.md)
+casomm-ceiling:
+    cargo run --release -p robocal-pipeline --example casomm_ceiling

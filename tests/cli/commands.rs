@@ -627,6 +627,7 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
         "fig26-stages",
         "axes-lm",
         "axes-bfgs-ca-somm",
+        "classes-bfgs-ca-somm",
     ] {
         want.push(format!("{stem}.png"));
         want.push(format!("{stem}.svg"));
@@ -643,6 +644,12 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
             assert!(String::from_utf8_lossy(&bytes).contains("<svg"), "{f}");
         }
     }
+    // The CA-SOMM figure shows the X error by the gate's classes, before and after.
+    let classes = std::fs::read_to_string(report.join("classes-bfgs-ca-somm.svg")).unwrap();
+    assert!(
+        classes.contains("class A") && classes.contains("X error after BFGS + CA-SOMM"),
+        "classes-bfgs-ca-somm.svg"
+    );
     // The per-axis plots say which rows and which frame (the model is in the legend).
     let axes = std::fs::read_to_string(report.join("axes-lm.svg")).unwrap();
     assert!(

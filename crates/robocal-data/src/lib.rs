@@ -24,4 +24,4 @@ pub use csvio::{
 };
 pub use error::{DataError, Invalid, Result, one_of};
 pub use observe::{Lines, Observer, Silent};
-pub use stats::{ErrorStats, robust_std};
+pub use stats::{ErrorStats, SIGNIFICANCE, improves, robust_std};

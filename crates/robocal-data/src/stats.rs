@@ -67,6 +67,35 @@ pub fn robust_std(values: &[f64]) -> f64 {
     1.4826 * median(&mut dev)
 }
 
+/// Whether `new` (held-out errors) lowers `base`'s significantly: the mean over groups (a
+/// configuration in one kind of fold: its rows share one pose; `groups` numbers them from 0)
+/// of base − new is positive and more than [`SIGNIFICANCE`] times its standard error. A stage
+/// that helps by less than the spread of the difference is not worth its parameters: on poses
+/// beyond those measured it can do harm.
+pub fn improves(base: &[f64], new: &[f64], groups: &[usize]) -> bool {
+    let n_groups = groups.iter().copied().max().map_or(0, |g| g + 1);
+    let mut sums = vec![0.0; n_groups];
+    let mut counts = vec![0usize; n_groups];
+    for ((b, n), &g) in base.iter().zip(new).zip(groups) {
+        sums[g] += b - n;
+        counts[g] += 1;
+    }
+    let d: Vec<f64> = (sums.iter().zip(&counts))
+        .filter(|(_, c)| **c > 0)
+        .map(|(s, c)| s / *c as f64)
+        .collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n.max(1.0);
+    if d.len() < 2 {
+        return mean > 0.0;
+    }
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    mean > 0.0 && mean > SIGNIFICANCE * (var / n).sqrt()
+}
+
+/// How many standard errors a stage's held-out improvement must exceed to be kept.
+pub const SIGNIFICANCE: f64 = 2.0;
+
 #[cfg(test)]
 mod tests {
     use super::*;

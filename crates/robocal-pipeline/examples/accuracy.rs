@@ -12,7 +12,8 @@
 //! Every twin is a twin's; none of these numbers is a real robot's. The ARM6S and ARM6H families
 //! are kept aside: they run only with `--aside` (or `--arms`), never while tuning. ARM6S was
 //! reported once (it then counted as seen); ARM6H was made after that, for the next report.
-//! `--networks` prints the residual models side by side on the identified physics instead.
+//! `--networks` prints the residual models side by side on the identified physics instead
+//! (SOMM with the paper's and robocal's settings, robocal's CA-SOMM, the GP).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -250,9 +251,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if networks {
         println!(
-            "| arm | seed | effects | split | test rows | noise floor | physics | + SOMM (paper) | s | + SOMM (robocal) | s | + GP | s |"
+            "| arm | seed | effects | split | test rows | noise floor | physics | + SOMM (paper) | s | + SOMM (robocal) | s | + CA-SOMM (robocal) | s | + GP | s |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     } else {
         println!(
             "| arm | seed | effects | split | test rows | noise floor | previous default | kinematic | + compliance | + compliance + harmonics + self-weight | that + GP | default | change | default's choice | default s |"
@@ -334,10 +335,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             2,
                             Some(ResidualSettings::robocal(ResidualKind::Somm, 2020)),
                         ));
+                        let (gated, gated_s) = timed(&stage(
+                            2,
+                            Some(ResidualSettings::robocal(ResidualKind::CaSomm, 2020)),
+                        ));
                         let (gp, gp_s) = timed(&stage(2, Some(ResidualSettings::gp(2020))));
                         let (e, h) = label(effects, how);
                         println!(
-                            "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gp} | {gp_s:.1} |",
+                            "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gated} | {gated_s:.1} | {gp} | {gp_s:.1} |",
                             test.len()
                         );
                         continue;

@@ -341,6 +341,54 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
         ));
     }
 
+    // Figs. 22–25: the bimodal X error of each CA-SOMM model's gate classes, before and after.
+    for m in &o.models {
+        let Some(classes) = o.gate_classes(m, &t6) else {
+            continue;
+        };
+        let kin = &o.kinematics[m.kinematic];
+        let per_class = |e: &[Vector3<f64>]| -> Vec<(String, Vec<f64>)> {
+            (0..2)
+                .map(|k| {
+                    let values: Vec<f64> = (t6.iter().zip(&classes))
+                        .filter(|(_, c)| **c == k)
+                        .map(|(&i, _)| e[i].x)
+                        .collect();
+                    (
+                        format!("class {} ({} rows)", ["A", "B"][k], values.len()),
+                        values,
+                    )
+                })
+                .collect()
+        };
+        let panels = [
+            (format!("after {}", kin.label), &kin.errors),
+            (format!("after {}", m.name), &m.errors),
+        ]
+        .into_iter()
+        .map(|(stage, errors)| Panel {
+            title: format!(
+                "X error {stage}, by the gate's class ({} GB10+GB30 rows)",
+                t6.len()
+            ),
+            x_label: "signed X error, world frame (mm)".into(),
+            y_label: "share of rows (%)".into(),
+            series: histograms(&per_class(errors), 40, false),
+        })
+        .collect::<Vec<Panel>>();
+        let stem = format!("classes-{}", slug(&m.name));
+        made.push((
+            format!(
+                "Figs. 22–25: the X error of the {} GB10+GB30 rows by the class {}'s gate gives them, after {} and after {}",
+                t6.len(),
+                m.name,
+                kin.label,
+                m.name
+            ),
+            figure(dir, out, &stem, WIDE, &panels)?,
+        ));
+    }
+
     // Fig. 26: every stage's error distribution on the Table 6 rows.
     let mut named = vec![("before".to_string(), norms(&o.before, &t6))];
     for m in &o.models {

@@ -593,6 +593,24 @@ impl Outcome {
             .collect()
     }
 
+    /// The class (0 = A, 1 = B) a model's CA-SOMM gate gives each of `rows`; `None` without a
+    /// gate.
+    pub fn gate_classes(&self, model: &ModelRun, rows: &[usize]) -> Option<Vec<usize>> {
+        let kin = &self.kinematics[model.kinematic];
+        let residual = model.residual.as_ref()?;
+        let c = residual.classifier()?;
+        let physical = physical_model(&kin.calibration);
+        let physics = residual.gate_physics();
+        let raw = samples(
+            &self.data.rows,
+            &kin.errors,
+            rows,
+            physics.as_ref().map(|p| (&physical, p)),
+        );
+        let encoded = residual.encoding.encode_all(&raw.inputs);
+        Some(c.classify(&c.rows(&encoded, &raw)))
+    }
+
     /// The CA-SOMM gate of a model, summarised on its training rows (GA10).
     fn gate(&self, model: &ModelRun) -> Option<GateSummary> {
         let kin = &self.kinematics[model.kinematic];

@@ -78,12 +78,42 @@ impl CaSomm {
         let features = rows.first().map_or(0, Vec::len);
         let x = Array2::from_shape_fn((rows.len(), features), |(i, j)| rows[i][j]);
         let data = Dataset::new(x, Array1::from_vec(labels.clone()));
-        let grow = |depth: usize, leaf: usize| {
-            DecisionTree::params()
+        // A gate of a given size: the tree, and each leaf's share of class B among the
+        // training rows (which also settles a leaf's class where linfa's tie would not).
+        let gate = |depth: usize, leaf: usize| -> Result<Classifier> {
+            let tree = DecisionTree::params()
                 .max_depth(Some(depth))
                 .min_weight_leaf(leaf as f32)
                 .fit(&data)
-                .map_err(|e| ResidualError::Data(format!("classifier: {e}")))
+                .map_err(|e| ResidualError::Data(format!("classifier: {e}")))?;
+            let mut classifier = Classifier {
+                axis,
+                threshold,
+                tree,
+                gate: c.gate,
+                leaf_share_b: BTreeMap::new(),
+                inputs,
+                physics,
+                class_rows: [
+                    labels.iter().filter(|l| **l == 0).count(),
+                    labels.iter().filter(|l| **l == 1).count(),
+                ],
+                classes: c.classes.unwrap_or_default(),
+                max_depth: depth,
+                min_samples_leaf: leaf,
+                tree_search: Vec::new(),
+            };
+            let mut counts: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+            for (row, label) in rows.iter().zip(&labels) {
+                let n = counts.entry(classifier.leaf_path(row)).or_default();
+                n.0 += 1;
+                n.1 += label;
+            }
+            classifier.leaf_share_b = counts
+                .into_iter()
+                .map(|(leaf, (n, b))| (leaf, b as f64 / n as f64))
+                .collect();
+            Ok(classifier)
         };
         // The tree's size: as given, or the grid point whose tree classifies the validation
         // rows best (the smallest tree among equals).
@@ -91,16 +121,10 @@ impl CaSomm {
         let mut search = Vec::new();
         if c.tree_search == Some(true) && !raw_validation.is_empty() {
             let val_rows = gate_rows(inputs, &validation.inputs, raw_validation);
-            let val_x = Array2::from_shape_fn((val_rows.len(), features), |(i, j)| val_rows[i][j]);
-            let truth: Vec<usize> = (raw_validation.errors.iter())
-                .map(|e| usize::from(e[axis] >= threshold))
-                .collect();
             let mut best = f64::NEG_INFINITY;
             for &depth in &TREE_DEPTHS {
                 for &leaf in &TREE_LEAVES {
-                    let predicted = grow(depth, leaf)?.predict(&val_x);
-                    let hit = predicted.iter().zip(&truth).filter(|(p, t)| p == t).count();
-                    let accuracy = hit as f64 / truth.len() as f64;
+                    let accuracy = gate(depth, leaf)?.accuracy(&val_rows, raw_validation);
                     search.push((depth, leaf, accuracy));
                     if accuracy > best {
                         best = accuracy;
@@ -109,34 +133,8 @@ impl CaSomm {
                 }
             }
         }
-        let tree = grow(size.0, size.1)?;
-        let mut classifier = Classifier {
-            axis,
-            threshold,
-            tree,
-            gate: c.gate,
-            leaf_share_b: BTreeMap::new(),
-            inputs,
-            physics,
-            class_rows: [
-                labels.iter().filter(|l| **l == 0).count(),
-                labels.iter().filter(|l| **l == 1).count(),
-            ],
-            classes: c.classes.unwrap_or_default(),
-            max_depth: size.0,
-            min_samples_leaf: size.1,
-            tree_search: search,
-        };
-        let mut counts: BTreeMap<String, (usize, usize)> = BTreeMap::new();
-        for (row, label) in rows.iter().zip(&labels) {
-            let n = counts.entry(classifier.leaf_path(row)).or_default();
-            n.0 += 1;
-            n.1 += label;
-        }
-        classifier.leaf_share_b = counts
-            .into_iter()
-            .map(|(leaf, (n, b))| (leaf, b as f64 / n as f64))
-            .collect();
+        let mut classifier = gate(size.0, size.1)?;
+        classifier.tree_search = search;
         let routed = c.classes == Some(ClassRule::Routed);
         if routed {
             labels = classifier.classify(&rows);

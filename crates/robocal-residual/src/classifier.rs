@@ -292,13 +292,25 @@ pub struct Classifier {
 
 impl Classifier {
     /// Class of each input row (0 = A, 1 = B).
+    ///
+    /// A leaf whose share of class B among the training rows is recorded gives class B when
+    /// that share is above one half, class A otherwise (linfa breaks a tie by hash order, which
+    /// differs between runs); a leaf without one gives the tree's class.
     pub fn classify(&self, inputs: &[Vec<f64>]) -> Vec<usize> {
         if inputs.is_empty() {
             return Vec::new();
         }
         let cols = inputs[0].len();
         let x = Array2::from_shape_fn((inputs.len(), cols), |(i, j)| inputs[i][j]);
-        self.tree.predict(&x).to_vec()
+        let tree = self.tree.predict(&x);
+        (inputs.iter().zip(tree))
+            .map(
+                |(row, class)| match self.leaf_share_b.get(&self.leaf_path(row)) {
+                    Some(share) => usize::from(*share > 0.5),
+                    None => class,
+                },
+            )
+            .collect()
     }
 
     /// Checks a classifier read from a file against the model's input count: every split on

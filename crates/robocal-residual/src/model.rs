@@ -11,7 +11,7 @@
 //! Adding a model: a module with its type, its `fit` and `impl Residual`; a [`ResidualKind`]
 //! and a [`Fitted`] variant; its files in `persist`.
 
-use robocal_data::{Observer, Silent};
+use robocal_data::{Observer, SIGNIFICANCE, Silent, improves};
 
 use crate::casomm::CaSomm;
 use crate::classifier::{Classifier, GatePhysics};
@@ -98,8 +98,11 @@ pub struct ResidualModel {
     pub gate_decision: Option<GateDecision>,
 }
 
-/// CA-SOMM's fallback decision: the two classes' mean error on the validation rows against a
-/// SOMM trained on every row; the lower is kept (the SOMM on a tie).
+/// CA-SOMM's fallback decision: the two classes' error on the validation rows against a SOMM
+/// trained on every row. The two classes are kept only when they lower the SOMM's error by
+/// more than [`SIGNIFICANCE`] standard errors of the difference, taken over the validation
+/// configurations (rows with the same joint angles): the rule every stage of the default
+/// calibration meets.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GateDecision {
@@ -111,12 +114,14 @@ pub struct GateDecision {
     pub rows: usize,
     /// The classifier's accuracy on them.
     pub accuracy: f64,
+    /// Whether the two classes' improvement is significant (and they were kept).
+    pub significant: bool,
 }
 
 impl GateDecision {
     /// Whether the two classes were kept.
     pub fn kept_two(&self) -> bool {
-        self.two_classes < self.one_class
+        self.significant
     }
 }
 
@@ -127,12 +132,12 @@ impl std::fmt::Display for GateDecision {
         if self.kept_two() {
             write!(
                 f,
-                "two classes kept: they leave {two:.4} mm mean on the {rows} validation rows, a SOMM on every row {one:.4} mm (classifier accuracy {accuracy:.1} %)"
+                "two classes kept: they leave {two:.4} mm mean on the {rows} validation rows, a SOMM on every row {one:.4} mm (significant; classifier accuracy {accuracy:.1} %)"
             )
         } else {
             write!(
                 f,
-                "one class kept: a SOMM on every row leaves {one:.4} mm mean on the {rows} validation rows, the two classes {two:.4} mm (classifier accuracy {accuracy:.1} %)"
+                "one class kept: a SOMM on every row leaves {one:.4} mm mean on the {rows} validation rows, the two classes {two:.4} mm (not lower by {SIGNIFICANCE} standard errors; classifier accuracy {accuracy:.1} %)"
             )
         }
     }
@@ -234,15 +239,17 @@ impl ResidualModel {
             0,
             progress,
         );
-        let mean = |predicted: Vec<[f64; 3]>| {
-            let left = raw_validation.remaining(Some(&predicted));
-            left.iter().sum::<f64>() / left.len().max(1) as f64
-        };
+        let two = raw_validation.remaining(Some(&self.predict(raw_validation)));
+        let one = raw_validation.remaining(Some(
+            &somm.predict(&encoded.inputs, raw_validation, false).0,
+        ));
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
         let decision = GateDecision {
-            two_classes: mean(self.predict(raw_validation)),
-            one_class: mean(somm.predict(&encoded.inputs, raw_validation, false).0),
+            two_classes: mean(&two),
+            one_class: mean(&one),
             rows: raw_validation.len(),
             accuracy: self.classifier_accuracy(raw_validation).unwrap_or(f64::NAN),
+            significant: improves(&one, &two, &raw_validation.configurations()),
         };
         if !decision.kept_two() {
             self.fitted = Fitted::Somm(somm);

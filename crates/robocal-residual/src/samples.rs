@@ -134,6 +134,23 @@ impl Samples {
         }
     }
 
+    /// The configuration of each sample, numbered from 0 in order of first appearance: samples
+    /// whose joint angles (every input but the last, the load) are equal share one.
+    pub fn configurations(&self) -> Vec<usize> {
+        let mut seen: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
+        self.inputs
+            .iter()
+            .map(|row| {
+                let key: Vec<u64> = row[..row.len().saturating_sub(1)]
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect();
+                let next = seen.len();
+                *seen.entry(key).or_insert(next)
+            })
+            .collect()
+    }
+
     /// Number of samples (input rows).
     pub fn len(&self) -> usize {
         self.inputs.len()

@@ -539,7 +539,8 @@ fn a_physics_gate_learns_a_flank_the_raw_angles_hide_and_the_fallback_keeps_what
     assert!((searched.classifier_accuracy(&val).unwrap() - best).abs() < 1e-12);
 
     // Fallback: on the bimodal axis two classes pay; on a smooth one they are compared with a
-    // SOMM, and the model kept leaves the lower validation error, as recorded.
+    // SOMM, and the model kept is the one the decision names (two classes only when they leave
+    // significantly less), with the validation error it recorded.
     s.classifier.fallback = Some(true);
     let mean_left = |m: &ResidualModel, set: &Samples| {
         let left = set.remaining(Some(&m.predict(set)));
