@@ -193,6 +193,9 @@ pub fn run(
                     100.0 * a
                 ))
         );
+        if let Some(d) = r.gate.as_ref().and_then(|g| g.decision.as_ref()) {
+            eprintln!("robocal: CA-SOMM: {d}");
+        }
     }
     let mut model = built.model();
     let validation = validation.map(|v| {

@@ -398,6 +398,66 @@ fn calibrate_failures_leave_the_old_model_alone() {
 }
 
 #[test]
+fn robocals_ca_somm_reads_physics_reports_its_gate_and_says_whether_two_classes_paid() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = twin_subset(dir.path(), |pose, load| pose < 60 && load <= 8.0);
+    let stage = write(
+        dir.path(),
+        "stage.toml",
+        "[residual]\nmodel = \"ca-somm\"\nseed = 7\n\
+         [residual.x]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
+         [residual.y]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
+         [residual.z]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
+         [residual.classifier]\npayload_com = [100.0, 0.0, 60.0]\n",
+    );
+    let model = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(&train),
+        "--out",
+        s(&model),
+        "--config",
+        s(&stage),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("robocal: CA-SOMM: ") && err.contains("kept"),
+        "{err}"
+    );
+    let report = report(&model);
+    let gate = &report["residual"]["gate"];
+    assert_eq!(gate["inputs"], "physics");
+    assert_eq!(gate["classes"], "routed");
+    assert!(gate["tree_searched"].as_u64().unwrap() > 1);
+    assert!(
+        gate["decision"]
+            .as_str()
+            .unwrap()
+            .contains("validation rows")
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(model.join("residual.json")).unwrap())
+            .unwrap();
+    assert!(manifest["gate_decision"]["one_class"].as_f64().unwrap() > 0.0);
+    // Whichever it kept, the saved model predicts (a kept gate computes its physics again).
+    let out = dir.path().join("pred.csv");
+    let o = robocal(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--data",
+        s(&train),
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
 fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     let dir = tempfile::tempdir().unwrap();
     let train = twin_subset(dir.path(), |pose, load| {
