@@ -116,6 +116,34 @@ pub enum Command {
         /// Output directory (replaced atomically).
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
+        /// Measure these poses (`pose,q1..qN,load`, e.g. from `robocal plan`) instead of the
+        /// twin's own pose design.
+        #[arg(long, value_name = "POSES_CSV")]
+        poses: Option<PathBuf>,
+    },
+    /// Choose the configurations to measure (D-optimal for the parameters calibrate will
+    /// identify) and say what accuracy they buy: writes POSES_CSV (`pose,q1..qN,load`) and
+    /// plan.json beside it, prints the observability indices, every parameter's predicted
+    /// standard deviation and the predicted position error, against random sets of the same
+    /// size.
+    Plan {
+        /// Robot file (TOML) with joint limits.
+        #[arg(long, value_name = "ROBOT_TOML")]
+        robot: PathBuf,
+        /// Configurations to choose; a comma list (`20,40,80`) prints the predicted-error
+        /// curve and writes the largest set.
+        #[arg(long, value_name = "K", value_delimiter = ',', required = true)]
+        count: Vec<usize>,
+        /// Output pose file (replaced atomically).
+        #[arg(long, value_name = "POSES_CSV")]
+        out: PathBuf,
+        /// Plan settings (TOML): seed, loads, workspace, noise_mm, pool, check, model.
+        #[arg(long, value_name = "PLAN_TOML")]
+        config: Option<PathBuf>,
+        /// Candidate configurations (`pose,q1..qN,load`; x, y, z ignored) instead of random
+        /// ones within the joint limits.
+        #[arg(long, value_name = "CSV")]
+        candidates: Option<PathBuf>,
     },
     /// Run an experiment: its data, split and models; write reports/NAME/ (report.md,
     /// results.json, the resolved experiment, plots) and print the tables.

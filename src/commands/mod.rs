@@ -4,6 +4,7 @@ mod calibrate;
 mod compensate;
 mod evaluate;
 mod model;
+mod plan;
 mod predict;
 mod run;
 mod simulate;
@@ -56,7 +57,20 @@ pub fn run(cli: Cli) -> Result<()> {
             frame,
             tool,
         } => compensate::run(&model, &targets, &out, &frame, tool.as_deref()),
-        Command::Simulate { twin, out } => simulate::run(&twin, &out),
+        Command::Simulate { twin, out, poses } => simulate::run(&twin, &out, poses.as_deref()),
+        Command::Plan {
+            robot,
+            count,
+            out,
+            config,
+            candidates,
+        } => plan::run(
+            &robot,
+            &count,
+            &out,
+            config.as_deref(),
+            candidates.as_deref(),
+        ),
         Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
 }

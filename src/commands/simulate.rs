@@ -3,11 +3,31 @@
 use std::path::Path;
 
 use anyhow::Result;
+use robocal_data::{SampleSet, write_dir_atomically};
 use robocal_twin::{PointStatus, TwinConfig};
 
-/// Generates the twin's dataset into `out` and says what it wrote.
-pub fn run(twin: &Path, out: &Path) -> Result<()> {
+/// Generates the twin's dataset into `out` (its own pose design, or the rows of `poses`) and
+/// says what it wrote.
+pub fn run(twin: &Path, out: &Path, poses: Option<&Path>) -> Result<()> {
     let config = TwinConfig::load(twin)?;
+    if let Some(poses) = poses {
+        let samples = SampleSet::read(poses, config.truth.dof())?;
+        let (measured, truth) = config.measure_samples(&samples.rows);
+        let said = super::replacing(out);
+        write_dir_atomically(out, |dir| -> Result<()> {
+            measured.write(dir.join("measurements.csv"))?;
+            truth.write(dir.join("truth.csv"))?;
+            Ok(())
+        })?;
+        said();
+        eprintln!(
+            "robocal: measured the {} rows of {} on the twin: wrote measurements.csv (with tracker noise) and truth.csv to {}",
+            measured.len(),
+            poses.display(),
+            out.display()
+        );
+        return Ok(());
+    }
     let said = super::replacing(out);
     let data = config.write_dataset(out)?;
     said();

@@ -7,4 +7,5 @@ mod commands;
 mod common;
 mod compensation;
 mod hardening;
+mod planning;
 mod robustness;

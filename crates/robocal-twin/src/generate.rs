@@ -30,6 +30,9 @@ fn round6(v: f64) -> f64 {
 /// Stream offset that keeps the noise draws independent of the pose-design draws.
 const NOISE_STREAM: u64 = 0x006e_6f69_7365;
 
+/// Stream offset of the noise of measured pose files ([`TwinConfig::measure_samples`]).
+const POSES_STREAM: u64 = 0x0070_6f73_6573;
+
 impl TwinConfig {
     /// Generates every kept configuration at every load. Byte-for-byte deterministic for a given
     /// twin file: readings are rounded to 1e-4 deg and positions to 1e-6 mm.
@@ -78,6 +81,33 @@ impl TwinConfig {
             },
             design,
         })
+    }
+
+    /// Measures the given `samples` (readings in degrees, each at its load), as the twin's
+    /// tracker would: the noisy rows and the noise-free ones, in the samples' order (positions
+    /// rounded to 1e-6 mm; the noise seeded from the twin's seed, a stream of its own).
+    pub fn measure_samples(&self, samples: &[Sample]) -> (MeasurementSet, MeasurementSet) {
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed ^ NOISE_STREAM ^ POSES_STREAM);
+        let mut measured = Vec::with_capacity(samples.len());
+        let mut truth = Vec::with_capacity(samples.len());
+        for sample in samples {
+            let point = self.true_point(&sample.joints_rad(), sample.load);
+            truth.push(Measurement {
+                sample: sample.clone(),
+                position: point.map(round6),
+            });
+            measured.push(Measurement {
+                sample: sample.clone(),
+                position: self.add_noise(point, &mut rng).map(round6),
+            });
+        }
+        let n = self.truth.dof();
+        let set = |source: &str, rows| MeasurementSet {
+            source: source.into(),
+            joint_count: n,
+            rows,
+        };
+        (set("measurements.csv", measured), set("truth.csv", truth))
     }
 
     /// Generates the dataset and writes `measurements.csv`, `truth.csv`, `grid.csv` and
