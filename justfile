@@ -72,3 +72,8 @@ accuracy-networks seeds="1":
 # what oracle classes would give, how robocal's gate routes the Table 6 rows (docs/method.md)
 casomm-ceiling:
     cargo run --release -p robocal-pipeline --example casomm_ceiling
+
+# what a plan buys: planned against random pose sets on three twins, predicted against
+# measured error (docs/accuracy.md, "Planned poses")
+plan-benefit seeds="2":
+    cargo run --release -p robocal-pipeline --example plan_benefit -- --seeds {{seeds}}

@@ -26,8 +26,8 @@ pub struct RawPlan {
     /// Smallest ratio of the smallest to the largest singular value of the point's Jacobian
     /// for a candidate (default 0.05): poses nearer a singularity are left out.
     pub min_conditioning: Option<f64>,
-    /// What the selection optimises: `"d-optimal"` (default: the information's `log det`) or
-    /// `"i-optimal"` (the mean predicted position variance over the check poses).
+    /// What the selection optimises: `"i-optimal"` (default: the mean predicted position
+    /// variance over the check poses) or `"d-optimal"` (the information's `log det`).
     pub criterion: Option<Criterion>,
     /// The box the measured point must lie in, robot base frame {0}, mm.
     pub workspace: Option<RawWorkspace>,
