@@ -397,6 +397,37 @@ fn calibrate_failures_leave_the_old_model_alone() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("report.json"));
 }
 
+/// A CA-SOMM stage with three 8-unit networks of 3 epochs (Y's activation `y`) and the given
+/// `[residual.classifier]` lines.
+fn ca_somm_stage(y: &str, classifier: &str) -> String {
+    let net = |axis: &str, act: &str| {
+        format!(
+            "[residual.{axis}]\nhidden = [8]\nactivation = \"{act}\"\nlearning_rate = 1e-2\nmax_epochs = 3\n"
+        )
+    };
+    format!(
+        "[residual]\nmodel = \"ca-somm\"\nseed = 7\n{}{}{}[residual.classifier]\n{classifier}",
+        net("x", "tanh"),
+        net("y", y),
+        net("z", "tanh")
+    )
+}
+
+/// `calibrate` of the bundled robot on `train` into `model` with the stage file `stage`.
+fn calibrate_with(train: &Path, model: &Path, stage: &Path) -> std::process::Output {
+    robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(train),
+        "--out",
+        s(model),
+        "--config",
+        s(stage),
+    ])
+}
+
 #[test]
 fn robocals_ca_somm_reads_physics_reports_its_gate_and_says_whether_two_classes_paid() {
     let dir = tempfile::tempdir().unwrap();
@@ -404,24 +435,10 @@ fn robocals_ca_somm_reads_physics_reports_its_gate_and_says_whether_two_classes_
     let stage = write(
         dir.path(),
         "stage.toml",
-        "[residual]\nmodel = \"ca-somm\"\nseed = 7\n\
-         [residual.x]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.y]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.z]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.classifier]\npayload_com = [100.0, 0.0, 60.0]\n",
+        &ca_somm_stage("tanh", "payload_com = [100.0, 0.0, 60.0]\n"),
     );
     let model = dir.path().join("model");
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        ROBOT,
-        "--data",
-        s(&train),
-        "--out",
-        s(&model),
-        "--config",
-        s(&stage),
-    ]);
+    let o = calibrate_with(&train, &model, &stage);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(
@@ -469,24 +486,10 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     let stage = write(
         dir.path(),
         "stage.toml",
-        "[residual]\nmodel = \"ca-somm\"\nseed = 7\n\
-         [residual.x]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.y]\nhidden = [8]\nactivation = \"relu\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.z]\nhidden = [8]\nactivation = \"tanh\"\nlearning_rate = 1e-2\nmax_epochs = 3\n\
-         [residual.classifier]\nmin_samples_leaf = 10\nfallback = false\n",
+        &ca_somm_stage("relu", "min_samples_leaf = 10\nfallback = false\n"),
     );
     let model = dir.path().join("model");
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        ROBOT,
-        "--data",
-        s(&train),
-        "--out",
-        s(&model),
-        "--config",
-        s(&stage),
-    ]);
+    let o = calibrate_with(&train, &model, &stage);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for file in [
         "kinematics.toml",
