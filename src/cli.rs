@@ -121,6 +121,24 @@ pub enum Command {
         #[arg(long, value_name = "POSES_CSV")]
         poses: Option<PathBuf>,
     },
+    /// Export a calibrated model's kinematic table: a URDF (checked by reading it back and
+    /// comparing its forward kinematics with the model's) or a plain JSON MDH/β table with
+    /// standard deviations; says what the table cannot carry.
+    Export {
+        /// Model directory written by `calibrate`.
+        #[arg(long, value_name = "MODEL_DIR")]
+        model: PathBuf,
+        /// `urdf` or `json`.
+        #[arg(long, value_name = "FORMAT")]
+        format: ExportFormat,
+        /// Output file (replaced atomically).
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        /// Measurements (e.g. the training file) on which to state the error the table alone
+        /// leaves beside the whole model's.
+        #[arg(long, value_name = "CSV")]
+        data: Option<PathBuf>,
+    },
     /// Choose the configurations to measure (D-optimal for the parameters calibrate will
     /// identify) and say what accuracy they buy: writes POSES_CSV (`pose,q1..qN,load`) and
     /// plan.json beside it, prints the observability indices, every parameter's predicted
@@ -155,4 +173,13 @@ pub enum Command {
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
     },
+}
+
+/// What `robocal export` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// URDF (metres, radians): base, one revolute joint per table row, the measured point.
+    Urdf,
+    /// A plain MDH/β table with standard deviations (mm, deg).
+    Json,
 }

@@ -3,6 +3,7 @@
 mod calibrate;
 mod compensate;
 mod evaluate;
+mod export;
 mod model;
 mod plan;
 mod predict;
@@ -58,6 +59,12 @@ pub fn run(cli: Cli) -> Result<()> {
             tool,
         } => compensate::run(&model, &targets, &out, &frame, tool.as_deref()),
         Command::Simulate { twin, out, poses } => simulate::run(&twin, &out, poses.as_deref()),
+        Command::Export {
+            model,
+            format,
+            out,
+            data,
+        } => export::run(&model, format, &out, data.as_deref()),
         Command::Plan {
             robot,
             count,
@@ -73,6 +80,15 @@ pub fn run(cli: Cli) -> Result<()> {
         ),
         Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
+}
+
+/// Creates the folder an output file goes into, when it does not exist yet.
+pub fn ensure_parent(out: &Path) -> Result<()> {
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", parent.display()))?;
+    }
+    Ok(())
 }
 
 /// Outputs are replaced atomically when they exist (the documented rule); the replacement is

@@ -75,10 +75,7 @@ pub fn run(
     let Some(largest) = result.plans.last() else {
         anyhow::bail!("--count: give one or more counts");
     };
-    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("{}: cannot create the folder", parent.display()))?;
-    }
+    super::ensure_parent(out)?;
     let said = super::replacing(out);
     write_atomically(out, |w| {
         w.write_all(poses_csv(&robot, &result, &largest.chosen, &settings.loads).as_bytes())

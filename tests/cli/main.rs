@@ -6,6 +6,7 @@
 mod commands;
 mod common;
 mod compensation;
+mod export;
 mod hardening;
 mod planning;
 mod robustness;

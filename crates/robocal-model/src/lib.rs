@@ -31,6 +31,7 @@
 
 pub mod dir;
 mod error;
+pub mod export;
 mod model;
 
 pub use dir::{COMPLIANCE_FILE, KINEMATICS_FILE, MODEL_FORMAT, REPORT_FILE};

@@ -1,0 +1,52 @@
+//! The URDF export against the model's own forward kinematics (read back by `urdf-rs`), and the
+//! JSON table against the model's values.
+
+use std::path::Path;
+
+use robocal_model::CalibratedModel;
+use robocal_model::export::{PARITY_TOLERANCE_MM, json_table, urdf_parity, urdf_text};
+use robocal_robot::Robot;
+
+fn robot() -> Robot {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut r = Robot::load(root.join("configs/robots/pmc6va030.toml")).unwrap();
+    // A calibrated-looking table: every parameter moved, β on joint 3, a turned base.
+    let x: Vec<f64> = (r.params().iter().enumerate())
+        .map(|(i, v)| v + 1e-3 * ((i * 37 % 11) as f64 - 5.0))
+        .collect();
+    r = r.with_params(&x).unwrap();
+    r.base.rpy = nalgebra::Vector3::new(0.01, -0.02, -1.7);
+    r
+}
+
+#[test]
+fn the_urdf_reproduces_the_table_and_a_changed_one_does_not() {
+    let robot = robot();
+    let text = urdf_text(&robot).unwrap();
+    assert!(text.contains("<robot") && text.contains("joint_6") && text.contains("tool0"));
+    let worst = urdf_parity(&robot, &text).unwrap();
+    assert!(worst < PARITY_TOLERANCE_MM, "{worst} mm");
+    // One origin moved by 0.1 mm (1e-4 m) is seen.
+    let mut back = urdf_rs::read_from_string(&text).unwrap();
+    back.joints[3].origin.xyz.0[1] += 1e-4;
+    let moved = urdf_rs::write_to_string(&back).unwrap();
+    let worst = urdf_parity(&robot, &moved).unwrap();
+    assert!(worst > 0.05, "{worst} mm");
+}
+
+#[test]
+fn the_json_table_holds_the_values_their_sigmas_and_what_it_leaves_out() {
+    let robot = robot();
+    let model = CalibratedModel::kinematic(robot.clone());
+    let report = serde_json::json!({"kinematic": {"parameters": [
+        {"name": "j2.a", "std": 0.004}, {"name": "base.rz", "std": 0.001}
+    ]}});
+    let t = json_table(&model, Some(&report));
+    assert_eq!(t["joints"][1]["a"].as_f64().unwrap(), robot.joints[1].a);
+    assert_eq!(t["joints"][1]["std"]["a"].as_f64().unwrap(), 0.004);
+    assert!(t["joints"][1]["std"]["d"].is_null());
+    let beta = t["joints"][2]["beta"].as_f64().unwrap();
+    assert!((beta - robot.joints[2].beta.unwrap().to_degrees()).abs() < 1e-12);
+    assert_eq!(t["base"]["std"][5].as_f64().unwrap(), 0.001);
+    assert!(t["not_carried"].as_array().unwrap().is_empty());
+}
