@@ -141,10 +141,7 @@ pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64]) -> Result<Vector3<f64>, Str
     let mut t = Vector3::zeros();
     let mut link = "world".to_string();
     let mut k = 0;
-    loop {
-        let Some(j) = robot.joints.iter().find(|j| j.parent.link == link) else {
-            break;
-        };
+    while let Some(j) = robot.joints.iter().find(|j| j.parent.link == link) {
         let o = &j.origin;
         let jr = robocal_robot::rpy_to_matrix(&Vector3::new(o.rpy[0], o.rpy[1], o.rpy[2]));
         t += r * Vector3::new(o.xyz[0], o.xyz[1], o.xyz[2]) * 1e3;
