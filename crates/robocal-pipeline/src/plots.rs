@@ -18,8 +18,8 @@ use crate::error::{PipelineError, Result};
 use crate::run::Outcome;
 
 const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-const SIZE: (u32, u32) = (1000, 600);
-const WIDE: (u32, u32) = (1500, 500);
+const TWO: (u32, u32) = (1700, 600);
+const WIDE: (u32, u32) = (1840, 500);
 
 /// Registers the shipped font once.
 fn font() -> std::result::Result<(), String> {
@@ -31,19 +31,54 @@ fn font() -> std::result::Result<(), String> {
     .clone()
 }
 
-/// A colour per series, in order.
-fn colour(i: usize) -> RGBColor {
-    const P: [RGBColor; 8] = [
-        RGBColor(0x44, 0x44, 0x44),
-        RGBColor(0x1f, 0x77, 0xb4),
-        RGBColor(0xd6, 0x27, 0x28),
-        RGBColor(0x2c, 0xa0, 0x2c),
-        RGBColor(0xff, 0x7f, 0x0e),
-        RGBColor(0x94, 0x67, 0xbd),
-        RGBColor(0x8c, 0x56, 0x4b),
-        RGBColor(0x17, 0xbe, 0xcf),
-    ];
-    P[i % P.len()]
+/// The Okabe–Ito palette: eight colours told apart with every common colour-vision deficiency.
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(0x00, 0x00, 0x00),
+    RGBColor(0xe6, 0x9f, 0x00),
+    RGBColor(0x56, 0xb4, 0xe9),
+    RGBColor(0x00, 0x9e, 0x73),
+    RGBColor(0xd5, 0x5e, 0x00),
+    RGBColor(0x00, 0x72, 0xb2),
+    RGBColor(0xcc, 0x79, 0xa7),
+    RGBColor(0x99, 0x99, 0x99),
+];
+
+/// A marker shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Marker {
+    Circle,
+    Triangle,
+    Cross,
+    Square,
+}
+
+/// How a series is drawn: colour, line (solid or dashed) and marker. [`style`] gives every
+/// series of a figure its own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Style {
+    colour: RGBColor,
+    dashed: bool,
+    marker: Marker,
+}
+
+/// Series a figure may hold, each with a style of its own.
+const MAX_SERIES: usize = PALETTE.len() * 4;
+
+/// The style of the `i`-th series of a figure: the palette's colours in order, solid lines
+/// with circles, then dashed with triangles, solid with crosses, dashed with squares; no two
+/// of the first [`MAX_SERIES`] alike.
+fn style(i: usize) -> Style {
+    let round = (i / PALETTE.len()) % 4;
+    Style {
+        colour: PALETTE[i % PALETTE.len()],
+        dashed: round % 2 == 1,
+        marker: [
+            Marker::Circle,
+            Marker::Triangle,
+            Marker::Cross,
+            Marker::Square,
+        ][round],
+    }
 }
 
 /// Named (x, y) points.
@@ -86,7 +121,14 @@ fn range(values: impl Iterator<Item = f64>, from_zero: bool) -> (f64, f64) {
     )
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Drawn
+/// Width of the legend column at the right of a figure, pixels.
+const LEGEND_W: u32 = 340;
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    panel: &Panel,
+    style_of: &dyn Fn(&str) -> Style,
+) -> Drawn
 where
     DB::ErrorType: 'static,
 {
@@ -105,7 +147,7 @@ where
         true,
     );
     let mut chart = ChartBuilder::on(area)
-        .caption(&panel.title, ("sans-serif", 20))
+        .caption(&panel.title, ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -117,24 +159,76 @@ where
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 15))
         .draw()?;
-    for (i, s) in panel.series.iter().enumerate() {
-        let c = colour(i);
-        chart
-            .draw_series(LineSeries::new(s.points.iter().copied(), c.stroke_width(2)))?
-            .label(s.name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-        if s.markers {
-            chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 3, c.filled())))?;
+    for s in &panel.series {
+        let st = style_of(&s.name);
+        let c = st.colour;
+        let points = s.points.iter().copied();
+        if st.dashed {
+            chart.draw_series(DashedLineSeries::new(points, 8, 5, c.stroke_width(2)))?;
+        } else {
+            chart.draw_series(LineSeries::new(points, c.stroke_width(2)))?;
+        }
+        // Markers on every point of a short series, on every few of a long one (a histogram):
+        // the shape tells series apart where colours alone would not.
+        let every = if s.markers {
+            1
+        } else {
+            (s.points.len() / 12).max(1)
+        };
+        let at = s.points.iter().copied().step_by(every);
+        match st.marker {
+            Marker::Circle => chart.draw_series(at.map(|p| Circle::new(p, 4, c.filled())))?,
+            Marker::Triangle => {
+                chart.draw_series(at.map(|p| TriangleMarker::new(p, 5, c.filled())))?
+            }
+            Marker::Cross => chart.draw_series(at.map(|p| Cross::new(p, 4, c.stroke_width(2))))?,
+            Marker::Square => {
+                chart.draw_series(at.map(|p| {
+                    EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], c.filled())
+                }))?
+            }
+        };
+    }
+    Ok(())
+}
+
+/// The legend column: one line per series name, its line and marker, beside the panels so that
+/// it never covers data.
+fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, names: &[String]) -> Drawn
+where
+    DB::ErrorType: 'static,
+{
+    let font = ("sans-serif", 13).into_font();
+    for (i, name) in names.iter().enumerate() {
+        let st = style(i);
+        let c = st.colour;
+        let y = 40 + 22 * i as i32;
+        if st.dashed {
+            area.draw(&PathElement::new(vec![(8, y), (17, y)], c.stroke_width(2)))?;
+            area.draw(&PathElement::new(vec![(25, y), (34, y)], c.stroke_width(2)))?;
+        } else {
+            area.draw(&PathElement::new(vec![(8, y), (34, y)], c.stroke_width(2)))?;
+        }
+        match st.marker {
+            Marker::Circle => area.draw(&Circle::new((21, y), 4, c.filled()))?,
+            Marker::Triangle => area.draw(&TriangleMarker::new((21, y), 5, c.filled()))?,
+            Marker::Cross => area.draw(&Cross::new((21, y), 4, c.stroke_width(2)))?,
+            Marker::Square => area.draw(&Rectangle::new([(18, y - 3), (24, y + 3)], c.filled()))?,
+        }
+        area.draw(&Text::new(name.clone(), (42, y - 7), font.clone()))?;
+    }
+    Ok(())
+}
+
+/// Every series name of `panels`, in order of first appearance: a name's place is its style.
+fn series_names(panels: &[Panel]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for s in panels.iter().flat_map(|p| &p.series) {
+        if !names.contains(&s.name) {
+            names.push(s.name.clone());
         }
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()?;
-    Ok(())
+    names
 }
 
 fn draw_panels<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, panels: &[Panel]) -> Drawn
@@ -142,10 +236,15 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let areas = root.split_evenly((1, panels.len()));
+    let names = series_names(panels);
+    let width = root.dim_in_pixel().0;
+    let (plots, legend) = root.split_horizontally(width.saturating_sub(LEGEND_W));
+    let style_of = |name: &str| style(names.iter().position(|n| n == name).unwrap_or(0));
+    let areas = plots.split_evenly((1, panels.len()));
     for (area, panel) in areas.iter().zip(panels) {
-        draw_panel(area, panel)?;
+        draw_panel(area, panel, &style_of)?;
     }
+    draw_legend(&legend, &names)?;
     root.present()?;
     Ok(())
 }
@@ -163,6 +262,16 @@ fn figure(
         message,
     };
     font().map_err(|m| fail(stem, m))?;
+    let names = series_names(panels);
+    if names.len() > MAX_SERIES {
+        return Err(fail(
+            stem,
+            format!(
+                "{} series: a figure holds at most {MAX_SERIES}, each in a style of its own",
+                names.len()
+            ),
+        ));
+    }
     let png = format!("{stem}.png");
     let svg = format!("{stem}.svg");
     draw_panels(
@@ -238,7 +347,7 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
         .copied()
         .collect();
     let n_fit = o.splits.kinematic_rows.len();
-    let mut series = vec![Series {
+    let before = vec![Series {
         name: "before (nominal, base+tool fitted)".into(),
         points: rows
             .iter()
@@ -247,6 +356,7 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             .collect(),
         markers: false,
     }];
+    let mut series = Vec::new();
     for k in &o.kinematics {
         let points = |range: std::ops::Range<usize>| -> Vec<(f64, f64)> {
             range
@@ -268,20 +378,29 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
     let stem = "fig11-12-configurations";
     made.push((
         format!("Figs. 11–12: error per configuration at {load} kg, before and after kinematic calibration; configurations 1–{n_fit} fitted, the rest held out (cross-validation)"),
-        figure(dir, out, stem, SIZE, &[Panel {
-            title: format!("Error per configuration at {load} kg"),
-            x_label: format!("configuration (1–{n_fit} fitted, {}–{} held out)", n_fit + 1, rows.len()),
-            y_label: "error (mm)".into(),
-            series,
-        }])?,
+        figure(dir, out, stem, TWO, &[
+            Panel {
+                title: format!("Before calibration, at {load} kg"),
+                x_label: format!("configuration (1–{n_fit} fitted, {}–{} held out)", n_fit + 1, rows.len()),
+                y_label: "error (mm)".into(),
+                series: before,
+            },
+            Panel {
+                title: format!("After kinematic calibration, at {load} kg"),
+                x_label: format!("configuration (1–{n_fit} fitted, {}–{} held out)", n_fit + 1, rows.len()),
+                y_label: "error (mm)".into(),
+                series,
+            },
+        ])?,
     ));
 
     // Fig. 13: mean error against load, untrained configurations.
-    let mut series = vec![Series {
+    let before = vec![Series {
         name: "before".into(),
         points: o.mean_by_load(&o.before),
         markers: true,
     }];
+    let mut series = Vec::new();
     for m in &o.models {
         series.push(Series {
             name: m.name.clone(),
@@ -291,12 +410,20 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
     }
     made.push((
         "Fig. 13: mean error against load over the untrained configurations, before and after each model".into(),
-        figure(dir, out, "fig13-load", SIZE, &[Panel {
-            title: "Mean error against load (untrained configurations)".into(),
-            x_label: "load (kg)".into(),
-            y_label: "mean error (mm)".into(),
-            series,
-        }])?,
+        figure(dir, out, "fig13-load", TWO, &[
+            Panel {
+                title: "Before calibration (untrained configurations)".into(),
+                x_label: "load (kg)".into(),
+                y_label: "mean error (mm)".into(),
+                series: before,
+            },
+            Panel {
+                title: "After each model (untrained configurations)".into(),
+                x_label: "load (kg)".into(),
+                y_label: "mean error (mm)".into(),
+                series,
+            },
+        ])?,
     ));
 
     // Figs. 14, 16, 21: per-axis distributions on the Table 6 rows.
@@ -390,7 +517,8 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
     }
 
     // Fig. 26: every stage's error distribution on the Table 6 rows.
-    let mut named = vec![("before".to_string(), norms(&o.before, &t6))];
+    let before = vec![("before".to_string(), norms(&o.before, &t6))];
+    let mut named = Vec::new();
     for m in &o.models {
         named.push((m.name.clone(), norms(&m.errors, &t6)));
     }
@@ -403,13 +531,21 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             dir,
             out,
             "fig26-stages",
-            SIZE,
-            &[Panel {
-                title: "Error distribution of every stage (GB10 + GB30)".into(),
-                x_label: "error (mm)".into(),
-                y_label: "share of rows (%)".into(),
-                series: histograms(&named, 60, true),
-            }],
+            TWO,
+            &[
+                Panel {
+                    title: "Before calibration (GB10 + GB30)".into(),
+                    x_label: "error (mm)".into(),
+                    y_label: "share of rows (%)".into(),
+                    series: histograms(&before, 60, true),
+                },
+                Panel {
+                    title: "After every model (GB10 + GB30)".into(),
+                    x_label: "error (mm)".into(),
+                    y_label: "share of rows (%)".into(),
+                    series: histograms(&named, 60, true),
+                },
+            ],
         )?,
     ));
     Ok(made)
@@ -418,4 +554,41 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
 /// The report folder of an experiment: `<output>/<name>`.
 pub fn report_dir(output: &Path, name: &str) -> PathBuf {
     output.join(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// No two series of a figure share a style: colour, line and marker.
+    #[test]
+    fn every_series_of_a_figure_has_a_style_of_its_own() {
+        for i in 0..MAX_SERIES {
+            for j in 0..i {
+                assert_ne!(style(i), style(j), "series {j} and {i}");
+            }
+        }
+        let panel = |names: &[&str]| Panel {
+            title: String::new(),
+            x_label: String::new(),
+            y_label: String::new(),
+            series: names
+                .iter()
+                .map(|n| Series {
+                    name: n.to_string(),
+                    points: vec![(0.0, 1.0)],
+                    markers: true,
+                })
+                .collect(),
+        };
+        // A name in two panels keeps its style; names are styled in order of appearance.
+        let names = series_names(&[panel(&["before"]), panel(&["a", "b"]), panel(&["a", "c"])]);
+        assert_eq!(names, ["before", "a", "b", "c"]);
+        // More series than styles is refused.
+        let many: Vec<String> = (0..=MAX_SERIES).map(|i| format!("s{i}")).collect();
+        let refs: Vec<&str> = many.iter().map(String::as_str).collect();
+        let dir = tempfile::tempdir().unwrap();
+        let err = figure(dir.path(), dir.path(), "many", TWO, &[panel(&refs)]).unwrap_err();
+        assert!(err.to_string().contains("at most"), "{err}");
+    }
 }
