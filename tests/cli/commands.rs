@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::common::{report, robocal, s, select_rows, twin_rows, write};
+use crate::common::{calibrate_with, report, robocal, s, select_rows, twin_rows, write};
 
 use robocal_robot::Robot;
 
@@ -411,21 +411,6 @@ fn ca_somm_stage(y: &str, classifier: &str) -> String {
         net("y", y),
         net("z", "tanh")
     )
-}
-
-/// `calibrate` of the bundled robot on `train` into `model` with the stage file `stage`.
-fn calibrate_with(train: &Path, model: &Path, stage: &Path) -> std::process::Output {
-    robocal(&[
-        "calibrate",
-        "--robot",
-        ROBOT,
-        "--data",
-        s(train),
-        "--out",
-        s(model),
-        "--config",
-        s(stage),
-    ])
 }
 
 #[test]

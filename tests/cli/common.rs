@@ -60,3 +60,18 @@ pub fn twin_rows() -> String {
 pub fn report(model: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap()
 }
+
+/// `calibrate` of the bundled robot file on `data` into `model` with the stage file `stage`.
+pub fn calibrate_with(data: &Path, model: &Path, stage: &Path) -> Output {
+    robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/pmc6va030.toml",
+        "--data",
+        s(data),
+        "--out",
+        s(model),
+        "--config",
+        s(stage),
+    ])
+}

@@ -1,26 +1,21 @@
 //! `robocal export`: a URDF that reproduces the model's table, a JSON table, what neither
 //! carries.
 
-use crate::common::{robocal, s};
+use std::path::Path;
 
-const ROBOT: &str = "configs/robots/pmc6va030.toml";
+use crate::common::{calibrate_with, robocal, s};
+
 const DATA: &str = "datasets/pmc6va030/measurements.csv";
 
 #[test]
 fn a_calibrated_model_exports_to_urdf_and_json_and_names_what_they_leave_out() {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("model");
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        ROBOT,
-        "--data",
-        DATA,
-        "--out",
-        s(&model),
-        "--config",
-        "configs/stages/compliance.toml",
-    ]);
+    let o = calibrate_with(
+        Path::new(DATA),
+        &model,
+        Path::new("configs/stages/compliance.toml"),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let urdf = dir.path().join("out/robot.urdf");
     let o = robocal(&[

@@ -1,6 +1,8 @@
 //! `robocal plan`, and the twin measuring a planned pose file: plan → simulate → calibrate.
 
-use crate::common::{robocal, s, write};
+use std::path::Path;
+
+use crate::common::{calibrate_with, robocal, s, write};
 
 const ROBOT: &str = "configs/robots/pmc6va030.toml";
 const TWIN: &str = "configs/twin/pmc6va030.toml";
@@ -68,63 +70,40 @@ fn a_plan_is_measured_on_the_twin_and_calibrated() {
     let measured = std::fs::read_to_string(data.join("measurements.csv")).unwrap();
     assert_eq!(measured.lines().count(), 40 * 2 + 1);
     let model = dir.path().join("model");
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        ROBOT,
-        "--data",
-        s(&data.join("measurements.csv")),
-        "--out",
-        s(&model),
-        "--config",
-        "configs/stages/kinematic-lm.toml",
-    ]);
+    let o = calibrate_with(
+        &data.join("measurements.csv"),
+        &model,
+        Path::new("configs/stages/kinematic-lm.toml"),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 #[test]
 fn bad_plans_are_refused_naming_the_file_and_key() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |args: &[&str]| {
-        let o = robocal(args);
+    let out = dir.path().join("poses.csv");
+    // `plan` with the bundled robot and `--out`, then `extra`: must fail; its stderr.
+    let run = |extra: &[&str]| {
+        let mut args = vec!["plan", "--robot", ROBOT, "--out", s(&out)];
+        args.extend_from_slice(extra);
+        let o = robocal(&args);
         assert!(!o.status.success());
         String::from_utf8_lossy(&o.stderr).to_string()
     };
-    let out = dir.path().join("poses.csv");
     let empty = write(
         dir.path(),
         "empty.toml",
         "[workspace]\nmin = [0, 0, 0]\nmax = [0, 10, 10]\n",
     );
-    let e = run(&[
-        "plan",
-        "--robot",
-        ROBOT,
-        "--count",
-        "20",
-        "--out",
-        s(&out),
-        "--config",
-        s(&empty),
-    ]);
+    let e = run(&["--count", "20", "--config", s(&empty)]);
     assert!(
         e.contains("empty.toml") && e.contains("workspace.min"),
         "{e}"
     );
-    let e = run(&["plan", "--robot", ROBOT, "--count", "2", "--out", s(&out)]);
+    let e = run(&["--count", "2"]);
     assert!(e.contains("--count") && e.contains("parameters"), "{e}");
     let wrong = write(dir.path(), "cand.csv", "pose,q1,q2,q3,load\np1,0,0,0,0\n");
-    let e = run(&[
-        "plan",
-        "--robot",
-        ROBOT,
-        "--count",
-        "20",
-        "--out",
-        s(&out),
-        "--candidates",
-        s(&wrong),
-    ]);
+    let e = run(&["--count", "20", "--candidates", s(&wrong)]);
     assert!(e.contains("cand.csv"), "{e}");
     assert!(!out.exists(), "nothing written");
 }

@@ -80,11 +80,13 @@ impl CalibratedModel {
     /// The residual model's rows for `samples`: their inputs and, when its gate reads physics,
     /// their physics rows ([`gate_physics_row`] with this model's table).
     pub fn residual_rows(&self, samples: &[&Sample]) -> Samples {
-        let rows = Samples::rows(samples.iter().map(|s| inputs_of(s)).collect());
-        match self.residual.as_ref().and_then(ResidualModel::gate_physics) {
-            Some(p) => rows.with_physics(gate_physics_rows(&self.robot, &p, samples)),
-            None => rows,
-        }
+        let physics = self.residual.as_ref().and_then(ResidualModel::gate_physics);
+        with_gate_physics(
+            Samples::rows(samples.iter().map(|s| inputs_of(s)).collect()),
+            &self.robot,
+            physics.as_ref(),
+            samples,
+        )
     }
 
     /// The whole model's predicted point at command `q` (rad) and `load`, mm, world frame.
@@ -193,6 +195,20 @@ pub fn resolve_gate_physics(
     GatePhysics {
         gravity,
         payload_com,
+    }
+}
+
+/// `samples` (made of `rows`, in order) with each row's physics features from `robot`'s table
+/// when a gate reads `physics`; unchanged without.
+pub fn with_gate_physics(
+    samples: Samples,
+    robot: &Robot,
+    physics: Option<&GatePhysics>,
+    rows: &[&Sample],
+) -> Samples {
+    match physics {
+        Some(p) => samples.with_physics(gate_physics_rows(robot, p, rows)),
+        None => samples,
     }
 }
 

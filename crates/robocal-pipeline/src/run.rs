@@ -11,7 +11,7 @@ use robocal_ident::{
     KinematicCalibration, KinematicReport, KinematicSettings, Observations, align,
     calibrate_kinematics,
 };
-use robocal_model::{CalibratedModel, gate_physics_rows};
+use robocal_model::{CalibratedModel, with_gate_physics};
 use robocal_residual::{GatePhysics, ResidualModel, Samples, inputs_of};
 use robocal_robot::{ParamId, Robot};
 use robocal_twin::TwinConfig;
@@ -86,7 +86,7 @@ fn samples(
     match gate {
         Some((model, p)) => {
             let picked: Vec<&Sample> = rows.iter().map(|&i| &data[i].sample).collect();
-            s.with_physics(gate_physics_rows(&model.robot, p, &picked))
+            with_gate_physics(s, &model.robot, Some(p), &picked)
         }
         None => s,
     }
@@ -596,48 +596,38 @@ impl Outcome {
     /// The class (0 = A, 1 = B) a model's CA-SOMM gate gives each of `rows`; `None` without a
     /// gate.
     pub fn gate_classes(&self, model: &ModelRun, rows: &[usize]) -> Option<Vec<usize>> {
-        let kin = &self.kinematics[model.kinematic];
-        let residual = model.residual.as_ref()?;
+        let (residual, raw) = self.residual_samples(model, rows)?;
         let c = residual.classifier()?;
-        let physical = physical_model(&kin.calibration);
-        let physics = residual.gate_physics();
-        let raw = samples(
-            &self.data.rows,
-            &kin.errors,
-            rows,
-            physics.as_ref().map(|p| (&physical, p)),
-        );
         let encoded = residual.encoding.encode_all(&raw.inputs);
         Some(c.classify(&c.rows(&encoded, &raw)))
     }
 
-    /// The CA-SOMM gate of a model, summarised on its training rows (GA10).
-    fn gate(&self, model: &ModelRun) -> Option<GateSummary> {
+    /// A model's residual model, and `rows` as its samples: inputs, the kinematic errors, and
+    /// the physics rows its gate reads (from the model's identified table); `None` without a
+    /// residual model.
+    fn residual_samples<'a>(
+        &self,
+        model: &'a ModelRun,
+        rows: &[usize],
+    ) -> Option<(&'a ResidualModel, Samples)> {
         let kin = &self.kinematics[model.kinematic];
         let residual = model.residual.as_ref()?;
         let physical = physical_model(&kin.calibration);
         let physics = residual.gate_physics();
-        let train = samples(
-            &self.data.rows,
-            &kin.errors,
-            &self.rows("GA10"),
-            physics.as_ref().map(|p| (&physical, p)),
-        );
+        let gate = physics.as_ref().map(|p| (&physical, p));
+        Some((residual, samples(&self.data.rows, &kin.errors, rows, gate)))
+    }
+
+    /// The CA-SOMM gate of a model, summarised on its training rows (GA10).
+    fn gate(&self, model: &ModelRun) -> Option<GateSummary> {
+        let (residual, train) = self.residual_samples(model, &self.rows("GA10"))?;
         gate_summary(residual, self.nominal.dof(), &train)
     }
 
     /// Classifier accuracy of a model on a group.
     fn accuracy(&self, model: &ModelRun, group: &str) -> Option<f64> {
-        let kin = &self.kinematics[model.kinematic];
-        let residual = model.residual.as_ref()?;
-        let physical = physical_model(&kin.calibration);
-        let physics = residual.gate_physics();
-        residual.classifier_accuracy(&samples(
-            &self.data.rows,
-            &kin.errors,
-            &self.rows(group),
-            physics.as_ref().map(|p| (&physical, p)),
-        ))
+        let (residual, rows) = self.residual_samples(model, &self.rows(group))?;
+        residual.classifier_accuracy(&rows)
     }
 
     /// Table 4 rows: every joint parameter (base and tool frames are left to `results.json`'s

@@ -189,26 +189,19 @@ impl Pool {
             Criterion::DOptimal => None,
             Criterion::IOptimal => Some(self.check_moment()),
         };
-        // What adding rows `B` to an information with inverse `inv` gains: the rise of
-        // `log det` (D) or the fall of `trace(M⁻¹ A)` (I, by the Woodbury identity:
-        // `trace((I + B M⁻¹ Bᵀ)⁻¹ B M⁻¹ A M⁻¹ Bᵀ)`).
-        let gains = |inv: &DMatrix<f64>, candidates: &mut dyn Iterator<Item = usize>| {
-            let p = moment.as_ref().map(|a| inv * a * inv);
-            let mut best: Option<(usize, f64)> = None;
-            for c in candidates {
-                let g = match &p {
-                    None => gain(&self.blocks[c], inv),
-                    Some(p) => i_gain(&self.blocks[c], inv, p),
-                };
-                if best.is_none_or(|(_, b)| g > b) {
-                    best = Some((c, g));
-                }
-            }
-            best
-        };
-        let own_gain = |inv: &DMatrix<f64>, c: usize| match &moment {
-            None => gain(&self.blocks[c], inv),
-            Some(a) => i_gain(&self.blocks[c], inv, &(inv * a * inv)),
+        // For the I criterion, `P = M⁻¹ A M⁻¹`, made once per inverse (see [`Self::gain_of`]).
+        let p_of = |inv: &DMatrix<f64>| moment.as_ref().map(|a| inv * a * inv);
+        // The best candidate not taken, and its gain.
+        let best = |inv: &DMatrix<f64>, p: Option<&DMatrix<f64>>, taken: &[bool]| {
+            (0..n)
+                .filter(|&c| !taken[c])
+                .map(|c| (c, self.gain_of(c, inv, p)))
+                .fold(None, |best: Option<(usize, f64)>, (c, g)| match best {
+                    // The first of equals stays.
+                    Some((_, b)) if g > b => Some((c, g)),
+                    Some(_) => best,
+                    None => Some((c, g)),
+                })
         };
         let mut m = ridge.clone();
         let mut chosen: Vec<usize> = Vec::with_capacity(count);
@@ -217,7 +210,7 @@ impl Pool {
             let Some(inv) = m.clone().try_inverse() else {
                 break;
             };
-            let Some((c, _)) = gains(&inv, &mut (0..n).filter(|&c| !taken[c])) else {
+            let Some((c, _)) = best(&inv, p_of(&inv).as_ref(), &taken) else {
                 break;
             };
             m += self.blocks[c].transpose() * &self.blocks[c];
@@ -234,9 +227,9 @@ impl Pool {
                 let Some(inv) = without.clone().try_inverse() else {
                     continue;
                 };
-                let own = own_gain(&inv, out);
-                let best = gains(&inv, &mut (0..n).filter(|&c| !taken[c]));
-                if let Some((c, g)) = best
+                let p = p_of(&inv);
+                let own = self.gain_of(out, &inv, p.as_ref());
+                if let Some((c, g)) = best(&inv, p.as_ref(), &taken)
                     && g > own + 1e-9 * own.abs().max(1e-12)
                 {
                     m = without + self.blocks[c].transpose() * &self.blocks[c];
@@ -256,6 +249,16 @@ impl Pool {
             greedy_log_det,
             chosen,
             exchanges,
+        }
+    }
+
+    /// What adding candidate `c` to an information with inverse `inv` gains: the rise of
+    /// `log det` (D, `p` none) or the fall of `trace(M⁻¹ A)` (I, `p = M⁻¹ A M⁻¹`, by the
+    /// Woodbury identity: `trace((I + B M⁻¹ Bᵀ)⁻¹ B P Bᵀ)`).
+    fn gain_of(&self, c: usize, inv: &DMatrix<f64>, p: Option<&DMatrix<f64>>) -> f64 {
+        match p {
+            None => gain(&self.blocks[c], inv),
+            Some(p) => i_gain(&self.blocks[c], inv, p),
         }
     }
 

@@ -26,6 +26,12 @@ pub const TREE_DEPTHS: [usize; 7] = [2, 3, 4, 6, 8, 10, 12];
 /// Fewest rows per leaf a tree search tries, largest first (simpler trees first among equals).
 pub const TREE_LEAVES: [usize; 5] = [66, 40, 20, 10, 5];
 
+/// Rows in class A (label 0) and class B (label 1).
+fn class_rows(labels: &[usize]) -> [usize; 2] {
+    let b = labels.iter().filter(|l| **l == 1).count();
+    [labels.len() - b, b]
+}
+
 /// The gate and the two model sets.
 #[derive(Debug, Clone)]
 pub struct CaSomm {
@@ -94,10 +100,7 @@ impl CaSomm {
                 leaf_share_b: BTreeMap::new(),
                 inputs,
                 physics,
-                class_rows: [
-                    labels.iter().filter(|l| **l == 0).count(),
-                    labels.iter().filter(|l| **l == 1).count(),
-                ],
+                class_rows: class_rows(&labels),
                 classes: c.classes.unwrap_or_default(),
                 max_depth: depth,
                 min_samples_leaf: leaf,
@@ -138,10 +141,7 @@ impl CaSomm {
         let routed = c.classes == Some(ClassRule::Routed);
         if routed {
             labels = classifier.classify(&rows);
-            classifier.class_rows = [
-                labels.iter().filter(|l| **l == 0).count(),
-                labels.iter().filter(|l| **l == 1).count(),
-            ];
+            classifier.class_rows = class_rows(&labels);
         }
         let in_b: Vec<bool> = labels.iter().map(|l| *l == 1).collect();
         let in_a: Vec<bool> = in_b.iter().map(|b| !b).collect();

@@ -79,9 +79,10 @@ pub struct ClassifierSettings {
     pub per_class: PerClass,
     /// What the tree reads: `model` (the residual model's own inputs: the paper's raw angles
     /// and load under the paper's defaults), `periodic` (sin and cos of every angle, and the
-    /// load) or `physics` (periodic, plus the gravity torque that the payload puts on each
-    /// joint and that torque per kg, from the identified table). Absent: `model` under the
-    /// paper's defaults, `physics` under robocal's.
+    /// load) or `physics` (periodic, plus per joint the payload's gravity torque per kg and
+    /// under the load, and the measured point's motion per degree, from the identified table:
+    /// [`GateInputs::Physics`]). Absent: `model` under the paper's defaults, `physics` under
+    /// robocal's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inputs: Option<GateInputs>,
     /// The payload's centre of mass in the flange frame (mm) for the `physics` inputs; absent:
@@ -93,8 +94,9 @@ pub struct ClassifierSettings {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity: Option<[f64; 3]>,
     /// Whether to keep one class when two do not pay: a SOMM is trained on every row beside
-    /// the two sets, and the one with the lower mean error on the validation rows is kept.
-    /// Absent: no under the paper's defaults (its CA-SOMM as printed), yes under robocal's.
+    /// the two sets, and the two sets are kept only when they beat it on the validation rows
+    /// significantly ([`GateDecision`](crate::GateDecision)). Absent: no under the paper's
+    /// defaults (its CA-SOMM as printed), yes under robocal's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fallback: Option<bool>,
     /// Which rows each class's networks train on: `threshold` (the paper: the rows on each side
@@ -149,9 +151,11 @@ pub enum GateInputs {
     Model,
     /// `sin q, cos q` of every angle, then the load.
     Periodic,
-    /// [`GateInputs::Periodic`], then per joint the gravity lever of the payload (N·m per kg)
-    /// and its torque under the row's load (N·m): the flank a joint with play rests on is set
-    /// by the sign of such a torque.
+    /// [`GateInputs::Periodic`], then the [`PHYSICS_PER_JOINT`] blocks over every joint: the
+    /// payload's gravity lever (N·m per kg), its torque under the row's load (N·m), and the
+    /// measured point's world X, Y, Z motion per degree (mm/deg). The flank a joint with play
+    /// rests on is set by the sign of such a torque, and the point jumps along the joint's
+    /// motion.
     Physics,
 }
 
@@ -297,20 +301,27 @@ impl Classifier {
     /// that share is above one half, class A otherwise (linfa breaks a tie by hash order, which
     /// differs between runs); a leaf without one gives the tree's class.
     pub fn classify(&self, inputs: &[Vec<f64>]) -> Vec<usize> {
-        if inputs.is_empty() {
-            return Vec::new();
-        }
-        let cols = inputs[0].len();
-        let x = Array2::from_shape_fn((inputs.len(), cols), |(i, j)| inputs[i][j]);
-        let tree = self.tree.predict(&x);
-        (inputs.iter().zip(tree))
-            .map(
-                |(row, class)| match self.leaf_share_b.get(&self.leaf_path(row)) {
-                    Some(share) => usize::from(*share > 0.5),
-                    None => class,
-                },
-            )
+        (self.shares(inputs).into_iter())
+            .map(|(share, tree)| share.map_or(tree, |p| usize::from(p > 0.5)))
             .collect()
+    }
+
+    /// Per row, its leaf's recorded share of class B (one walk down the tree), and the tree's
+    /// own class where no share is recorded (linfa's prediction, for those rows only; 0
+    /// where a share is).
+    fn shares(&self, inputs: &[Vec<f64>]) -> Vec<(Option<f64>, usize)> {
+        let mut out: Vec<(Option<f64>, usize)> = (inputs.iter())
+            .map(|row| (self.leaf_share_b.get(&self.leaf_path(row)).copied(), 0))
+            .collect();
+        let missing: Vec<usize> = (0..inputs.len()).filter(|&i| out[i].0.is_none()).collect();
+        if let Some(&first) = missing.first() {
+            let cols = inputs[first].len();
+            let x = Array2::from_shape_fn((missing.len(), cols), |(i, j)| inputs[missing[i]][j]);
+            for (&i, class) in missing.iter().zip(self.tree.predict(&x)) {
+                out[i].1 = class;
+            }
+        }
+        out
     }
 
     /// Checks a classifier read from a file against the model's input count: every split on
@@ -379,17 +390,11 @@ impl Classifier {
     /// Probability of class B for each input row: the training share of its leaf (soft gate),
     /// or 0/1 from the tree's class (hard gate, or a leaf without a recorded share).
     pub fn share_b(&self, inputs: &[Vec<f64>]) -> Vec<f64> {
-        let classes = self.classify(inputs);
-        inputs
-            .iter()
-            .zip(classes)
-            .map(|(row, class)| match self.gate {
-                Gate::Soft => self
-                    .leaf_share_b
-                    .get(&self.leaf_path(row))
-                    .copied()
-                    .unwrap_or(class as f64),
-                Gate::Hard => class as f64,
+        (self.shares(inputs).into_iter())
+            .map(|(share, tree)| match (self.gate, share) {
+                (Gate::Soft, Some(p)) => p,
+                (Gate::Hard, Some(p)) => f64::from(u8::from(p > 0.5)),
+                (_, None) => tree as f64,
             })
             .collect()
     }

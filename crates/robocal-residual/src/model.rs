@@ -11,7 +11,7 @@
 //! Adding a model: a module with its type, its `fit` and `impl Residual`; a [`ResidualKind`]
 //! and a [`Fitted`] variant; its files in `persist`.
 
-use robocal_data::{Observer, SIGNIFICANCE, Silent, improves};
+use robocal_data::{ErrorStats, Observer, SIGNIFICANCE, Silent, improves};
 
 use crate::casomm::CaSomm;
 use crate::classifier::{Classifier, GatePhysics};
@@ -221,8 +221,9 @@ impl ResidualModel {
         Ok(model)
     }
 
-    /// CA-SOMM's fallback: a SOMM trained on every row beside the two sets; the one with the
-    /// lower mean error on the validation rows is kept, and the decision recorded.
+    /// CA-SOMM's fallback: a SOMM trained on every row beside the two sets; the two sets are
+    /// kept only when they beat it significantly on the validation rows ([`GateDecision`]),
+    /// and the decision is recorded.
     fn keep_classes_that_pay(
         &mut self,
         settings: &ResidualSettings,
@@ -243,10 +244,9 @@ impl ResidualModel {
         let one = raw_validation.remaining(Some(
             &somm.predict(&encoded.inputs, raw_validation, false).0,
         ));
-        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
         let decision = GateDecision {
-            two_classes: mean(&two),
-            one_class: mean(&one),
+            two_classes: ErrorStats::from_errors(&two).mean,
+            one_class: ErrorStats::from_errors(&one).mean,
             rows: raw_validation.len(),
             accuracy: self.classifier_accuracy(raw_validation).unwrap_or(f64::NAN),
             significant: improves(&one, &two, &raw_validation.configurations()),

@@ -26,7 +26,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, Observer, Sample};
 use robocal_ident::{KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics};
-use robocal_model::{CalibratedModel, gate_physics_rows, resolve_gate_physics};
+use robocal_model::{CalibratedModel, resolve_gate_physics, with_gate_physics};
 use robocal_residual::{
     GateInputs, ResidualKind, ResidualModel, ResidualSettings, ResidualStage, Samples, SearchLog,
     gate_feature_names,
@@ -303,13 +303,8 @@ pub fn train_residual(
     let model = |s: &Sample| base.base_point(s);
     let make = |rows: &[&Measurement]| {
         let samples = Samples::from_model(model, rows.iter().copied());
-        match &physics {
-            Some(p) => {
-                let s: Vec<&Sample> = rows.iter().map(|m| &m.sample).collect();
-                samples.with_physics(gate_physics_rows(&base.robot, p, &s))
-            }
-            None => samples,
-        }
+        let s: Vec<&Sample> = rows.iter().map(|m| &m.sample).collect();
+        with_gate_physics(samples, &base.robot, physics.as_ref(), &s)
     };
     let (train, val, source) = match validation {
         Some((v, source)) => (make(train), make(v), source),
