@@ -53,6 +53,10 @@ pub enum Command {
         /// report.json).
         #[arg(long)]
         keep_outliers: bool,
+        /// Also write the pictures of the calibration on the training data into DIR (as
+        /// `robocal report` does; the fit, not the accuracy on new poses).
+        #[arg(long, value_name = "DIR")]
+        report: Option<PathBuf>,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {
@@ -138,6 +142,21 @@ pub enum Command {
         /// leaves beside the whole model's.
         #[arg(long, value_name = "CSV")]
         data: Option<PathBuf>,
+    },
+    /// The pictures of a calibration on measurements: error histograms before and after, error
+    /// per pose, signed error per axis against every joint angle, error against load and over
+    /// the workspace (PNG and SVG), report.md, a self-contained report.html and
+    /// statistics.json.
+    Report {
+        /// Model directory written by `calibrate`.
+        #[arg(long, value_name = "MODEL_DIR")]
+        model: PathBuf,
+        /// Measurements (CSV: pose, q1..qN, load, x, y, z), e.g. held-out poses.
+        #[arg(long, value_name = "CSV")]
+        data: PathBuf,
+        /// Report folder (replaced atomically).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
     },
     /// Choose the configurations to measure (D-optimal for the parameters calibrate will
     /// identify) and say what accuracy they buy: writes POSES_CSV (`pose,q1..qN,load`) and

@@ -13,7 +13,7 @@ use robocal_model::CalibratedModel;
 use robocal_pipeline::calibration::{
     OutlierReport, OutlierSettings, ResidualReport, Selection, check_plausible, find_outliers,
 };
-use robocal_pipeline::{AutoSettings, Stages, automatic, configured};
+use robocal_pipeline::{AutoSettings, DataRole, Stages, automatic, configured, write_data_report};
 use robocal_robot::Robot;
 use serde::Serialize;
 
@@ -69,6 +69,7 @@ pub fn run(
     out: &Path,
     config: Option<&Path>,
     checks: Checks,
+    pictures: Option<&Path>,
 ) -> Result<()> {
     let stages = config.map(Stages::load).transpose()?;
     let nominal = Robot::load(robot)?;
@@ -237,6 +238,30 @@ pub fn run(
         outliers: built.outliers.clone(),
     };
     model.robot.name = format!("{} (calibrated by robocal)", nominal.name);
+    let mut registered = built.kinematic.aligned.clone();
+    registered.name = format!(
+        "{} (nominal, base and tool registered by robocal)",
+        nominal.name
+    );
+    model.nominal = Some(registered);
+    // The pictures first: a report that cannot be drawn leaves no model either.
+    if let Some(dir) = pictures {
+        let said = super::replacing(dir);
+        let written = write_data_report(
+            &model,
+            &out.display().to_string(),
+            data,
+            &rows,
+            DataRole::Training,
+            dir,
+        )?;
+        said();
+        eprintln!(
+            "robocal: report on the training rows written to {} ({} figures, report.html)",
+            dir.display(),
+            written.figures.len()
+        );
+    }
     let said = super::replacing(out);
     model.save(out, &report)?;
     said();

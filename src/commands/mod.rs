@@ -7,6 +7,7 @@ mod export;
 mod model;
 mod plan;
 mod predict;
+mod report;
 mod run;
 mod simulate;
 mod terminal;
@@ -28,6 +29,7 @@ pub fn run(cli: Cli) -> Result<()> {
             config,
             force,
             keep_outliers,
+            report,
         } => calibrate::run(
             &robot,
             &data,
@@ -38,7 +40,9 @@ pub fn run(cli: Cli) -> Result<()> {
                 force,
                 keep_outliers,
             },
+            report.as_deref(),
         ),
+        Command::Report { model, data, out } => report::run(&model, &data, &out),
         Command::Predict {
             source,
             data,

@@ -1,7 +1,7 @@
 //! End-to-end tests of the `robocal` binary, one test binary (one link of the whole
 //! dependency tree): every command on real files ([`commands`]) and bad input across every
 //! command and input file ([`hardening`]), data that read well and are wrong
-//! ([`robustness`]), compensation toward a robot program ([`compensation`]), with one runner and CSV helpers ([`common`]).
+//! ([`robustness`]), compensation toward a robot program ([`compensation`]), the pictures of a calibration ([`report`]), with one runner and CSV helpers ([`common`]).
 
 mod commands;
 mod common;
@@ -9,4 +9,5 @@ mod compensation;
 mod export;
 mod hardening;
 mod planning;
+mod report;
 mod robustness;

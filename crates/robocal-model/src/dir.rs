@@ -5,6 +5,8 @@
 //!   kinematics.toml   the identified table, in the robot file's format
 //!   compliance.toml   joint errors (payload compliance, harmonics, self-weight), when identified
 //!   residual.json     the residual model's manifest, and its network files, when learned
+//!   nominal.toml      the nominal table with base and tool registered in the tracker frame
+//!                     (the arm before calibration), when the calibration gives one
 //!   report.json       model_format, robocal_version, then what the calibration reports
 //! ```
 
@@ -24,6 +26,8 @@ pub const MODEL_FORMAT: u32 = 1;
 pub const KINEMATICS_FILE: &str = "kinematics.toml";
 /// The joint-error model.
 pub const COMPLIANCE_FILE: &str = "compliance.toml";
+/// The nominal table registered in the tracker frame: the arm before calibration.
+pub const NOMINAL_FILE: &str = "nominal.toml";
 /// The calibration's report, which carries the layout version.
 pub const REPORT_FILE: &str = "report.json";
 
@@ -66,6 +70,9 @@ impl CalibratedModel {
             }
             if let Some(residual) = &self.residual {
                 residual.save(dir)?;
+            }
+            if let Some(nominal) = &self.nominal {
+                write_text_in(dir, out, NOMINAL_FILE, &nominal.to_toml_string())?;
             }
             write_text_in(dir, out, REPORT_FILE, &json)?;
             Ok(())
@@ -120,6 +127,23 @@ impl CalibratedModel {
         } else {
             None
         };
-        Ok(Self::new(robot, joint_errors, residual))
+        let nominal_file = dir.join(NOMINAL_FILE);
+        let nominal = if nominal_file.exists() {
+            let nominal = Robot::load(&nominal_file)?;
+            if nominal.dof() != robot.dof() {
+                return Err(ModelError::Nominal {
+                    file: nominal_file,
+                    nominal: nominal.dof(),
+                    joints: robot.dof(),
+                });
+            }
+            Some(nominal)
+        } else {
+            None
+        };
+        Ok(Self {
+            nominal,
+            ..Self::new(robot, joint_errors, residual)
+        })
     }
 }

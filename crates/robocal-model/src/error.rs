@@ -58,6 +58,16 @@ pub enum ModelError {
         /// Joints of the robot.
         joints: usize,
     },
+    /// The registered nominal table does not fit the identified one.
+    #[error("{file}: the nominal table has {nominal} joints, the identified table {joints}")]
+    Nominal {
+        /// `nominal.toml`.
+        file: PathBuf,
+        /// Joints of the nominal table.
+        nominal: usize,
+        /// Joints of the identified table.
+        joints: usize,
+    },
     /// The report could not be serialised.
     #[error("{file}: cannot write the report: {source}")]
     Report {

@@ -34,7 +34,7 @@ mod error;
 pub mod export;
 mod model;
 
-pub use dir::{COMPLIANCE_FILE, KINEMATICS_FILE, MODEL_FORMAT, REPORT_FILE};
+pub use dir::{COMPLIANCE_FILE, KINEMATICS_FILE, MODEL_FORMAT, NOMINAL_FILE, REPORT_FILE};
 pub use error::{ModelError, Result};
 pub use model::{
     CalibratedModel, gate_physics_row, gate_physics_rows, resolve_gate_physics, with_gate_physics,

@@ -18,6 +18,10 @@ pub struct CalibratedModel {
     pub joint_errors: Option<JointErrors>,
     /// What the table and the joint errors leave, learned.
     pub residual: Option<ResidualModel>,
+    /// The nominal table registered in the tracker frame (its base and tool fitted to the
+    /// training data): the arm before calibration, against which `robocal report` compares.
+    /// Not used to predict.
+    pub nominal: Option<Robot>,
 }
 
 impl CalibratedModel {
@@ -31,6 +35,7 @@ impl CalibratedModel {
             robot,
             joint_errors,
             residual,
+            nominal: None,
         }
     }
 

@@ -73,7 +73,11 @@ fn dir() -> (tempfile::TempDir, PathBuf) {
 
 #[test]
 fn a_saved_model_predicts_what_it_predicted_before() {
-    let model = full_model();
+    let mut model = full_model();
+    // The registered nominal table travels with the model, unchanged.
+    let mut nominal = robot();
+    nominal.base.xyz.x += 12.5;
+    model.nominal = Some(nominal);
     let (_tmp, out) = dir();
     model
         .save(&out, &serde_json::json!({"note": "a test"}))
@@ -87,6 +91,9 @@ fn a_saved_model_predicts_what_it_predicted_before() {
     // The single-point path (compensation's) is the batch path.
     for (s, p) in poses.iter().zip(&a) {
         assert!((back.point(&s.joints_rad(), s.load) - p).norm() < 1e-9);
+        let q = s.joints_rad();
+        let (n0, n1) = (model.nominal.as_ref(), back.nominal.as_ref());
+        assert!((n0.unwrap().point(&q) - n1.unwrap().point(&q)).norm() < 1e-9);
     }
     // The report carries the layout version first, then the caller's fields.
     let report = std::fs::read_to_string(out.join("report.json")).unwrap();

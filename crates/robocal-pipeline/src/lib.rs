@@ -14,6 +14,7 @@
 //! ```
 
 pub mod calibration;
+pub mod data_report;
 pub mod error;
 pub mod experiment;
 pub mod paper;
@@ -24,6 +25,7 @@ pub mod split;
 pub mod stages;
 
 pub use calibration::{AutoSettings, Built, automatic, configured, physical_model};
+pub use data_report::{DataReport, DataRole, write_data_report};
 pub use error::{PipelineError, Result};
 pub use experiment::{Experiment, ModelPlan, RawExperiment, SplitDesign};
 pub use report::{Written, write_report};

@@ -12,6 +12,7 @@ use std::sync::OnceLock;
 use nalgebra::Vector3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::colors::colormaps::{ColorMap, ViridisRGB};
 use plotters::style::{FontStyle, register_font};
 
 use crate::error::{PipelineError, Result};
@@ -81,19 +82,30 @@ fn style(i: usize) -> Style {
     }
 }
 
+/// How a series' points are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Draw {
+    /// A line, with a marker every few points (a histogram).
+    Line,
+    /// A line with a marker on every point.
+    Marked,
+    /// Markers alone (a scatter).
+    Points,
+}
+
 /// Named (x, y) points.
-struct Series {
-    name: String,
-    points: Vec<(f64, f64)>,
-    markers: bool,
+pub(crate) struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub draw: Draw,
 }
 
 /// One panel of lines.
-struct Panel {
-    title: String,
-    x_label: String,
-    y_label: String,
-    series: Vec<Series>,
+pub(crate) struct Panel {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
 }
 
 type Drawn = std::result::Result<(), Box<dyn Error>>;
@@ -110,7 +122,12 @@ fn range(values: impl Iterator<Item = f64>, from_zero: bool) -> (f64, f64) {
     if from_zero {
         lo = lo.min(0.0);
     }
-    let pad = ((hi - lo) * 0.05).max(1e-9);
+    // A single value (one load) gets a range around it rather than a zero-width axis.
+    let pad = if hi - lo > 1e-12 {
+        (hi - lo) * 0.05
+    } else {
+        (hi.abs() * 0.05).max(1.0)
+    };
     (
         if from_zero && lo == 0.0 {
             0.0
@@ -119,6 +136,18 @@ fn range(values: impl Iterator<Item = f64>, from_zero: bool) -> (f64, f64) {
         },
         hi + pad,
     )
+}
+
+/// Tick labels on an axis `width` pixels long: about one per 80 pixels, 3 to 10.
+fn ticks(width: u32) -> usize {
+    (width as usize / 80).clamp(3, 10)
+}
+
+/// A tick label: the value with at most four decimals, trailing zeros dropped (`2`, `0.25`).
+fn tick(v: &f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
 }
 
 /// Width of the legend column at the right of a figure, pixels.
@@ -154,6 +183,9 @@ where
         .build_cartesian_2d(x0..x1, y0..y1)?;
     chart
         .configure_mesh()
+        .x_labels(ticks(area.dim_in_pixel().0))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .x_desc(panel.x_label.as_str())
         .y_desc(panel.y_label.as_str())
         .label_style(("sans-serif", 14))
@@ -163,25 +195,29 @@ where
         let st = style_of(&s.name);
         let c = st.colour;
         let points = s.points.iter().copied();
-        if st.dashed {
-            chart.draw_series(DashedLineSeries::new(points, 8, 5, c.stroke_width(2)))?;
-        } else {
-            chart.draw_series(LineSeries::new(points, c.stroke_width(2)))?;
+        if s.draw != Draw::Points {
+            if st.dashed {
+                chart.draw_series(DashedLineSeries::new(points, 8, 5, c.stroke_width(2)))?;
+            } else {
+                chart.draw_series(LineSeries::new(points, c.stroke_width(2)))?;
+            }
         }
         // Markers on every point of a short series, on every few of a long one (a histogram):
         // the shape tells series apart where colours alone would not.
-        let every = if s.markers {
-            1
-        } else {
+        let every = if s.draw == Draw::Line {
             (s.points.len() / 12).max(1)
+        } else {
+            1
         };
         let at = s.points.iter().copied().step_by(every);
+        // A scatter's markers are small: many points, and the shape still reads.
+        let r = if s.draw == Draw::Points { 3 } else { 4 };
         match st.marker {
-            Marker::Circle => chart.draw_series(at.map(|p| Circle::new(p, 4, c.filled())))?,
+            Marker::Circle => chart.draw_series(at.map(|p| Circle::new(p, r, c.filled())))?,
             Marker::Triangle => {
-                chart.draw_series(at.map(|p| TriangleMarker::new(p, 5, c.filled())))?
+                chart.draw_series(at.map(|p| TriangleMarker::new(p, r + 1, c.filled())))?
             }
-            Marker::Cross => chart.draw_series(at.map(|p| Cross::new(p, 4, c.stroke_width(2))))?,
+            Marker::Cross => chart.draw_series(at.map(|p| Cross::new(p, r, c.stroke_width(2))))?,
             Marker::Square => {
                 chart.draw_series(at.map(|p| {
                     EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], c.filled())
@@ -231,7 +267,11 @@ fn series_names(panels: &[Panel]) -> Vec<String> {
     names
 }
 
-fn draw_panels<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, panels: &[Panel]) -> Drawn
+fn draw_panels<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    panels: &[Panel],
+    columns: usize,
+) -> Drawn
 where
     DB::ErrorType: 'static,
 {
@@ -240,7 +280,8 @@ where
     let width = root.dim_in_pixel().0;
     let (plots, legend) = root.split_horizontally(width.saturating_sub(LEGEND_W));
     let style_of = |name: &str| style(names.iter().position(|n| n == name).unwrap_or(0));
-    let areas = plots.split_evenly((1, panels.len()));
+    let columns = columns.clamp(1, panels.len().max(1));
+    let areas = plots.split_evenly((panels.len().div_ceil(columns), columns));
     for (area, panel) in areas.iter().zip(panels) {
         draw_panel(area, panel, &style_of)?;
     }
@@ -256,6 +297,19 @@ fn figure(
     stem: &str,
     size: (u32, u32),
     panels: &[Panel],
+) -> Result<Vec<String>> {
+    figure_grid(dir, out, stem, size, panels, panels.len())
+}
+
+/// Draws `panels` row by row, `columns` to a row, into `<dir>/<stem>.png` and `.svg` (`out` is
+/// where `dir` will be, for error messages); returns the file names.
+pub(crate) fn figure_grid(
+    dir: &Path,
+    out: &Path,
+    stem: &str,
+    size: (u32, u32),
+    panels: &[Panel],
+    columns: usize,
 ) -> Result<Vec<String>> {
     let fail = |name: &str, message: String| PipelineError::Plot {
         path: out.join(name),
@@ -277,11 +331,143 @@ fn figure(
     draw_panels(
         BitMapBackend::new(&dir.join(&png), size).into_drawing_area(),
         panels,
+        columns,
     )
     .map_err(|e| fail(&png, e.to_string()))?;
     draw_panels(
         SVGBackend::new(&dir.join(&svg), size).into_drawing_area(),
         panels,
+        columns,
+    )
+    .map_err(|e| fail(&svg, e.to_string()))?;
+    Ok(vec![png, svg])
+}
+
+/// One panel of points coloured by a value.
+pub(crate) struct ColourPanel {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    /// (x, y, value).
+    pub points: Vec<(f64, f64, f64)>,
+}
+
+/// The colour scale of a [`colour_figure`]: from 0 to the 99th percentile of the values (a few
+/// wild points do not wash out the rest; those above are drawn in the top colour).
+fn colour_scale(panels: &[ColourPanel]) -> f64 {
+    let mut values: Vec<f64> = panels
+        .iter()
+        .flat_map(|p| p.points.iter().map(|q| q.2))
+        .filter(|v| v.is_finite())
+        .collect();
+    values.sort_by(f64::total_cmp);
+    match values.len() {
+        0 => 1.0,
+        n => values[((n - 1) as f64 * 0.99).round() as usize].max(1e-9),
+    }
+}
+
+fn draw_colour_panels<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    panels: &[ColourPanel],
+    value_label: &str,
+) -> Drawn
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let (width, height) = root.dim_in_pixel();
+    let (plots, legend) = root.split_horizontally(width.saturating_sub(LEGEND_W));
+    let top = colour_scale(panels);
+    let colour = |v: f64| ViridisRGB.get_color_normalized(v.clamp(0.0, top), 0.0, top);
+    for (area, panel) in plots.split_evenly((1, panels.len())).iter().zip(panels) {
+        let (x0, x1) = range(panel.points.iter().map(|p| p.0), false);
+        let (y0, y1) = range(panel.points.iter().map(|p| p.1), false);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&panel.title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_labels(ticks(area.dim_in_pixel().0))
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .x_desc(panel.x_label.as_str())
+            .y_desc(panel.y_label.as_str())
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 15))
+            .draw()?;
+        // Largest values last, on top.
+        let mut points = panel.points.clone();
+        points.sort_by(|a, b| a.2.total_cmp(&b.2));
+        chart.draw_series(
+            points
+                .iter()
+                .map(|&(x, y, v)| Circle::new((x, y), 3, colour(v).filled())),
+        )?;
+    }
+    // The scale: a vertical bar with five labelled ticks.
+    let font = ("sans-serif", 13).into_font();
+    legend.draw(&Text::new(value_label.to_string(), (8, 22), font.clone()))?;
+    let (y_top, y_bottom) = (50, height as i32 - 70);
+    let steps = 200;
+    for k in 0..steps {
+        let v = top * (1.0 - k as f64 / steps as f64);
+        let y = y_top + (y_bottom - y_top) * k / steps;
+        let y_next = y_top + (y_bottom - y_top) * (k + 1) / steps;
+        legend.draw(&Rectangle::new(
+            [(12, y), (40, y_next + 1)],
+            colour(v).filled(),
+        ))?;
+    }
+    for t in 0..=4 {
+        let v = top * (1.0 - t as f64 / 4.0);
+        let y = y_top + (y_bottom - y_top) * t / 4;
+        legend.draw(&PathElement::new(
+            vec![(40, y), (46, y)],
+            BLACK.stroke_width(1),
+        ))?;
+        let text = if t == 0 {
+            format!("≥ {v:.3}")
+        } else {
+            format!("{v:.3}")
+        };
+        legend.draw(&Text::new(text, (50, y - 7), font.clone()))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Draws `panels` side by side, every point coloured by its value on one colour-blind-safe
+/// (viridis) scale shown in the column at the right, into `<dir>/<stem>.png` and `.svg`;
+/// returns the file names.
+pub(crate) fn colour_figure(
+    dir: &Path,
+    out: &Path,
+    stem: &str,
+    size: (u32, u32),
+    panels: &[ColourPanel],
+    value_label: &str,
+) -> Result<Vec<String>> {
+    let fail = |name: &str, message: String| PipelineError::Plot {
+        path: out.join(name),
+        message,
+    };
+    font().map_err(|m| fail(stem, m))?;
+    let png = format!("{stem}.png");
+    let svg = format!("{stem}.svg");
+    draw_colour_panels(
+        BitMapBackend::new(&dir.join(&png), size).into_drawing_area(),
+        panels,
+        value_label,
+    )
+    .map_err(|e| fail(&png, e.to_string()))?;
+    draw_colour_panels(
+        SVGBackend::new(&dir.join(&svg), size).into_drawing_area(),
+        panels,
+        value_label,
     )
     .map_err(|e| fail(&svg, e.to_string()))?;
     Ok(vec![png, svg])
@@ -305,14 +491,18 @@ pub fn histogram(values: &[f64], lo: f64, hi: f64, bins: usize) -> Vec<(f64, f64
 }
 
 /// Histograms of several named value lists over one common range.
-fn histograms(named: &[(String, Vec<f64>)], bins: usize, from_zero: bool) -> Vec<Series> {
+pub(crate) fn histograms(
+    named: &[(String, Vec<f64>)],
+    bins: usize,
+    from_zero: bool,
+) -> Vec<Series> {
     let (lo, hi) = range(named.iter().flat_map(|(_, v)| v.iter().copied()), from_zero);
     named
         .iter()
         .map(|(name, v)| Series {
             name: name.clone(),
             points: histogram(v, lo, hi, bins),
-            markers: false,
+            draw: Draw::Line,
         })
         .collect()
 }
@@ -354,7 +544,7 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             .enumerate()
             .map(|(k, &i)| ((k + 1) as f64, o.before[i].norm()))
             .collect(),
-        markers: false,
+        draw: Draw::Line,
     }];
     let mut series = Vec::new();
     for k in &o.kinematics {
@@ -366,12 +556,12 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
         series.push(Series {
             name: format!("after {} (fitted)", k.label),
             points: points(0..n_fit),
-            markers: true,
+            draw: Draw::Marked,
         });
         series.push(Series {
             name: format!("after {} (held out)", k.label),
             points: points(n_fit..rows.len()),
-            markers: true,
+            draw: Draw::Marked,
         });
     }
     let load = o.splits.kinematic_load;
@@ -398,14 +588,14 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
     let before = vec![Series {
         name: "before".into(),
         points: o.mean_by_load(&o.before),
-        markers: true,
+        draw: Draw::Marked,
     }];
     let mut series = Vec::new();
     for m in &o.models {
         series.push(Series {
             name: m.name.clone(),
             points: o.mean_by_load(&m.errors),
-            markers: true,
+            draw: Draw::Marked,
         });
     }
     made.push((
@@ -560,6 +750,15 @@ pub fn report_dir(output: &Path, name: &str) -> PathBuf {
 mod tests {
     use super::*;
 
+    #[test]
+    fn tick_labels_drop_trailing_zeros() {
+        let labels: Vec<String> = [2.0, 0.25, -50.0, 0.30000000000000004, -0.00001, 1234.5678]
+            .iter()
+            .map(tick)
+            .collect();
+        assert_eq!(labels, ["2", "0.25", "-50", "0.3", "0", "1234.5678"]);
+    }
+
     /// No two series of a figure share a style: colour, line and marker.
     #[test]
     fn every_series_of_a_figure_has_a_style_of_its_own() {
@@ -577,7 +776,7 @@ mod tests {
                 .map(|n| Series {
                     name: n.to_string(),
                     points: vec![(0.0, 1.0)],
-                    markers: true,
+                    draw: Draw::Marked,
                 })
                 .collect(),
         };

@@ -1,0 +1,775 @@
+//! The pictures of a calibration on the user's own measurements (`robocal report`,
+//! `calibrate --report`): the error before and after as histograms, per pose, per axis against
+//! every joint angle, against the load and over the workspace; PNG and SVG, `report.md`, one
+//! self-contained `report.html` (the SVGs inline) and `statistics.json`.
+//!
+//! "Before" is the nominal table with its base and tool registered in the tracker frame (the
+//! model directory's `nominal.toml`, written by `calibrate`); a model without it is shown after
+//! calibration only.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use robocal_data::{ErrorStats, Measurement, write_dir_atomically, write_text_in};
+use robocal_model::CalibratedModel;
+use serde::Serialize;
+
+use crate::error::{PipelineError, Result};
+use crate::plots::{ColourPanel, Draw, Panel, Series, colour_figure, figure_grid, histograms};
+
+/// What the rows are to the model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DataRole {
+    /// Rows the model never saw.
+    HeldOut,
+    /// The rows the model was calibrated on: its fit, not its accuracy.
+    Training,
+}
+
+impl DataRole {
+    fn describe(self) -> &'static str {
+        match self {
+            Self::HeldOut => {
+                "rows given to `robocal report`: the model's accuracy if it never saw them"
+            }
+            Self::Training => {
+                "the training rows: how well the model fits them, not its accuracy on new poses"
+            }
+        }
+    }
+}
+
+/// Signed error along one world axis, after calibration.
+#[derive(Debug, Clone, Serialize)]
+pub struct AxisStats {
+    /// `x`, `y` or `z`.
+    pub axis: &'static str,
+    /// Mean signed error (measured − predicted), mm: a bias the model leaves.
+    pub mean: f64,
+    /// Standard deviation, mm.
+    pub std: f64,
+    /// Largest absolute error, mm.
+    pub max_abs: f64,
+}
+
+/// The error at one load.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoadStats {
+    /// Load, kg.
+    pub load: f64,
+    /// Rows at this load.
+    pub rows: usize,
+    /// Mean error before calibration, mm (when the model carries its nominal table).
+    pub before: Option<f64>,
+    /// Mean error after, mm.
+    pub after: f64,
+}
+
+/// One of the worst rows.
+#[derive(Debug, Clone, Serialize)]
+pub struct WorstRow {
+    /// Line in the data file.
+    pub line: u64,
+    /// Pose id.
+    pub pose: String,
+    /// Load, kg.
+    pub load: f64,
+    /// Error after calibration, mm.
+    pub error: f64,
+}
+
+/// A figure of the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct Figure {
+    /// File name without extension (`.png` and `.svg` beside each other).
+    pub stem: String,
+    /// What it shows.
+    pub caption: String,
+}
+
+/// `statistics.json`: what `report.md` states.
+#[derive(Debug, Clone, Serialize)]
+pub struct DataReport {
+    /// The measurement file.
+    pub data: PathBuf,
+    /// Held-out or training rows.
+    pub role: DataRole,
+    /// The model (its directory, or what made it).
+    pub model: String,
+    /// The model's parts.
+    pub parts: Vec<String>,
+    /// Rows of the file.
+    pub rows: usize,
+    /// Distinct pose ids.
+    pub configurations: usize,
+    /// Distinct loads, kg.
+    pub loads: Vec<f64>,
+    /// The nominal table, base and tool registered (absent when the model does not carry it).
+    pub before: Option<ErrorStats>,
+    /// The table and joint errors without the residual model (only when there is one).
+    pub kinematic: Option<ErrorStats>,
+    /// The whole model.
+    pub after: ErrorStats,
+    /// Signed error per world axis after calibration.
+    pub axes: Vec<AxisStats>,
+    /// Mean error per load.
+    pub by_load: Vec<LoadStats>,
+    /// The five worst rows after calibration.
+    pub worst: Vec<WorstRow>,
+    /// The figures.
+    pub figures: Vec<Figure>,
+}
+
+/// The parts of a model, in words.
+fn parts(model: &CalibratedModel) -> Vec<String> {
+    let mut parts = vec![format!(
+        "kinematic table: {} joints (MDH, β on parallel joints, base, tool)",
+        model.dof()
+    )];
+    if let Some(e) = &model.joint_errors {
+        let mut blocks = vec!["payload compliance"];
+        if !e.harmonics.is_empty() {
+            blocks.push("transmission harmonics");
+        }
+        if !e.self_weight.is_empty() {
+            blocks.push("self-weight compliance");
+        }
+        parts.push(format!("joint errors: {}", blocks.join(", ")));
+    }
+    if let Some(r) = &model.residual {
+        parts.push(format!("residual model: {}", r.kind().name()));
+    }
+    parts
+}
+
+/// Mean of `values` (0 for none).
+fn mean(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        0.0
+    } else {
+        values.iter().sum::<f64>() / values.len() as f64
+    }
+}
+
+/// Distinct loads of `rows`, ascending.
+fn loads(rows: &[&Measurement]) -> Vec<f64> {
+    let mut loads: Vec<f64> = rows.iter().map(|m| m.sample.load).collect();
+    loads.sort_by(f64::total_cmp);
+    loads.dedup();
+    loads
+}
+
+/// Each row's configuration number, 1-based, in order of the pose id's first appearance.
+fn configuration_numbers(rows: &[&Measurement]) -> (Vec<usize>, usize) {
+    let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
+    let numbers = rows
+        .iter()
+        .map(|m| {
+            let next = seen.len() + 1;
+            *seen.entry(m.sample.pose.as_str()).or_insert(next)
+        })
+        .collect();
+    (numbers, seen.len())
+}
+
+/// Mean of `errors` at each load: (load, mean).
+fn mean_by_load(rows: &[&Measurement], errors: &[f64]) -> Vec<(f64, f64)> {
+    loads(rows)
+        .into_iter()
+        .map(|l| {
+            let at: Vec<f64> = (rows.iter().zip(errors))
+                .filter(|(m, _)| m.sample.load == l)
+                .map(|(_, e)| *e)
+                .collect();
+            (l, mean(&at))
+        })
+        .collect()
+}
+
+const AXES: [&str; 3] = ["X", "Y", "Z"];
+
+/// Draws the figures into `dir`; returns them in report order.
+fn draw(
+    dir: &Path,
+    out: &Path,
+    rows: &[&Measurement],
+    before: Option<&[f64]>,
+    kinematic: Option<&[f64]>,
+    after: &[f64],
+    signed: &[Vector3<f64>],
+) -> Result<Vec<Figure>> {
+    let mut figures = Vec::new();
+    let n = rows.len();
+    let before_title = "Before calibration (nominal table, base and tool registered)";
+
+    // Histograms: before on its own panel, its errors being many times the calibrated ones.
+    let mut after_named = Vec::new();
+    if let Some(k) = kinematic {
+        after_named.push((
+            "after: table + joint errors (no residual)".to_string(),
+            k.to_vec(),
+        ));
+    }
+    after_named.push(("after: the whole model".to_string(), after.to_vec()));
+    let mut panels = Vec::new();
+    if let Some(b) = before {
+        panels.push(Panel {
+            title: format!("{before_title}, {n} rows"),
+            x_label: "error (mm)".into(),
+            y_label: "share of rows (%)".into(),
+            series: histograms(&[("before".to_string(), b.to_vec())], 40, true),
+        });
+    }
+    panels.push(Panel {
+        title: format!("After calibration, {n} rows"),
+        x_label: "error (mm)".into(),
+        y_label: "share of rows (%)".into(),
+        series: histograms(&after_named, 40, true),
+    });
+    figure_grid(dir, out, "histogram", (1700, 600), &panels, 2)?;
+    figures.push(Figure {
+        stem: "histogram".into(),
+        caption: "Distribution of the position error (distance between measured and predicted point), before and after calibration".into(),
+    });
+
+    // Error per pose.
+    let (numbers, configurations) = configuration_numbers(rows);
+    let per_pose = |errors: &[f64]| -> Vec<(f64, f64)> {
+        numbers
+            .iter()
+            .zip(errors)
+            .map(|(&k, &e)| (k as f64, e))
+            .collect()
+    };
+    let mut panels = Vec::new();
+    if let Some(b) = before {
+        panels.push(Panel {
+            title: before_title.into(),
+            x_label: format!("configuration (1–{configurations}, order of the file)"),
+            y_label: "error (mm)".into(),
+            series: vec![Series {
+                name: "before".into(),
+                points: per_pose(b),
+                draw: Draw::Points,
+            }],
+        });
+    }
+    panels.push(Panel {
+        title: "After calibration (the whole model)".into(),
+        x_label: format!("configuration (1–{configurations}, order of the file)"),
+        y_label: "error (mm)".into(),
+        series: vec![Series {
+            name: "after: the whole model".into(),
+            points: per_pose(after),
+            draw: Draw::Points,
+        }],
+    });
+    figure_grid(dir, out, "per-pose", (1700, 600), &panels, 2)?;
+    figures.push(Figure {
+        stem: "per-pose".into(),
+        caption: "Error of every row against its configuration (every load of a configuration at its number)".into(),
+    });
+
+    // Signed error per axis against every joint angle.
+    let dof = rows.first().map_or(0, |m| m.sample.joints.len());
+    let mut panels = Vec::new();
+    for (a, axis) in AXES.iter().enumerate() {
+        for j in 0..dof {
+            panels.push(Panel {
+                title: format!("{axis} error against q{}", j + 1),
+                x_label: format!("q{} (deg)", j + 1),
+                y_label: format!("signed {axis} error (mm)"),
+                series: vec![Series {
+                    name: "after: measured − predicted".into(),
+                    points: rows
+                        .iter()
+                        .zip(signed)
+                        .map(|(m, e)| (m.sample.joints[j], e[a]))
+                        .collect(),
+                    draw: Draw::Points,
+                }],
+            });
+        }
+    }
+    let width = 340 + 330 * dof.max(1) as u32;
+    figure_grid(dir, out, "axes-joints", (width, 900), &panels, dof.max(1))?;
+    figures.push(Figure {
+        stem: "axes-joints".into(),
+        caption: "Signed error along each world axis after calibration against each joint angle: a trend or a wave here is an effect the model does not hold".into(),
+    });
+
+    // Error against load.
+    let at_load = |errors: &[f64]| -> Vec<Series> {
+        vec![
+            Series {
+                name: "rows".into(),
+                points: rows
+                    .iter()
+                    .zip(errors)
+                    .map(|(m, &e)| (m.sample.load, e))
+                    .collect(),
+                draw: Draw::Points,
+            },
+            Series {
+                name: "mean per load".into(),
+                points: mean_by_load(rows, errors),
+                draw: Draw::Marked,
+            },
+        ]
+    };
+    let mut panels = Vec::new();
+    if let Some(b) = before {
+        panels.push(Panel {
+            title: before_title.into(),
+            x_label: "load (kg)".into(),
+            y_label: "error (mm)".into(),
+            series: at_load(b),
+        });
+    }
+    panels.push(Panel {
+        title: "After calibration (the whole model)".into(),
+        x_label: "load (kg)".into(),
+        y_label: "error (mm)".into(),
+        series: at_load(after),
+    });
+    figure_grid(dir, out, "load", (1700, 600), &panels, 2)?;
+    figures.push(Figure {
+        stem: "load".into(),
+        caption: "Error against the payload: every row and the mean per load".into(),
+    });
+
+    // Error over the workspace.
+    let panel = |title: &str, y: usize, y_name: &str| ColourPanel {
+        title: title.into(),
+        x_label: "x, world frame (mm)".into(),
+        y_label: format!("{y_name}, world frame (mm)"),
+        points: rows
+            .iter()
+            .zip(after)
+            .map(|(m, &e)| (m.position.x, m.position[y], e))
+            .collect(),
+    };
+    colour_figure(
+        dir,
+        out,
+        "workspace",
+        (1700, 700),
+        &[
+            panel("Measured points from above (x–y)", 1, "y"),
+            panel("Measured points from the side (x–z)", 2, "z"),
+        ],
+        "error after (mm)",
+    )?;
+    figures.push(Figure {
+        stem: "workspace".into(),
+        caption: "Where in the workspace the error after calibration is: every measured point coloured by its error".into(),
+    });
+    Ok(figures)
+}
+
+/// Statistics of the signed errors along each axis.
+fn axis_stats(signed: &[Vector3<f64>]) -> Vec<AxisStats> {
+    (0..3)
+        .map(|a| {
+            let v: Vec<f64> = signed.iter().map(|e| e[a]).collect();
+            let m = mean(&v);
+            let var = if v.len() > 1 {
+                v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64
+            } else {
+                0.0
+            };
+            AxisStats {
+                axis: ["x", "y", "z"][a],
+                mean: m,
+                std: var.sqrt(),
+                max_abs: v.iter().fold(0.0, |acc: f64, x| acc.max(x.abs())),
+            }
+        })
+        .collect()
+}
+
+/// Writes the report of `model` (called `model_name` in the texts) on `rows` of `data` into the
+/// folder `out`, atomically (a complete new folder, or nothing).
+pub fn write_data_report(
+    model: &CalibratedModel,
+    model_name: &str,
+    data: &Path,
+    rows: &[&Measurement],
+    role: DataRole,
+    out: &Path,
+) -> Result<DataReport> {
+    if rows.is_empty() {
+        return Err(PipelineError::Stage(format!(
+            "{}: no rows to report on",
+            data.display()
+        )));
+    }
+    let signed = model.residuals(rows.iter().copied());
+    let after: Vec<f64> = signed.iter().map(|r| r.norm()).collect();
+    let before: Option<Vec<f64>> = model
+        .nominal
+        .as_ref()
+        .map(|n| CalibratedModel::kinematic(n.clone()).errors(rows));
+    let kinematic: Option<Vec<f64>> = model.residual.is_some().then(|| {
+        CalibratedModel {
+            residual: None,
+            ..model.clone()
+        }
+        .errors(rows)
+    });
+    let before_by_load = before.as_ref().map(|b| mean_by_load(rows, b));
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by(|&a, &b| after[b].total_cmp(&after[a]));
+    let mut report = DataReport {
+        data: data.to_path_buf(),
+        role,
+        model: model_name.to_string(),
+        parts: parts(model),
+        rows: rows.len(),
+        configurations: configuration_numbers(rows).1,
+        loads: loads(rows),
+        before: before.as_deref().map(ErrorStats::from_errors),
+        kinematic: kinematic.as_deref().map(ErrorStats::from_errors),
+        after: ErrorStats::from_errors(&after),
+        axes: axis_stats(&signed),
+        by_load: mean_by_load(rows, &after)
+            .into_iter()
+            .enumerate()
+            .map(|(i, (load, after_mean))| LoadStats {
+                load,
+                rows: rows.iter().filter(|m| m.sample.load == load).count(),
+                before: before_by_load.as_ref().map(|b| b[i].1),
+                after: after_mean,
+            })
+            .collect(),
+        worst: order
+            .iter()
+            .take(5)
+            .map(|&i| WorstRow {
+                line: rows[i].sample.line,
+                pose: rows[i].sample.pose.clone(),
+                load: rows[i].sample.load,
+                error: after[i],
+            })
+            .collect(),
+        figures: Vec::new(),
+    };
+    write_dir_atomically(out, |dir| -> Result<()> {
+        report.figures = draw(
+            dir,
+            out,
+            rows,
+            before.as_deref(),
+            kinematic.as_deref(),
+            &after,
+            &signed,
+        )?;
+        let json = serde_json::to_string_pretty(&report)
+            .map_err(|e| PipelineError::Stage(format!("statistics.json: {e}")))?;
+        write_text_in(dir, out, "statistics.json", &(json + "\n"))?;
+        write_text_in(dir, out, "report.md", &markdown(&report))?;
+        let html = html(&report, dir).map_err(|(file, e)| PipelineError::Read {
+            path: out.join(file),
+            source: e,
+        })?;
+        write_text_in(dir, out, "report.html", &html)?;
+        Ok(())
+    })?;
+    Ok(report)
+}
+
+/// The statistics table: (row name, stats).
+fn stats_rows(r: &DataReport) -> Vec<(&'static str, &ErrorStats)> {
+    let mut rows = Vec::new();
+    if let Some(b) = &r.before {
+        rows.push(("before (nominal, base and tool registered)", b));
+    }
+    if let Some(k) = &r.kinematic {
+        rows.push(("after: table + joint errors (no residual)", k));
+    }
+    rows.push(("after: the whole model", &r.after));
+    rows
+}
+
+/// A plain table: header and rows of cells.
+struct Table {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+/// The report's text: (heading, paragraphs, tables), then the figures.
+fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
+    let loads: Vec<String> = r.loads.iter().map(|l| format!("{l}")).collect();
+    let mut about = vec![
+        format!(
+            "Data: `{}`, {} rows, {} configurations, loads {} kg; {}.",
+            r.data.display(),
+            r.rows,
+            r.configurations,
+            loads.join(", "),
+            r.role.describe()
+        ),
+        format!("Model: `{}`: {}.", r.model, r.parts.join("; ")),
+    ];
+    if r.before.is_none() {
+        about.push("The model carries no registered nominal table (`nominal.toml`, written by `calibrate` since robocal 0.1): shown after calibration only.".into());
+    }
+    let f = |v: f64| format!("{v:.4}");
+    let stats = Table {
+        header: ["", "count", "mean", "std", "RMS", "max"]
+            .map(String::from)
+            .to_vec(),
+        rows: stats_rows(r)
+            .into_iter()
+            .map(|(name, s)| {
+                vec![
+                    name.to_string(),
+                    s.count.to_string(),
+                    f(s.mean),
+                    f(s.std),
+                    f(s.rms),
+                    f(s.max),
+                ]
+            })
+            .collect(),
+    };
+    let axes = Table {
+        header: ["axis", "mean signed", "std", "max |error|"]
+            .map(String::from)
+            .to_vec(),
+        rows: r
+            .axes
+            .iter()
+            .map(|a| vec![a.axis.to_string(), f(a.mean), f(a.std), f(a.max_abs)])
+            .collect(),
+    };
+    let by_load = Table {
+        header: ["load (kg)", "rows", "mean before", "mean after"]
+            .map(String::from)
+            .to_vec(),
+        rows: r
+            .by_load
+            .iter()
+            .map(|l| {
+                vec![
+                    format!("{}", l.load),
+                    l.rows.to_string(),
+                    l.before.map_or("–".into(), f),
+                    f(l.after),
+                ]
+            })
+            .collect(),
+    };
+    let worst = Table {
+        header: ["line", "pose", "load (kg)", "error after"]
+            .map(String::from)
+            .to_vec(),
+        rows: r
+            .worst
+            .iter()
+            .map(|w| {
+                vec![
+                    w.line.to_string(),
+                    w.pose.clone(),
+                    format!("{}", w.load),
+                    f(w.error),
+                ]
+            })
+            .collect(),
+    };
+    vec![
+        ("What was measured".into(), about, Vec::new()),
+        (
+            "Position error (mm)".into(),
+            vec!["Distance between the measured and the predicted point, world (tracker) frame.".into()],
+            vec![stats],
+        ),
+        (
+            "Per axis after calibration (mm, measured − predicted)".into(),
+            vec!["A mean far from zero is a bias the model leaves (a frame or unit problem, or a missing effect).".into()],
+            vec![axes],
+        ),
+        ("Per load (mm)".into(), Vec::new(), vec![by_load]),
+        ("The worst rows after calibration (mm)".into(), Vec::new(), vec![worst]),
+    ]
+}
+
+fn markdown(r: &DataReport) -> String {
+    let mut s = format!(
+        "# Calibration report: {}\n\nWritten by robocal {}. Lengths mm, angles deg, loads kg.\n",
+        r.data.display(),
+        env!("CARGO_PKG_VERSION")
+    );
+    for (heading, paragraphs, tables) in sections(r) {
+        let _ = write!(s, "\n## {heading}\n\n");
+        for p in paragraphs {
+            let _ = write!(s, "{p}\n\n");
+        }
+        for t in tables {
+            let _ = writeln!(s, "| {} |", t.header.join(" | "));
+            let _ = writeln!(s, "|{}", "---|".repeat(t.header.len()));
+            for row in t.rows {
+                let _ = writeln!(s, "| {} |", row.join(" | "));
+            }
+            s.push('\n');
+        }
+    }
+    s.push_str("## Figures\n\nEach as PNG and SVG beside this file.\n\n");
+    for fig in &r.figures {
+        let _ = write!(
+            s,
+            "### {}\n\n![{}]({}.png)\n\n",
+            fig.caption, fig.caption, fig.stem
+        );
+    }
+    s
+}
+
+/// Text for HTML.
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// HTML of a paragraph: `code` spans as `<code>`.
+fn paragraph(text: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in escape(text).split('`').enumerate() {
+        if i % 2 == 1 {
+            let _ = write!(out, "<code>{part}</code>");
+        } else {
+            out.push_str(part);
+        }
+    }
+    out
+}
+
+/// One self-contained page: the text, the tables and every SVG inline (read from `dir`).
+fn html(r: &DataReport, dir: &Path) -> std::result::Result<String, (String, std::io::Error)> {
+    let title = format!("Calibration report: {}", r.data.display());
+    let mut s = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>\nbody {{ font-family: sans-serif; max-width: 1900px; margin: 2em auto; padding: 0 1em; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}\nth, td {{ border: 1px solid #bbb; padding: 0.25em 0.7em; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\nfigure {{ margin: 1em 0 2.5em; }}\nfigure svg {{ max-width: 100%; height: auto; }}\n</style>\n</head>\n<body>\n<h1>{}</h1>\n<p>Written by robocal {}. Lengths mm, angles deg, loads kg.</p>\n",
+        escape(&title),
+        escape(&title),
+        env!("CARGO_PKG_VERSION")
+    );
+    for (heading, paragraphs, tables) in sections(r) {
+        let _ = writeln!(s, "<h2>{}</h2>", escape(&heading));
+        for p in paragraphs {
+            let _ = writeln!(s, "<p>{}</p>", paragraph(&p));
+        }
+        for t in tables {
+            s.push_str("<table>\n<tr>");
+            for h in &t.header {
+                let _ = write!(s, "<th>{}</th>", escape(h));
+            }
+            s.push_str("</tr>\n");
+            for row in &t.rows {
+                s.push_str("<tr>");
+                for c in row {
+                    let _ = write!(s, "<td>{}</td>", escape(c));
+                }
+                s.push_str("</tr>\n");
+            }
+            s.push_str("</table>\n");
+        }
+    }
+    s.push_str("<h2>Figures</h2>\n");
+    for fig in &r.figures {
+        let file = format!("{}.svg", fig.stem);
+        let svg = std::fs::read_to_string(dir.join(&file)).map_err(|e| (file, e))?;
+        // The SVG's own XML declaration does not belong inside HTML.
+        let svg = match svg.find("<svg") {
+            Some(at) => &svg[at..],
+            None => svg.as_str(),
+        };
+        let _ = write!(
+            s,
+            "<figure>\n<figcaption><h3>{}</h3></figcaption>\n{}\n</figure>\n",
+            escape(&fig.caption),
+            svg.trim_end()
+        );
+    }
+    s.push_str("</body>\n</html>\n");
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use robocal_data::Sample;
+    use robocal_robot::Robot;
+
+    fn rows(robot: &Robot) -> Vec<Measurement> {
+        (0..12)
+            .flat_map(|i| {
+                let joints: Vec<f64> = (0..robot.dof())
+                    .map(|j| 10.0 * ((i * 7 + j * 3) % 9) as f64 - 40.0)
+                    .collect();
+                [0.0, 5.0].map(|load| {
+                    let q: Vec<f64> = joints.iter().map(|d| d.to_radians()).collect();
+                    Measurement {
+                        position: robot.point(&q) + Vector3::new(0.1 * i as f64, 0.0, 0.02),
+                        sample: Sample {
+                            pose: format!("p{i}"),
+                            joints: joints.clone(),
+                            load,
+                            line: 2 + i as u64,
+                        },
+                    }
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_model_without_its_nominal_table_is_reported_after_calibration_only() {
+        let robot = Robot::load(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robots/pmc6va030.toml"),
+        )
+        .unwrap();
+        let rows = rows(&robot);
+        let refs: Vec<&Measurement> = rows.iter().collect();
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("r");
+        let model = CalibratedModel::kinematic(robot);
+        let r = write_data_report(
+            &model,
+            "m",
+            Path::new("d.csv"),
+            &refs,
+            DataRole::HeldOut,
+            &out,
+        )
+        .unwrap();
+        assert!(r.before.is_none() && r.kinematic.is_none());
+        assert_eq!(
+            (r.rows, r.configurations, r.loads.clone()),
+            (24, 12, vec![0.0, 5.0])
+        );
+        // The offsets put in: x grows with the pose, z is a constant bias of 0.02.
+        assert!((r.axes[2].mean - 0.02).abs() < 1e-9 && r.axes[2].std < 1e-9);
+        assert!((r.worst[0].error - (1.1f64.powi(2) + 0.02f64.powi(2)).sqrt()).abs() < 1e-9);
+        assert_eq!(r.figures.len(), 5);
+        let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(md.contains("shown after calibration only"), "{md}");
+        // Nothing is written for no rows.
+        let empty = dir.path().join("e");
+        assert!(
+            write_data_report(
+                &model,
+                "m",
+                Path::new("d.csv"),
+                &[],
+                DataRole::HeldOut,
+                &empty
+            )
+            .is_err()
+        );
+        assert!(!empty.exists());
+    }
+}
