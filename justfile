@@ -77,3 +77,12 @@ casomm-ceiling:
 # measured error (docs/accuracy.md, "Planned poses")
 plan-benefit seeds="2":
     cargo run --release -p robocal-pipeline --example plan_benefit -- --seeds {{seeds}}
+
+# the pictures of a calibration (docs/guide.md section 4): calibrate the bundled twin on the
+# configurations whose number is not a multiple of 5, report on the others (held out), into
+# reports/own/ (model/, fit/ for the training rows, held-out/)
+report-example:
+    mkdir -p reports/own
+    awk -F, 'NR == 1 { print > "reports/own/train.csv"; print > "reports/own/test.csv"; next } { n = substr($1, 2) + 0; print > (n % 5 == 0 ? "reports/own/test.csv" : "reports/own/train.csv") }' datasets/pmc6va030/measurements.csv
+    cargo run --release -- calibrate --robot configs/robots/pmc6va030.toml --data reports/own/train.csv --out reports/own/model --report reports/own/fit
+    cargo run --release -- report --model reports/own/model --data reports/own/test.csv --out reports/own/held-out
