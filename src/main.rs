@@ -16,26 +16,11 @@ fn main() -> ExitCode {
     match commands::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("robocal: error: {}", message(&err));
+            eprintln!(
+                "robocal: error: {}",
+                robocal_pipeline::error::message(err.as_ref())
+            );
             ExitCode::FAILURE
         }
     }
-}
-
-/// The error and its causes as one line, each cause once: library errors already quote their
-/// source (`{path}: cannot read: {source}`), so a cause whose text is already in the message is
-/// not repeated.
-fn message(err: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in err.chain() {
-        let part = cause.to_string();
-        if text.contains(&part) {
-            continue;
-        }
-        if !text.is_empty() {
-            text.push_str(": ");
-        }
-        text.push_str(&part);
-    }
-    text
 }

@@ -4,64 +4,18 @@
 //! chooses its stages from the data by their error on held-out poses (see
 //! `robocal_pipeline::calibration`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use anyhow::{Context, Result, bail};
-use robocal_data::{ErrorStats, Measurement, MeasurementSet};
-use robocal_ident::KinematicReport;
-use robocal_model::CalibratedModel;
-use robocal_pipeline::calibration::{
-    OutlierReport, OutlierSettings, ResidualReport, Selection, check_plausible, find_outliers,
-};
-use robocal_pipeline::{AutoSettings, DataRole, Stages, automatic, configured, write_data_report};
+use anyhow::Result;
+use robocal_data::{Measurement, MeasurementSet};
+use robocal_pipeline::calibration::{Calibration, CalibrationInput, Checks, calibrate};
+use robocal_pipeline::{DataRole, Stages, write_data_report};
 use robocal_robot::Robot;
-use serde::Serialize;
 
 use super::terminal::Terminal;
 
-/// Before/after statistics on the validation file.
-#[derive(Debug, Serialize)]
-struct Validation {
-    file: PathBuf,
-    /// Nominal table, base and tool fitted.
-    before: ErrorStats,
-    /// Calibrated kinematics (and compliance) alone.
-    after_kinematic: ErrorStats,
-    /// The whole model (kinematics + compliance + residual, if any).
-    after: ErrorStats,
-}
-
-/// `report.json` (after the layout version and robocal's version, which the model writes).
-#[derive(Debug, Serialize)]
-struct Report {
-    robot_file: PathBuf,
-    data_file: PathBuf,
-    /// `config FILE`, or the default calibration.
-    stages_from: String,
-    /// How the default calibration chose its stages.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    selection: Option<Selection>,
-    /// Lightest load in the data: a rigid kinematic stage uses the rows at this load; an
-    /// elasto-geometric one uses every row.
-    kinematic_load: f64,
-    kinematic: KinematicReport,
-    residual: Option<ResidualReport>,
-    validation: Option<Validation>,
-    /// The bad shots found (rows far beyond the data's own spread), and whether they were left
-    /// out.
-    outliers: Option<OutlierReport>,
-}
-
-/// What `calibrate` checks before it writes a model.
-#[derive(Debug, Clone, Copy)]
-pub struct Checks {
-    /// Write even when the data do not fit the robot file.
-    pub force: bool,
-    /// Keep the bad shots in the fit.
-    pub keep_outliers: bool,
-}
-
-/// Runs the calibration and writes `out` atomically.
+/// Runs the calibration and writes `out` atomically (and the pictures of the fit into
+/// `pictures` when given).
 pub fn run(
     robot: &Path,
     data: &Path,
@@ -77,43 +31,23 @@ pub fn run(
     let validation = validate
         .map(|v| MeasurementSet::read(v, nominal.dof()))
         .transpose()?;
-    let rows: Vec<&Measurement> = set.rows.iter().collect();
-    let val_rows: Option<Vec<&Measurement>> = validation.as_ref().map(|v| v.rows.iter().collect());
-    let val = val_rows
-        .as_deref()
-        .zip(validation.as_ref())
-        .map(|(r, v)| (r, v.source.display().to_string()));
-    let failed = || format!("{}: calibration failed", data.display());
-    if let Some(why) = check_plausible(&nominal, &rows).with_context(failed)? {
-        if checks.force {
-            eprintln!("robocal: warning: {why} (written anyway: --force)");
-        } else {
-            bail!(
-                "{}: {why}; nothing written (--force writes the model anyway)",
-                data.display()
-            );
-        }
+    let input = CalibrationInput {
+        nominal: &nominal,
+        robot_file: robot,
+        data: &set,
+        validation: validation.as_ref(),
+        stages: stages.as_ref().zip(config),
+        checks,
+    };
+    let Calibration {
+        model,
+        report,
+        built,
+        implausible,
+    } = calibrate(&input, &Terminal::default())?;
+    if let Some(why) = implausible {
+        eprintln!("robocal: warning: {why} (written anyway: --force)");
     }
-    let outliers = OutlierSettings {
-        keep: checks.keep_outliers,
-        ..OutlierSettings::default()
-    };
-    let auto = AutoSettings {
-        outliers: Some(outliers),
-        ..AutoSettings::default()
-    };
-    let terminal = Terminal::default();
-    let built = match &stages {
-        Some(stages) => {
-            let (report, kept) = find_outliers(&nominal, &rows, &stages.kinematic, &outliers)
-                .with_context(failed)?;
-            let mut built =
-                configured(stages, &nominal, &kept, val, &terminal).with_context(failed)?;
-            built.outliers = Some(report);
-            built
-        }
-        None => automatic(&auto, &nominal, &rows, val, &terminal).with_context(failed)?,
-    };
     if let Some(o) = &built.outliers {
         for row in &o.rows {
             eprintln!(
@@ -133,7 +67,6 @@ pub fn run(
             );
         }
     }
-    let lightest = set.loads().first().copied().unwrap_or(0.0);
     let r = &built.kinematic.report;
     eprintln!(
         "robocal: kinematic ({}{}): {} points, mean error {:.4} → {:.4} mm (max {:.4} → {:.4}), {} iterations",
@@ -198,21 +131,7 @@ pub fn run(
             eprintln!("robocal: CA-SOMM: {d}");
         }
     }
-    let mut model = built.model();
-    let validation = validation.map(|v| {
-        let rows: Vec<&Measurement> = v.rows.iter().collect();
-        Validation {
-            file: v.source.clone(),
-            before: CalibratedModel::kinematic(built.kinematic.aligned.clone()).stats(&rows),
-            after_kinematic: CalibratedModel {
-                residual: None,
-                ..model.clone()
-            }
-            .stats(&rows),
-            after: model.stats(&rows),
-        }
-    });
-    if let Some(v) = &validation {
+    if let Some(v) = &report.validation {
         eprintln!(
             "robocal: validation {}: mean {:.4} → {:.4} mm (kinematics alone {:.4})",
             v.file.display(),
@@ -221,29 +140,7 @@ pub fn run(
             v.after_kinematic.mean
         );
     }
-    let report = Report {
-        robot_file: robot.to_path_buf(),
-        data_file: data.to_path_buf(),
-        stages_from: match config {
-            Some(c) => format!("config {}", c.display()),
-            None => {
-                "default: the candidate with the lowest held-out error (cross-validated)".into()
-            }
-        },
-        selection: built.selection.clone(),
-        kinematic_load: lightest,
-        kinematic: built.kinematic.report.clone(),
-        residual: built.residual.as_ref().map(|(_, r)| r.clone()),
-        validation,
-        outliers: built.outliers.clone(),
-    };
-    model.robot.name = format!("{} (calibrated by robocal)", nominal.name);
-    let mut registered = built.kinematic.aligned.clone();
-    registered.name = format!(
-        "{} (nominal, base and tool registered by robocal)",
-        nominal.name
-    );
-    model.nominal = Some(registered);
+    let rows: Vec<&Measurement> = set.rows.iter().collect();
     // The pictures first: a report that cannot be drawn leaves no model either.
     if let Some(dir) = pictures {
         let said = super::replacing(dir);

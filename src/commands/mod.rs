@@ -36,7 +36,7 @@ pub fn run(cli: Cli) -> Result<()> {
             validate.as_deref(),
             &out,
             config.as_deref(),
-            calibrate::Checks {
+            robocal_pipeline::calibration::Checks {
                 force,
                 keep_outliers,
             },

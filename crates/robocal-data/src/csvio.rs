@@ -349,6 +349,113 @@ impl MeasurementSet {
     }
 }
 
+/// Rows given as arrays rather than a file (the Python bindings), validated as a file's are:
+/// finite joints, loads and points, no negative load, a pose id with one set of joint readings.
+/// Row `i` (from 0) is "line `i + 1`" of `source` in messages. Without `pose`, rows with the same
+/// joint readings share an id (`c1`, `c2`, … in order of first appearance): all loads of a
+/// configuration are one pose, as the default calibration's folds need.
+pub fn samples_from_arrays(
+    source: &Path,
+    pose: Option<Vec<String>>,
+    joints: Vec<Vec<f64>>,
+    loads: Vec<f64>,
+) -> Result<Vec<Sample>> {
+    if joints.is_empty() {
+        return Err(DataError::NoRows {
+            path: source.to_path_buf(),
+        });
+    }
+    let mut first_seen: HashMap<String, (u64, Vec<f64>)> = HashMap::new();
+    let mut by_joints: Vec<(Vec<f64>, String)> = Vec::new();
+    let mut rows = Vec::with_capacity(joints.len());
+    for (i, (joints, load)) in joints.into_iter().zip(loads).enumerate() {
+        let line = i as u64 + 1;
+        let non_finite = |column: String, value: f64| DataError::NonFinite {
+            path: source.to_path_buf(),
+            line,
+            column,
+            value: value.to_string(),
+        };
+        if let Some((k, q)) = joints.iter().enumerate().find(|(_, q)| !q.is_finite()) {
+            return Err(non_finite(format!("q{}", k + 1), *q));
+        }
+        if !load.is_finite() {
+            return Err(non_finite("load".into(), load));
+        }
+        if load < 0.0 {
+            return Err(DataError::NegativeLoad {
+                path: source.to_path_buf(),
+                line,
+                value: load,
+            });
+        }
+        let id = match &pose {
+            Some(ids) => ids[i].clone(),
+            None => match by_joints.iter().find(|(q, _)| *q == joints) {
+                Some((_, id)) => id.clone(),
+                None => {
+                    let id = format!("c{}", by_joints.len() + 1);
+                    by_joints.push((joints.clone(), id.clone()));
+                    id
+                }
+            },
+        };
+        match first_seen.get(&id) {
+            Some((first_line, first)) if *first != joints => {
+                return Err(DataError::InconsistentPose {
+                    path: source.to_path_buf(),
+                    line,
+                    pose: id,
+                    first_line: *first_line,
+                });
+            }
+            Some(_) => {}
+            None => {
+                first_seen.insert(id.clone(), (line, joints.clone()));
+            }
+        }
+        rows.push(Sample {
+            pose: id,
+            joints,
+            load,
+            line,
+        });
+    }
+    Ok(rows)
+}
+
+impl MeasurementSet {
+    /// A measurement set of rows given as arrays ([`samples_from_arrays`]) and their measured
+    /// points (mm), which must be finite.
+    pub fn from_arrays(
+        source: &Path,
+        samples: Vec<Sample>,
+        positions: Vec<[f64; 3]>,
+    ) -> Result<Self> {
+        let joint_count = samples.first().map_or(0, |s| s.joints.len());
+        let mut rows = Vec::with_capacity(samples.len());
+        for (sample, p) in samples.into_iter().zip(positions) {
+            if let Some((k, v)) = p.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(DataError::NonFinite {
+                    path: source.to_path_buf(),
+                    line: sample.line,
+                    column: ["x", "y", "z"][k].into(),
+                    value: v.to_string(),
+                });
+            }
+            rows.push(Measurement {
+                sample,
+                position: Vector3::from(p),
+            });
+        }
+        Ok(Self {
+            source: source.to_path_buf(),
+            joint_count,
+            rows,
+        })
+    }
+}
+
 impl SampleSet {
     /// Reads and validates a file of samples; `x, y, z` columns are not needed and are ignored.
     pub fn read(path: impl AsRef<Path>, joint_count: usize) -> Result<Self> {

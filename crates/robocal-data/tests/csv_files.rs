@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use proptest::prelude::*;
-use robocal_data::{DataError, Measurement, MeasurementSet, Sample, SampleSet, read_targets};
+use robocal_data::{
+    DataError, Measurement, MeasurementSet, Sample, SampleSet, read_targets, samples_from_arrays,
+};
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let path = dir.join(name);
@@ -251,4 +253,77 @@ proptest! {
         let back = MeasurementSet::read(&path, 4).unwrap();
         prop_assert_eq!(back, set);
     }
+}
+
+/// Rows from arrays (the Python bindings) read as the same rows from a file: the same poses,
+/// joints, loads and points, and the file's checks with the array row as the line.
+#[test]
+fn rows_from_arrays_are_the_rows_of_the_same_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "m.csv",
+        "pose,q1,q2,load,x,y,z\na,1,2,0,10,11,12\na,1,2,5,10.5,11,12\nb,3,4,0,20,21,22\n",
+    );
+    let file = MeasurementSet::read(&path, 2).unwrap();
+    let joints = vec![vec![1.0, 2.0], vec![1.0, 2.0], vec![3.0, 4.0]];
+    let loads = vec![0.0, 5.0, 0.0];
+    let source = Path::new("(arrays)");
+    let samples = samples_from_arrays(source, None, joints.clone(), loads.clone()).unwrap();
+    // Without ids, one id per distinct joint reading.
+    let ids: Vec<&str> = samples.iter().map(|s| s.pose.as_str()).collect();
+    assert_eq!(ids, ["c1", "c1", "c2"]);
+    let named = samples_from_arrays(
+        source,
+        Some(vec!["a".into(), "a".into(), "b".into()]),
+        joints.clone(),
+        loads.clone(),
+    )
+    .unwrap();
+    let points = vec![[10.0, 11.0, 12.0], [10.5, 11.0, 12.0], [20.0, 21.0, 22.0]];
+    let set = MeasurementSet::from_arrays(source, named, points.clone()).unwrap();
+    assert_eq!(set.rows.len(), file.rows.len());
+    for (a, b) in set.rows.iter().zip(&file.rows) {
+        assert_eq!(
+            (&a.sample.pose, &a.sample.joints, a.sample.load, a.position),
+            (&b.sample.pose, &b.sample.joints, b.sample.load, b.position)
+        );
+    }
+    // The file's checks, row i as line i + 1.
+    let mut bad = joints.clone();
+    bad[1][1] = f64::NAN;
+    let err = samples_from_arrays(source, None, bad, loads.clone()).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "(arrays): line 2, column `q2`: `NaN` is not a finite number"
+    );
+    let err = samples_from_arrays(source, None, joints.clone(), vec![0.0, -1.0, 0.0]).unwrap_err();
+    assert!(
+        matches!(err, DataError::NegativeLoad { line: 2, .. }),
+        "{err}"
+    );
+    let err = samples_from_arrays(
+        source,
+        Some(vec!["a".into(), "b".into(), "a".into()]),
+        joints.clone(),
+        loads.clone(),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            DataError::InconsistentPose {
+                line: 3,
+                first_line: 1,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let samples = samples_from_arrays(source, None, joints, loads).unwrap();
+    let mut points = points;
+    points[2][2] = f64::INFINITY;
+    let err = MeasurementSet::from_arrays(source, samples, points).unwrap_err();
+    assert!(err.to_string().contains("line 3, column `z`"), "{err}");
+    assert!(samples_from_arrays(source, None, Vec::new(), Vec::new()).is_err());
 }

@@ -53,6 +53,45 @@ pub enum PipelineError {
     /// Residual learning failed.
     #[error(transparent)]
     Residual(#[from] robocal_residual::ResidualError),
+    /// The data do not fit the robot file (units, frame, joint order), and the calibration was
+    /// not forced.
+    #[error(
+        "{data}: {why}; nothing written (force writes the model anyway: `--force`, or `force=True` in Python)"
+    )]
+    Implausible {
+        /// The measurement file.
+        data: PathBuf,
+        /// What does not fit, and the likely cause.
+        why: String,
+    },
+    /// A calibration stage failed on the data.
+    #[error("{data}: calibration failed")]
+    Failed {
+        /// The measurement file.
+        data: PathBuf,
+        /// Why.
+        #[source]
+        source: Box<PipelineError>,
+    },
+}
+
+/// An error and its causes as one line, each cause once: errors quote their source already
+/// (`{path}: cannot read: {source}`), so a cause whose text is in the message is not repeated.
+/// The command line and the Python bindings show errors this way.
+pub fn message(err: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = String::new();
+    let mut cause = Some(err);
+    while let Some(c) = cause {
+        let part = c.to_string();
+        if !text.contains(&part) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&part);
+        }
+        cause = c.source();
+    }
+    text
 }
 
 /// Result of the pipeline crate.

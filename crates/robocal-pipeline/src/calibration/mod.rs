@@ -14,6 +14,7 @@
 //! [`folds`] (random folds, blocks of joint 1, the paired significance test); this module
 //! fits the stages themselves.
 
+pub mod calibrate;
 pub mod folds;
 pub mod outliers;
 pub mod plausibility;
@@ -37,6 +38,9 @@ use serde::Serialize;
 use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
 
+pub use calibrate::{
+    Calibration, CalibrationInput, CalibrationReport, Checks, Validation, calibrate,
+};
 pub use folds::{SIGNIFICANCE, blocks, folds, improves};
 pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers};
 pub use plausibility::{Implausible, check_plausible};

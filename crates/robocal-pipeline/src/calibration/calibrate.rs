@@ -1,0 +1,184 @@
+//! The whole of `calibrate` — the plausibility check, the bad shots, the stages (a stage config
+//! or the default), the model and `report.json` — shared by the command line and the Python
+//! bindings, so that both make the same model from the same rows.
+
+use std::path::{Path, PathBuf};
+
+use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer};
+use robocal_ident::KinematicReport;
+use robocal_model::CalibratedModel;
+use robocal_robot::Robot;
+use serde::Serialize;
+
+use super::{
+    AutoSettings, Built, OutlierReport, OutlierSettings, ResidualReport, Selection,
+    check_plausible, configured, find_outliers, select::automatic,
+};
+use crate::error::{PipelineError, Result};
+use crate::stages::Stages;
+
+/// What `calibrate` checks before it makes a model.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Checks {
+    /// Make the model even when the data do not fit the robot file.
+    pub force: bool,
+    /// Keep the bad shots in the fit.
+    pub keep_outliers: bool,
+}
+
+/// Before/after statistics on the validation rows.
+#[derive(Debug, Clone, Serialize)]
+pub struct Validation {
+    /// Where the rows came from.
+    pub file: PathBuf,
+    /// Nominal table, base and tool fitted.
+    pub before: ErrorStats,
+    /// Calibrated kinematics (and compliance) alone.
+    pub after_kinematic: ErrorStats,
+    /// The whole model (kinematics + compliance + residual, if any).
+    pub after: ErrorStats,
+}
+
+/// `report.json` (after the layout version and robocal's version, which the model writes).
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibrationReport {
+    /// The robot file (or what the table came from).
+    pub robot_file: PathBuf,
+    /// The measurement file (or what the rows came from).
+    pub data_file: PathBuf,
+    /// `config FILE`, or the default calibration.
+    pub stages_from: String,
+    /// How the default calibration chose its stages.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub selection: Option<Selection>,
+    /// Lightest load in the data: a rigid kinematic stage uses the rows at this load; an
+    /// elasto-geometric one uses every row.
+    pub kinematic_load: f64,
+    /// The identification.
+    pub kinematic: KinematicReport,
+    /// The residual stage.
+    pub residual: Option<ResidualReport>,
+    /// Statistics on the validation rows.
+    pub validation: Option<Validation>,
+    /// The bad shots found (rows far beyond the data's own spread), and whether they were left
+    /// out.
+    pub outliers: Option<OutlierReport>,
+}
+
+/// What a calibration is given.
+#[derive(Debug, Clone, Copy)]
+pub struct CalibrationInput<'a> {
+    /// The nominal table.
+    pub nominal: &'a Robot,
+    /// Where it came from (for the report).
+    pub robot_file: &'a Path,
+    /// The training rows (`source` names them in messages and the report).
+    pub data: &'a MeasurementSet,
+    /// Held-out rows for early stopping and the validation statistics.
+    pub validation: Option<&'a MeasurementSet>,
+    /// A stage config and its file; without, the default calibration.
+    pub stages: Option<(&'a Stages, &'a Path)>,
+    /// What to check.
+    pub checks: Checks,
+}
+
+/// A calibration's result.
+#[derive(Debug)]
+pub struct Calibration {
+    /// The model: the identified table (named after the nominal one), the joint errors and
+    /// residual the stages made, and the registered nominal table.
+    pub model: CalibratedModel,
+    /// `report.json`.
+    pub report: CalibrationReport,
+    /// The stages' results, for what the caller prints.
+    pub built: Built,
+    /// Why the data do not fit the robot file, when the model was made anyway (`force`).
+    pub implausible: Option<String>,
+}
+
+/// Calibrates `input.nominal` on `input.data`: refuses data that do not fit the robot file
+/// (unless forced), finds the bad shots (left out unless kept), runs the stage config or the
+/// default calibration, and gives the model with its report.
+pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Calibration> {
+    let data = &input.data.source;
+    let failed = |source: PipelineError| PipelineError::Failed {
+        data: data.clone(),
+        source: Box::new(source),
+    };
+    let rows: Vec<&Measurement> = input.data.rows.iter().collect();
+    let val_rows: Option<Vec<&Measurement>> = input.validation.map(|v| v.rows.iter().collect());
+    let val = (val_rows.as_deref())
+        .zip(input.validation)
+        .map(|(r, v)| (r, v.source.display().to_string()));
+    let implausible = check_plausible(input.nominal, &rows).map_err(failed)?;
+    if let Some(why) = &implausible
+        && !input.checks.force
+    {
+        return Err(PipelineError::Implausible {
+            data: data.clone(),
+            why: why.to_string(),
+        });
+    }
+    let outliers = OutlierSettings {
+        keep: input.checks.keep_outliers,
+        ..OutlierSettings::default()
+    };
+    let built = match input.stages {
+        Some((stages, _)) => {
+            let (report, kept) = find_outliers(input.nominal, &rows, &stages.kinematic, &outliers)
+                .map_err(failed)?;
+            let mut built =
+                configured(stages, input.nominal, &kept, val, observer).map_err(failed)?;
+            built.outliers = Some(report);
+            built
+        }
+        None => {
+            let auto = AutoSettings {
+                outliers: Some(outliers),
+                ..AutoSettings::default()
+            };
+            automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
+        }
+    };
+    let mut model = built.model();
+    let validation = input.validation.map(|v| {
+        let rows: Vec<&Measurement> = v.rows.iter().collect();
+        Validation {
+            file: v.source.clone(),
+            before: CalibratedModel::kinematic(built.kinematic.aligned.clone()).stats(&rows),
+            after_kinematic: CalibratedModel {
+                residual: None,
+                ..model.clone()
+            }
+            .stats(&rows),
+            after: model.stats(&rows),
+        }
+    });
+    let report = CalibrationReport {
+        robot_file: input.robot_file.to_path_buf(),
+        data_file: data.clone(),
+        stages_from: match input.stages {
+            Some((_, file)) => format!("config {}", file.display()),
+            None => {
+                "default: the candidate with the lowest held-out error (cross-validated)".into()
+            }
+        },
+        selection: built.selection.clone(),
+        kinematic_load: input.data.loads().first().copied().unwrap_or(0.0),
+        kinematic: built.kinematic.report.clone(),
+        residual: built.residual.as_ref().map(|(_, r)| r.clone()),
+        validation,
+        outliers: built.outliers.clone(),
+    };
+    let name = &input.nominal.name;
+    model.robot.name = format!("{name} (calibrated by robocal)");
+    let mut registered = built.kinematic.aligned.clone();
+    registered.name = format!("{name} (nominal, base and tool registered by robocal)");
+    model.nominal = Some(registered);
+    Ok(Calibration {
+        model,
+        report,
+        built,
+        implausible: implausible.map(|w| w.to_string()),
+    })
+}

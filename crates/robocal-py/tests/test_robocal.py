@@ -1,0 +1,265 @@
+"""The Python bindings against the command line on the same files, and their errors.
+
+The `robocal` binary is taken from $ROBOCAL_BIN, else target/debug or target/release of the
+repository (`cargo build` makes it); the tests fail, never skip, without it.
+"""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import threading
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robocal
+
+ROOT = Path(__file__).resolve().parents[3]
+ROBOT = ROOT / "configs/robots/pmc6va030.toml"
+DATA = ROOT / "datasets/pmc6va030/measurements.csv"
+STAGES = ROOT / "configs/stages"
+
+
+def binary():
+    given = os.environ.get("ROBOCAL_BIN")
+    if given:
+        return given
+    for profile in ("debug", "release"):
+        path = ROOT / "target" / profile / "robocal"
+        if path.exists():
+            return str(path)
+    raise RuntimeError("no robocal binary: run `cargo build` or set ROBOCAL_BIN")
+
+
+def cli(*args):
+    done = subprocess.run(
+        [binary(), *map(str, args)], cwd=ROOT, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    return done
+
+
+def rows(keep):
+    """The bundled twin's rows whose pose index (0-based, file order) and load `keep` accepts."""
+    with open(DATA, newline="") as f:
+        all_rows = list(csv.DictReader(f))
+    order = list(dict.fromkeys(r["pose"] for r in all_rows))
+    index = {p: i for i, p in enumerate(order)}
+    return [r for r in all_rows if keep(index[r["pose"]], float(r["load"]))]
+
+
+def arrays(selected):
+    q = np.array([[float(r[f"q{k}"]) for k in range(1, 7)] for r in selected])
+    load = np.array([float(r["load"]) for r in selected])
+    xyz = np.array([[float(r[a]) for a in "xyz"] for r in selected])
+    return q, load, xyz, [r["pose"] for r in selected]
+
+
+def write_csv(path, selected):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(selected[0].keys()))
+        w.writeheader()
+        w.writerows(selected)
+    return path
+
+
+TRAIN = rows(lambda c, l: c < 48 and l in (0.0, 10.0, 20.0))
+TEST = rows(lambda c, l: c >= 150 and l in (0.0, 5.0, 15.0))
+
+
+def predicted_csv(path):
+    with open(path, newline="") as f:
+        return np.array([[float(r[a]) for a in "xyz"] for r in csv.DictReader(f)])
+
+
+def test_robot_from_a_file_and_from_arrays_give_the_cli_s_points(tmp_path):
+    robot = robocal.Robot.load(ROBOT)
+    assert robot.dof == 6 and robot.name == "PMC6VA030"
+    q, load, _, _ = arrays(TEST)
+    out = tmp_path / "nominal.csv"
+    cli("predict", "--robot", ROBOT, "--data", write_csv(tmp_path / "t.csv", TEST), "--out", out)
+    np.testing.assert_allclose(robot.forward(q), predicted_csv(out), atol=1e-6, rtol=0)
+    table = tomllib.loads(ROBOT.read_text())
+    joints = table["joint"]
+    built = robocal.Robot(
+        [[j["a"], j["alpha"], j["d"], j["theta"]] for j in joints],
+        beta=[j.get("beta", np.nan) for j in joints],
+        limits=[j["limits"] for j in joints],
+        base_xyz=table["base"]["xyz"],
+        base_rpy=table["base"]["rpy"],
+        tool=table["tool"]["xyz"],
+        name="built",
+    )
+    np.testing.assert_allclose(built.forward(q), robot.forward(q), atol=1e-9, rtol=0)
+
+
+@pytest.mark.parametrize("config", [None, "compliance.toml", "gp.toml"])
+def test_calibrate_equals_the_cli_on_the_same_rows(tmp_path, config):
+    train = write_csv(tmp_path / "train.csv", TRAIN)
+    test = write_csv(tmp_path / "test.csv", TEST)
+    model_dir = tmp_path / "cli-model"
+    extra = ["--config", STAGES / config] if config else []
+    cli("calibrate", "--robot", ROBOT, "--data", train, "--out", model_dir, *extra)
+    out = tmp_path / "pred.csv"
+    cli("predict", "--model", model_dir, "--data", test, "--out", out)
+
+    q, load, xyz, pose = arrays(TRAIN)
+    model = robocal.calibrate(
+        robocal.Robot.load(ROBOT),
+        q,
+        load,
+        xyz,
+        config=STAGES / config if config else None,
+        pose=pose,
+    )
+    tq, tload, txyz, _ = arrays(TEST)
+    mine = model.predict(tq, tload)
+    # The CLI's file holds 6 decimals.
+    np.testing.assert_allclose(mine, predicted_csv(out), atol=2e-6, rtol=0)
+    # The same model: loaded from the CLI's directory, it predicts what Python's does.
+    np.testing.assert_allclose(
+        robocal.Model.load(model_dir).predict(tq, tload), mine, atol=1e-9, rtol=0
+    )
+    stats = model.evaluate(tq, tload, txyz)
+    evaluated = json.loads(
+        cli("evaluate", "--model", model_dir, "--data", test, "--json").stdout
+    )
+    for key in ("count", "mean", "max"):
+        assert stats[key] == pytest.approx(evaluated[key], abs=1e-6)
+    report = json.loads(model.report)
+    assert report["kinematic"]["after"]["mean"] < report["kinematic"]["before"]["mean"]
+
+
+def test_a_saved_model_reloads_and_the_cli_reads_it(tmp_path):
+    q, load, xyz, _ = arrays(TRAIN)
+    model = robocal.calibrate(
+        robocal.Robot.load(ROBOT), q, load, xyz, config=STAGES / "gp.toml"
+    )
+    out = tmp_path / "py-model"
+    model.save(out)
+    back = robocal.Model.load(out)
+    tq, tload, txyz, _ = arrays(TEST)
+    p0, s0 = model.predict(tq, tload, sigma=True)
+    p1, s1 = back.predict(tq, tload, sigma=True)
+    np.testing.assert_array_equal(p0, p1)
+    np.testing.assert_array_equal(s0, s1)
+    assert (s0 > 0).all()
+    evaluated = json.loads(
+        cli(
+            "evaluate", "--model", out, "--data", write_csv(tmp_path / "t.csv", TEST), "--json"
+        ).stdout
+    )
+    assert evaluated["mean"] == pytest.approx(model.evaluate(tq, tload, txyz)["mean"], abs=1e-9)
+    # One number for every row's load.
+    np.testing.assert_array_equal(model.predict(tq, 5.0), model.predict(tq, np.full(len(tq), 5.0)))
+    # A model without a Gaussian process gives no sigma.
+    plain = robocal.calibrate(
+        robocal.Robot.load(ROBOT), q, load, xyz, config=STAGES / "kinematic-lm.toml"
+    )
+    with pytest.raises(robocal.RobocalError, match="no standard deviation"):
+        plain.predict(tq, tload, sigma=True)
+
+
+def test_compensation_reaches_the_targets_and_equals_the_cli(tmp_path):
+    q, load, xyz, _ = arrays(TRAIN)
+    model = robocal.calibrate(
+        robocal.Robot.load(ROBOT), q, load, xyz, config=STAGES / "compliance.toml"
+    )
+    model_dir = tmp_path / "m"
+    model.save(model_dir)
+    tq, tload, _, _ = arrays(TEST[:12])
+    targets = model.predict(tq, tload)
+    seed = tq + 0.5
+    commands, error = model.compensate(targets, seed, tload)
+    # Three coordinates of six joints: the commands put the model's point on the target (the
+    # seed's orientation kept), near the seed, within compensation's tolerance (1e-3 mm).
+    reached = np.linalg.norm(model.predict(commands, tload) - targets, axis=1)
+    np.testing.assert_allclose(reached, error, atol=1e-9, rtol=0)
+    assert (error < 1e-3).all() and np.abs(commands - seed).max() < 10.0
+    # The CLI on the same targets.
+    path = tmp_path / "targets.csv"
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["id", *[f"q{k}" for k in range(1, 7)], "load", "x", "y", "z"])
+        for i in range(len(tq)):
+            w.writerow([f"t{i}", *seed[i], tload[i], *targets[i]])
+    out = tmp_path / "commands.csv"
+    cli("compensate", "--model", model_dir, "--targets", path, "--out", out)
+    with open(out, newline="") as f:
+        theirs = np.array([[float(r[f"q{k}"]) for k in range(1, 7)] for r in csv.DictReader(f)])
+    np.testing.assert_allclose(commands, theirs, atol=2e-6, rtol=0)
+    # Out of reach: NaN and a warning naming the row.
+    with pytest.warns(Warning, match="row 1"):
+        far, _ = model.compensate([[1e5, 0.0, 0.0]], seed[:1], 0.0)
+    assert np.isnan(far).all()
+
+
+def test_errors_carry_the_cli_s_messages():
+    robot = robocal.Robot.load(ROBOT)
+    q, load, xyz, _ = arrays(TRAIN)
+    bad_q = q.copy()
+    bad_q[2, 1] = np.nan
+    with pytest.raises(robocal.RobocalError, match=r"line 3, column `q2`: `NaN` is not a finite"):
+        robocal.calibrate(robot, bad_q, load, xyz)
+    bad_load = load.copy()
+    bad_load[4] = -1.0
+    with pytest.raises(robocal.RobocalError, match=r"line 5, column `load`: negative load"):
+        robocal.calibrate(robot, q, bad_load, xyz)
+    with pytest.raises(robocal.RobocalError, match="xyz: 2 columns"):
+        robocal.calibrate(robot, q, load, xyz[:, :2])
+    with pytest.raises(robocal.RobocalError, match="q: 5 columns, a robot with 6 joints"):
+        robot.forward(q[:, :5])
+    with pytest.raises(robocal.RobocalError, match="no-such.toml"):
+        robocal.Robot.load(ROOT / "no-such.toml")
+    with pytest.raises(robocal.RobocalError, match="model directory not found"):
+        robocal.Model.load(ROOT / "no-such-model")
+    with pytest.raises(robocal.RobocalError, match="key `joint\\[1\\].alpha`"):
+        robocal.Robot([[0.0, np.inf, 0.0, 0.0]])
+    # Data in metres: refused unless forced, as the CLI does.
+    with pytest.raises(robocal.RobocalError, match="nothing written"):
+        robocal.calibrate(robot, q, load, xyz / 1000.0)
+    # RobocalError is a ValueError.
+    assert issubclass(robocal.RobocalError, ValueError)
+
+
+def test_calibration_releases_the_interpreter():
+    q, load, xyz, pose = arrays(TRAIN)
+    robot = robocal.Robot.load(ROBOT)
+    done = []
+    worker = threading.Thread(
+        target=lambda: done.append(robocal.calibrate(robot, q, load, xyz, pose=pose))
+    )
+    ticks = 0
+    worker.start()
+    while worker.is_alive():
+        ticks += 1
+        worker.join(0.001)
+    assert done and ticks > 20, ticks
+
+
+def test_write_report_draws_the_pictures(tmp_path):
+    q, load, xyz, _ = arrays(TRAIN)
+    model = robocal.calibrate(
+        robocal.Robot.load(ROBOT), q, load, xyz, config=STAGES / "compliance.toml"
+    )
+    tq, tload, txyz, _ = arrays(TEST)
+    stats = json.loads(model.write_report(tq, tload, txyz, tmp_path / "report"))
+    assert stats["before"]["mean"] > stats["after"]["mean"]
+    for stem in ("histogram", "per-pose", "axes-joints", "load", "workspace"):
+        assert (tmp_path / "report" / f"{stem}.png").exists()
+    assert (tmp_path / "report" / "report.html").exists()
+
+
+def test_the_readme_example_runs_and_prints_a_held_out_error():
+    text = (ROOT / "README.md").read_text()
+    example = text.split("```python\n", 1)[1].split("```", 1)[0]
+    done = subprocess.run(
+        [sys.executable, "-c", example], cwd=ROOT, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    printed = done.stdout
+    assert printed.startswith("Model(6 joints") and "'mean': 0." in printed, printed
