@@ -91,7 +91,7 @@ impl std::fmt::Display for Column {
 }
 
 /// Which parameters of a redundant group to keep: the base and tool frames first (they are
-/// what the tracker set-up changes), then joint parameters from the base outwards, then joint
+/// what the tracker set-up changes; the named points beside the tool point), then joint parameters from the base outwards, then joint
 /// compliances (a compliance the geometry already explains is the one named).
 fn priority(column: Column) -> (usize, usize, usize) {
     let id = match column {
@@ -107,6 +107,7 @@ fn priority(column: Column) -> (usize, usize, usize) {
     match id {
         ParamId::Base(a) => (0, 0, a),
         ParamId::Tool(a) => (1, 0, a),
+        ParamId::Point { index, axis } => (1, index + 1, axis),
         ParamId::Joint { index, field } => {
             let f = match field {
                 JointField::Theta => 0,

@@ -210,6 +210,31 @@ impl Robot {
         p
     }
 
+    /// As [`Self::write_param_jacobian`] for target `t` ([`Robot::target_index`]): the point
+    /// the row measures, with the columns of its offset (`tool.*` for the default point,
+    /// `pointK.*` for a named one) and zeros in the other points' columns.
+    pub fn write_param_jacobian_at(
+        &self,
+        q: &[f64],
+        t: usize,
+        out: &mut DMatrix<f64>,
+        row: usize,
+    ) -> Vector3<f64> {
+        if t == 0 {
+            return self.write_param_jacobian(q, out, row);
+        }
+        let p = self.for_target(t).write_param_jacobian(q, out, row);
+        let tool = self.param_count() - 3 * self.points.len() - 3;
+        let point = tool + 3 * t;
+        for r in row..row + 3 {
+            for axis in 0..3 {
+                out[(r, point + axis)] = out[(r, tool + axis)];
+                out[(r, tool + axis)] = 0.0;
+            }
+        }
+        p
+    }
+
     /// Target point and its 3 × P parameter Jacobian for one configuration (allocates the result).
     pub fn param_jacobian(&self, q: &[f64]) -> (Vector3<f64>, Matrix3xX<f64>) {
         let mut out = DMatrix::zeros(3, self.param_count());
@@ -227,6 +252,23 @@ impl Robot {
             .chunks_exact(n)
             .enumerate()
             .map(|(k, q)| self.write_param_jacobian(q, &mut out, 3 * k))
+            .collect();
+        (points, out)
+    }
+
+    /// As [`Self::param_jacobian_batch`] with each configuration's target ([`Robot::target_index`];
+    /// one per configuration).
+    pub fn param_jacobian_batch_at(
+        &self,
+        qs: &[f64],
+        targets: &[usize],
+    ) -> (Vec<Vector3<f64>>, DMatrix<f64>) {
+        let n = self.dof();
+        let m = qs.len() / n;
+        let mut out = DMatrix::zeros(3 * m, self.param_count());
+        let points = (qs.chunks_exact(n).zip(targets))
+            .enumerate()
+            .map(|(k, (q, &t))| self.write_param_jacobian_at(q, t, &mut out, 3 * k))
             .collect();
         (points, out)
     }

@@ -35,6 +35,14 @@ pub enum ParamId {
     Base(usize),
     /// Tool point x, y, z in the flange frame (axis 0..3, mm).
     Tool(usize),
+    /// Named point `index` (0-based, in [`Robot::points`] order; named from 1, `point1.x`) x, y,
+    /// z in the flange frame (axis 0..3, mm).
+    Point {
+        /// 0-based point index.
+        index: usize,
+        /// 0..3.
+        axis: usize,
+    },
 }
 
 /// Whether a parameter is a length or an angle.
@@ -69,7 +77,8 @@ impl ParamId {
                 field: JointField::A | JointField::D,
                 ..
             }
-            | Self::Tool(_) => Unit::Mm,
+            | Self::Tool(_)
+            | Self::Point { .. } => Unit::Mm,
             Self::Base(axis) if axis < 3 => Unit::Mm,
             _ => Unit::Rad,
         }
@@ -106,6 +115,7 @@ impl fmt::Display for ParamId {
             Self::Joint { index, field } => write!(f, "j{}.{}", index + 1, field.name()),
             Self::Base(axis) => write!(f, "base.{}", BASE_NAMES[axis]),
             Self::Tool(axis) => write!(f, "tool.{}", AXES[axis]),
+            Self::Point { index, axis } => write!(f, "point{}.{}", index + 1, AXES[axis]),
         }
     }
 }
@@ -130,6 +140,18 @@ impl FromStr for ParamId {
                 .position(|n| *n == tail)
                 .map(Self::Tool)
                 .ok_or_else(unknown),
+            _ if head.starts_with("point") => {
+                let index = head["point".len()..]
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|&k| k >= 1)
+                    .ok_or_else(unknown)?;
+                let axis = AXES.iter().position(|n| *n == tail).ok_or_else(unknown)?;
+                Ok(Self::Point {
+                    index: index - 1,
+                    axis,
+                })
+            }
             _ => {
                 let number: usize = head
                     .strip_prefix('j')
@@ -155,7 +177,8 @@ impl FromStr for ParamId {
 
 impl Robot {
     /// Every parameter of this model in canonical order: for each joint `a, alpha, [beta,] d, theta`,
-    /// then `base.x, base.y, base.z, base.rx, base.ry, base.rz`, then `tool.x, tool.y, tool.z`.
+    /// then `base.x, base.y, base.z, base.rx, base.ry, base.rz`, then `tool.x, tool.y, tool.z`,
+    /// then `x, y, z` of each named point.
     ///
     /// For a 6-joint arm with one β this is 25 + 6 + 3 = 34 parameters.
     pub fn param_ids(&self) -> Vec<ParamId> {
@@ -186,12 +209,18 @@ impl Robot {
         }
         ids.extend((0..6).map(ParamId::Base));
         ids.extend((0..3).map(ParamId::Tool));
+        for index in 0..self.points.len() {
+            ids.extend((0..3).map(|axis| ParamId::Point { index, axis }));
+        }
         ids
     }
 
-    /// Number of parameters, `4 n + (joints with β) + 9`.
+    /// Number of parameters, `4 n + (joints with β) + 9 + 3 (named points)`.
     pub fn param_count(&self) -> usize {
-        4 * self.joints.len() + self.joints.iter().filter(|j| j.beta.is_some()).count() + 9
+        4 * self.joints.len()
+            + self.joints.iter().filter(|j| j.beta.is_some()).count()
+            + 9
+            + 3 * self.points.len()
     }
 
     /// Checks that `id` exists in this table (joint in range, β declared).
@@ -203,6 +232,7 @@ impl Robot {
                 .is_some_and(|j| field != JointField::Beta || j.beta.is_some()),
             ParamId::Base(axis) => axis < 6,
             ParamId::Tool(axis) => axis < 3,
+            ParamId::Point { index, axis } => index < self.points.len() && axis < 3,
         }
     }
 
@@ -233,6 +263,11 @@ impl Robot {
             ParamId::Base(axis) if axis < 3 => self.base.xyz[axis],
             ParamId::Base(axis) => self.base.rpy.get(axis - 3).copied().unwrap_or(0.0),
             ParamId::Tool(axis) => self.tool.get(axis).copied().unwrap_or(0.0),
+            ParamId::Point { index, axis } => self
+                .points
+                .get(index)
+                .and_then(|p| p.1.get(axis).copied())
+                .unwrap_or(0.0),
         }
     }
 
@@ -257,6 +292,7 @@ impl Robot {
             ParamId::Base(axis) if axis < 3 => self.base.xyz[axis] = value,
             ParamId::Base(axis) => self.base.rpy[axis - 3] = value,
             ParamId::Tool(axis) => self.tool[axis] = value,
+            ParamId::Point { index, axis } => self.points[index].1[axis] = value,
         }
         Ok(())
     }

@@ -1,5 +1,6 @@
 //! The robot table (modified DH with optional Hayati β), its TOML form and validation.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
@@ -47,8 +48,12 @@ pub struct Robot {
     pub joints: Vec<Joint>,
     /// World frame to base frame.
     pub base: Base,
-    /// Measured target point in the flange frame {n}, mm.
+    /// Measured target point in the flange frame {n}, mm: the default point, which rows
+    /// without a `target` measure.
     pub tool: Vector3<f64>,
+    /// Further named points on the flange (reflectors), flange frame, mm, in name order
+    /// (`[tool.points]`): a row whose `target` names one measures it.
+    pub points: Vec<(String, Vector3<f64>)>,
 }
 
 /// The robot file as written (mm, degrees), before validation. Other configuration files embed
@@ -110,7 +115,14 @@ pub struct RawTool {
     /// mm, flange frame.
     #[serde(deserialize_with = "crate::exact::array")]
     pub xyz: [f64; 3],
+    /// `[tool.points]`: named points, mm, flange frame.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub points: BTreeMap<String, RawPoint>,
 }
+
+/// One named point as written: `[x, y, z]`, mm.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct RawPoint(#[serde(deserialize_with = "crate::exact::array")] pub [f64; 3]);
 
 /// Converts a byte offset in `text` to a 1-based (line, column).
 pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
@@ -244,6 +256,19 @@ impl RobotTable {
         check_finite(path, format!("{prefix}base.xyz"), &raw.base.xyz)?;
         check_finite(path, format!("{prefix}base.rpy"), &raw.base.rpy)?;
         check_finite(path, format!("{prefix}tool.xyz"), &raw.tool.xyz)?;
+        let mut points = Vec::with_capacity(raw.tool.points.len());
+        for (name, RawPoint(xyz)) in &raw.tool.points {
+            let key = format!("{prefix}tool.points.{name}");
+            check_finite(path, key.clone(), xyz)?;
+            if !valid_point_name(name) {
+                return Err(RobotError::InvalidValue {
+                    path: path.to_path_buf(),
+                    key,
+                    message: "a point's name is letters, digits, `_` and `-` (it is a CSV `target` value)".into(),
+                });
+            }
+            points.push((name.clone(), Vector3::from(*xyz)));
+        }
         Ok(Robot {
             name: raw.name,
             joints,
@@ -252,8 +277,17 @@ impl RobotTable {
                 rpy: Vector3::from(raw.base.rpy).map(f64::to_radians),
             },
             tool: Vector3::from(raw.tool.xyz),
+            points,
         })
     }
+}
+
+/// Whether `name` can name a point: non-empty, letters, digits, `_` and `-`.
+fn valid_point_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
 }
 
 /// `v` (rad) in degrees, as the shortest decimal that reads back to exactly `v`: an angle the
@@ -294,10 +328,47 @@ impl Robot {
             },
             tool: RawTool {
                 xyz: self.tool.into(),
+                points: self
+                    .points
+                    .iter()
+                    .map(|(n, p)| (n.clone(), RawPoint((*p).into())))
+                    .collect(),
             },
         };
         // Serialising plain numbers, strings and arrays cannot fail.
         toml::to_string(&raw).unwrap_or_default()
+    }
+
+    /// The point a row with `target` measures: `None` for an unknown name; an empty name is
+    /// the default point (index 0), point `k` of [`Self::points`] is index `k + 1`.
+    pub fn target_index(&self, target: &str) -> Option<usize> {
+        if target.is_empty() {
+            return Some(0);
+        }
+        self.points
+            .iter()
+            .position(|(n, _)| n == target)
+            .map(|k| k + 1)
+    }
+
+    /// The point of target index `t` in the flange frame, mm (see [`Self::target_index`]).
+    pub fn target_point(&self, t: usize) -> Vector3<f64> {
+        match t {
+            0 => self.tool,
+            k => self.points[k - 1].1,
+        }
+    }
+
+    /// This table measuring target `t`: its default point replaced by that point (every other
+    /// value kept), so that every function of the default point serves any target.
+    pub fn for_target(&self, t: usize) -> std::borrow::Cow<'_, Robot> {
+        if t == 0 {
+            std::borrow::Cow::Borrowed(self)
+        } else {
+            let mut r = self.clone();
+            r.tool = self.target_point(t);
+            std::borrow::Cow::Owned(r)
+        }
     }
 
     /// Number of joints.

@@ -73,8 +73,9 @@ fn robot_strategy() -> impl Strategy<Value = (Robot, Vec<f64>)> {
         prop::array::uniform3(-3000.0..3000.0f64),
         (-3.1..3.1f64, -1.5..1.5f64, -3.1..3.1f64),
         prop::array::uniform3(-200.0..200.0f64),
+        prop::collection::vec(prop::array::uniform3(-200.0..200.0f64), 0..=2),
     )
-        .prop_flat_map(|(joints, xyz, (r, p, y), tool)| {
+        .prop_flat_map(|(joints, xyz, (r, p, y), tool, points)| {
             let n = joints.len();
             let robot = Robot {
                 name: "random".into(),
@@ -84,6 +85,11 @@ fn robot_strategy() -> impl Strategy<Value = (Robot, Vec<f64>)> {
                     rpy: Vector3::new(r, p, y),
                 },
                 tool: Vector3::from(tool),
+                points: points
+                    .iter()
+                    .enumerate()
+                    .map(|(k, p)| (format!("smr{}", k + 2), Vector3::from(*p)))
+                    .collect(),
             };
             (Just(robot), prop::collection::vec(-3.2..3.2f64, n))
         })
@@ -114,6 +120,23 @@ proptest! {
                 - robot.with_params(&minus).unwrap().point(&q)) / (2.0 * h);
             let an = jac.column(k);
             prop_assert!((fd - an).norm() < 1e-5 * (1.0 + fd.norm()), "{id}: analytic {an} vs fd {fd}");
+        }
+        // Every named point: its own offset's columns, the others' zero.
+        for t in 0..=robot.points.len() {
+            let mut out = nalgebra::DMatrix::zeros(3, robot.param_count());
+            let p = robot.write_param_jacobian_at(&q, t, &mut out, 0);
+            let point = |r: &Robot| r.for_target(t).point(&q);
+            prop_assert!((p - point(&robot)).norm() < 1e-12);
+            for (k, id) in robot.param_ids().iter().enumerate() {
+                let mut plus = x.clone();
+                plus[k] += h;
+                let mut minus = x.clone();
+                minus[k] -= h;
+                let fd = (point(&robot.with_params(&plus).unwrap())
+                    - point(&robot.with_params(&minus).unwrap())) / (2.0 * h);
+                let an = Vector3::new(out[(0, k)], out[(1, k)], out[(2, k)]);
+                prop_assert!((fd - an).norm() < 1e-5 * (1.0 + fd.norm()), "target {t}, {id}: analytic {an} vs fd {fd}");
+            }
         }
     }
 
@@ -159,6 +182,7 @@ proptest! {
         let back = Robot::from_toml_str(&text, "round-trip.toml").unwrap();
         prop_assert_eq!(back.param_ids(), robot.param_ids());
         prop_assert!((back.point(&q) - robot.point(&q)).norm() < 1e-9);
+        prop_assert_eq!(&back.points, &robot.points);
     }
 }
 
@@ -188,6 +212,7 @@ fn written_angles_come_back_as_written() {
 
 fn one_joint(a: f64, alpha_deg: f64, beta_deg: Option<f64>, d: f64, tool: [f64; 3]) -> Robot {
     Robot {
+        points: Vec::new(),
         name: "one".into(),
         joints: vec![Joint {
             a,
@@ -569,4 +594,40 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         err.contains("m/compliance.toml") && err.contains("harmonic[5]"),
         "{err}"
     );
+}
+
+/// `[tool.points]`: named points read, written back, looked up by name; bad ones name their key
+/// (a point given twice is a TOML error naming its line).
+#[test]
+fn named_points_in_robot_files() {
+    let base = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robots/pmc6va030.toml"),
+    )
+    .unwrap();
+    let text = format!("{base}\n[tool.points]\nsmr2 = [10.0, 0.0, 50.0]\nsmr3 = [0.0, 10.0, 50.0]\n");
+    let robot = Robot::from_toml_str(&text, "r.toml").unwrap();
+    assert_eq!(robot.points.len(), 2);
+    assert_eq!(robot.target_index(""), Some(0));
+    assert_eq!(robot.target_index("smr3"), Some(2));
+    assert_eq!(robot.target_index("smr9"), None);
+    assert_eq!(robot.target_point(1), Vector3::new(10.0, 0.0, 50.0));
+    assert_eq!(robot.param_count(), 34 + 6);
+    assert_eq!(robot.param_ids()[34].to_string(), "point1.x");
+    let back = Robot::from_toml_str(&robot.to_toml_string(), "back.toml").unwrap();
+    assert_eq!(back, robot);
+    // One-point files write no [tool.points].
+    assert!(!pmc6().to_toml_string().contains("points"));
+    let bad = |extra: &str| {
+        Robot::from_toml_str(&format!("{base}\n[tool.points]\n{extra}\n"), "bad.toml")
+            .unwrap_err()
+            .to_string()
+    };
+    let twice = bad("smr2 = [1.0, 2.0, 3.0]\nsmr2 = [1.0, 2.0, 4.0]");
+    assert!(twice.contains("bad.toml: line") && twice.contains("duplicate"), "{twice}");
+    let short = bad("smr2 = [1.0, 2.0]");
+    assert!(short.contains("expected 3 numbers"), "{short}");
+    let inf = bad("smr2 = [1.0, 2.0, inf]");
+    assert!(inf.contains("key `tool.points.smr2`"), "{inf}");
+    let name = bad("\"smr 2\" = [1.0, 2.0, 3.0]");
+    assert!(name.contains("key `tool.points.smr 2`"), "{name}");
 }
