@@ -73,7 +73,9 @@ pub fn run(
         // joint-driven error, the kinematics carry the new point exactly.
         model.robot.tool = tool_point(tool)?;
     }
-    let mut targets = read_targets(targets, model.robot.dof())?;
+    let file = targets;
+    let mut targets = read_targets(file, model.robot.dof())?;
+    model.check_targets(file, targets.iter().map(|t| &t.sample))?;
     for t in &mut targets {
         t.position = rotation * t.position + origin;
     }
@@ -82,8 +84,18 @@ pub fn run(
     let mut failed = Vec::new();
     let mut worst: f64 = 0.0;
     for t in &targets {
+        // A row naming a reflector puts that point on its target.
+        let index = model.robot.target_index(&t.sample.target).unwrap_or(0);
+        let measuring = match index {
+            0 => None,
+            k => {
+                let mut m = model.clone();
+                m.robot.tool = model.robot.target_point(k);
+                Some(m)
+            }
+        };
         match compensate(
-            &model,
+            measuring.as_ref().unwrap_or(&model),
             &t.position,
             t.sample.load,
             &t.sample.joints,

@@ -16,6 +16,7 @@ const OTHER_FRAME: f64 = 50.0;
 pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path>) -> Result<()> {
     let model = model::load(source)?;
     let set = MeasurementSet::read(data, model.robot.dof())?;
+    model.check_targets(data, set.rows.iter().map(|m| &m.sample))?;
     let residuals = model.residuals(&set.rows);
     let errors: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let stats = ErrorStats::from_errors(&errors);

@@ -13,6 +13,7 @@ use crate::cli::ModelSource;
 pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result<()> {
     let model = model::load(source)?;
     let samples = SampleSet::read(data, model.robot.dof())?;
+    model.check_targets(data, &samples.rows)?;
     let (points, sigmas) = model.predict_with_sigma(&samples.rows, sigma);
     if sigma && sigmas.is_none() {
         bail!(
@@ -22,6 +23,7 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
     let rows: Vec<Prediction> = (samples.rows.iter().zip(points).enumerate())
         .map(|(i, (s, position))| Prediction {
             pose: s.pose.clone(),
+            target: s.target.clone(),
             load: s.load,
             position,
             sigma: sigmas.as_ref().map(|v| v[i]),

@@ -11,6 +11,7 @@ use robocal_pipeline::{DataRole, write_data_report};
 pub fn run(model_dir: &Path, data: &Path, out: &Path) -> Result<()> {
     let model = CalibratedModel::load(model_dir)?;
     let set = MeasurementSet::read(data, model.dof())?;
+    model.check_targets(data, set.rows.iter().map(|m| &m.sample))?;
     let rows: Vec<&Measurement> = set.rows.iter().collect();
     let said = super::replacing(out);
     let report = write_data_report(

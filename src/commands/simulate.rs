@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::Result;
-use robocal_data::{SampleSet, write_dir_atomically};
+use robocal_data::{SampleSet, check_targets, write_dir_atomically};
 use robocal_twin::{PointStatus, TwinConfig};
 
 /// Generates the twin's dataset into `out` (its own pose design, or the rows of `poses`) and
@@ -12,6 +12,10 @@ pub fn run(twin: &Path, out: &Path, poses: Option<&Path>) -> Result<()> {
     let config = TwinConfig::load(twin)?;
     if let Some(poses) = poses {
         let samples = SampleSet::read(poses, config.truth.dof())?;
+        let names: Vec<&str> = (config.truth.points.iter())
+            .map(|(n, _)| n.as_str())
+            .collect();
+        check_targets(poses, &samples.rows, &names)?;
         let (measured, truth) = config.measure_samples(&samples.rows);
         let said = super::replacing(out);
         write_dir_atomically(out, |dir| -> Result<()> {
@@ -48,10 +52,14 @@ pub fn run(twin: &Path, out: &Path, poses: Option<&Path>) -> Result<()> {
         );
     }
     eprintln!(
-        "robocal: wrote {} rows ({} configurations × {} loads) to {}",
+        "robocal: wrote {} rows ({} configurations × {} loads{}) to {}",
         data.measurements.len(),
         kept,
         config.loads.all().len(),
+        match config.truth.points.len() {
+            0 => String::new(),
+            n => format!(" × {} reflectors", n + 1),
+        },
         out.display()
     );
     Ok(())

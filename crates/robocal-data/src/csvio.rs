@@ -19,6 +19,9 @@ pub struct Sample {
     pub load: f64,
     /// 1-based line of the row in its file (0 when made in memory).
     pub line: u64,
+    /// The point the row measures (`target` column): a name from the robot file's
+    /// `[tool.points]`, or empty for the default point (`[tool] xyz`).
+    pub target: String,
 }
 
 impl Sample {
@@ -81,6 +84,7 @@ enum Layout {
 
 struct Columns {
     id: usize,
+    target: Option<usize>,
     joints: Vec<usize>,
     load: usize,
     xyz: Option<[usize; 3]>,
@@ -152,6 +156,7 @@ fn find_columns(
     };
     Ok(Columns {
         id,
+        target: index.get("target").copied(),
         joints,
         load,
         xyz,
@@ -271,12 +276,14 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
                 first_seen.insert(pose.clone(), (line, joints.clone()));
             }
         }
+        let target = cols.target.map_or("", field).to_string();
         rows.push(Parsed {
             sample: Sample {
                 pose,
                 joints,
                 load,
                 line,
+                target,
             },
             position,
         });
@@ -312,14 +319,21 @@ impl MeasurementSet {
     /// Writes the set as CSV (`pose,q1..qN,load,x,y,z`), atomically, numbers in their shortest
     /// exact form so that reading the file back gives the same values.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
+        let targets = self.rows.iter().any(|r| !r.sample.target.is_empty());
         write_atomically(path.as_ref(), |w| {
             write!(w, "pose")?;
+            if targets {
+                write!(w, ",target")?;
+            }
             for k in 1..=self.joint_count {
                 write!(w, ",q{k}")?;
             }
             writeln!(w, ",load,x,y,z")?;
             for row in &self.rows {
                 write!(w, "{}", csv_text(&row.sample.pose))?;
+                if targets {
+                    write!(w, ",{}", csv_text(&row.sample.target))?;
+                }
                 for q in &row.sample.joints {
                     write!(w, ",{q}")?;
                 }
@@ -419,6 +433,7 @@ pub fn samples_from_arrays(
             joints,
             load,
             line,
+            target: String::new(),
         });
     }
     Ok(rows)
@@ -454,6 +469,30 @@ impl MeasurementSet {
             rows,
         })
     }
+}
+
+/// Checks that every sample's `target` is empty (the default point) or one of `names` (the
+/// robot file's `[tool.points]`).
+pub fn check_targets<'a>(
+    source: &Path,
+    samples: impl IntoIterator<Item = &'a Sample>,
+    names: &[&str],
+) -> Result<()> {
+    for s in samples {
+        if !s.target.is_empty() && !names.contains(&s.target.as_str()) {
+            return Err(DataError::UnknownTarget {
+                path: source.to_path_buf(),
+                line: s.line,
+                target: s.target.clone(),
+                known: if names.is_empty() {
+                    "the robot file names no points (`[tool.points]`): leave `target` empty".into()
+                } else {
+                    format!("the robot file's points are {}", names.join(", "))
+                },
+            });
+        }
+    }
+    Ok(())
 }
 
 impl SampleSet {
@@ -509,6 +548,8 @@ pub fn fixed6(v: f64) -> String {
 pub struct Prediction {
     /// Pose id of the input row.
     pub pose: String,
+    /// The point predicted (the input row's `target`; empty: the default point).
+    pub target: String,
     /// Load of the input row, kg.
     pub load: f64,
     /// Predicted target position, mm, world frame.
@@ -522,14 +563,23 @@ pub struct Prediction {
 /// (6 decimals) when every row has one.
 pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<()> {
     let sigma = !rows.is_empty() && rows.iter().all(|r| r.sigma.is_some());
+    let targets = rows.iter().any(|r| !r.target.is_empty());
     write_atomically(path.as_ref(), |w| {
-        writeln!(w, "pose,load,x,y,z{}", if sigma { ",sigma" } else { "" })?;
+        writeln!(
+            w,
+            "pose{},load,x,y,z{}",
+            if targets { ",target" } else { "" },
+            if sigma { ",sigma" } else { "" }
+        )?;
         for r in rows {
             let p = r.position;
+            write!(w, "{}", csv_text(&r.pose))?;
+            if targets {
+                write!(w, ",{}", csv_text(&r.target))?;
+            }
             write!(
                 w,
-                "{},{},{},{},{}",
-                csv_text(&r.pose),
+                ",{},{},{},{}",
                 r.load,
                 fixed6(p.x),
                 fixed6(p.y),

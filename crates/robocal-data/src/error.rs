@@ -132,6 +132,18 @@ pub enum DataError {
         /// Line where the pose first appeared.
         first_line: u64,
     },
+    /// A row's `target` names no point of the robot file.
+    #[error("{path}: line {line}, column `target`: no point `{target}`; {known}")]
+    UnknownTarget {
+        /// File at fault.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The name given.
+        target: String,
+        /// The names there are.
+        known: String,
+    },
     /// Two targets share an id.
     #[error("{path}: line {line}, column `id`: id `{id}` already used on line {first_line}")]
     DuplicateId {

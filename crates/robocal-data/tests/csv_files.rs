@@ -244,7 +244,7 @@ proptest! {
             .into_iter()
             .enumerate()
             .map(|(i, (pose, joints, load, p))| Measurement {
-                sample: Sample { pose: format!("{}{i}", pose.trim()), joints, load, line: i as u64 + 2 },
+                sample: Sample { pose: format!("{}{i}", pose.trim()), joints, load, line: i as u64 + 2, target: String::new() },
                 position: Vector3::from(p),
             })
             .collect();

@@ -339,10 +339,15 @@ fn indices(robot: &Robot, keep: impl Fn(ParamId) -> bool) -> Vec<usize> {
 /// the "before calibration" model of a tracker's best-fit alignment.
 pub fn align(robot: &Robot, obs: &Observations) -> Result<Robot> {
     let registered = register_base(robot, obs)?;
-    // Tool first (base held), then base and tool together.
-    let tool = indices(&registered, |id| matches!(id, ParamId::Tool(_)));
+    // Tool (and the named points) first (base held), then base and tool together.
+    let tool = indices(&registered, |id| {
+        matches!(id, ParamId::Tool(_) | ParamId::Point { .. })
+    });
     let frame = indices(&registered, |id| {
-        matches!(id, ParamId::Base(_) | ParamId::Tool(_))
+        matches!(
+            id,
+            ParamId::Base(_) | ParamId::Tool(_) | ParamId::Point { .. }
+        )
     });
     let mut current = registered;
     for sel in [tool, frame] {
@@ -471,7 +476,10 @@ pub fn far_from_nominal<'a>(
         .filter(|(p, id)| {
             p.identified_flag
                 && id.unit() == Unit::Mm
-                && !matches!(id, ParamId::Base(_) | ParamId::Tool(_))
+                && !matches!(
+                    id,
+                    ParamId::Base(_) | ParamId::Tool(_) | ParamId::Point { .. }
+                )
                 && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
         })
         .map(|(p, _)| p)

@@ -24,6 +24,9 @@ pub struct Observations {
     pub loads: Vec<f64>,
     /// Measured target points, mm, world frame.
     pub points: Vec<Vector3<f64>>,
+    /// The point each row measures (`target`: a `[tool.points]` name, empty for the default
+    /// point); empty when every row measures the default point.
+    pub targets: Vec<String>,
 }
 
 impl Observations {
@@ -42,14 +45,33 @@ impl Observations {
             q: Vec::new(),
             loads: Vec::new(),
             points: Vec::new(),
+            targets: Vec::new(),
         };
         for row in rows {
+            obs.targets.push(row.sample.target.clone());
             obs.q
                 .extend(row.sample.joints.iter().map(|d| d.to_radians()));
             obs.loads.push(row.sample.load);
             obs.points.push(row.position);
         }
+        if obs.targets.iter().all(String::is_empty) {
+            obs.targets.clear();
+        }
         obs
+    }
+
+    /// The target index of observation `i` in `robot` ([`Robot::target_index`]; 0, the default
+    /// point, for a name the table does not have: data are checked against the table first).
+    pub fn target(&self, robot: &Robot, i: usize) -> usize {
+        self.targets
+            .get(i)
+            .and_then(|t| robot.target_index(t))
+            .unwrap_or(0)
+    }
+
+    /// Every observation's target index in `robot`.
+    pub fn target_indices(&self, robot: &Robot) -> Vec<usize> {
+        (0..self.len()).map(|i| self.target(robot, i)).collect()
     }
 
     /// Number of measured points.
@@ -83,7 +105,9 @@ impl Observations {
         compliance: Option<&Compliance>,
         i: usize,
     ) -> Vector3<f64> {
-        robot.point_under_load(compliance, self.joints(i), self.loads[i])
+        robot
+            .for_target(self.target(robot, i))
+            .point_under_load(compliance, self.joints(i), self.loads[i])
     }
 
     /// Euclidean errors of `robot`'s predictions (rigid), mm.
@@ -150,7 +174,7 @@ impl<'a> CalibrationProblem<'a> {
     /// `robot`'s values, rigid (no compliance).
     pub fn new(robot: &Robot, selected: Vec<usize>, obs: &'a Observations) -> Self {
         let x0 = robot.params();
-        let (_, full) = robot.param_jacobian_batch(&obs.q);
+        let (_, full) = robot.param_jacobian_batch_at(&obs.q, &obs.target_indices(robot));
         let m = obs.len().max(1) as f64;
         let norms: Vec<f64> = selected
             .iter()
@@ -322,15 +346,20 @@ impl<'a> CalibrationProblem<'a> {
         let mut full = DMatrix::zeros(3 * m, robot.param_count());
         let mut cjac = DMatrix::zeros(3 * m, params.len());
         let mut r = Vec::with_capacity(3 * m);
+        let targets = self.obs.target_indices(&robot);
+        let measuring: Vec<Robot> = (0..=robot.points.len())
+            .map(|t| robot.for_target(t).into_owned())
+            .collect();
         for i in 0..m {
-            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
+            let (q, load, t) = (self.obs.joints(i), self.obs.loads[i], targets[i]);
             let p = match &compliance {
                 Some(c) => {
-                    let (_, jac) = c.param_jacobian(&robot, q, load, params);
+                    let (_, jac) = c.param_jacobian(&measuring[t], q, load, params);
                     cjac.view_mut((3 * i, 0), (3, params.len())).copy_from(&jac);
-                    robot.write_param_jacobian(&c.deflected(&robot, q, load), &mut full, 3 * i)
+                    let deflected = c.deflected(&robot, q, load);
+                    robot.write_param_jacobian_at(&deflected, t, &mut full, 3 * i)
                 }
-                None => robot.write_param_jacobian(q, &mut full, 3 * i),
+                None => robot.write_param_jacobian_at(q, t, &mut full, 3 * i),
             };
             r.extend_from_slice(((p - self.obs.points[i]) * self.root_weight(i)).as_slice());
         }
@@ -368,9 +397,10 @@ impl<'a> CalibrationProblem<'a> {
         let mut block = DMatrix::zeros(3, robot.param_count());
         let mut cost = 0.0;
         let mut g = vec![0.0; self.selected.len()];
+        let targets = self.obs.target_indices(&robot);
         for i in 0..m {
-            let d =
-                robot.write_param_jacobian(self.obs.joints(i), &mut block, 0) - self.obs.points[i];
+            let d = robot.write_param_jacobian_at(self.obs.joints(i), targets[i], &mut block, 0)
+                - self.obs.points[i];
             let norm = d.norm();
             cost += norm;
             if norm == 0.0 {

@@ -47,7 +47,9 @@ pub fn register_base(robot: &Robot, obs: &Observations) -> Result<Robot> {
         },
         ..robot.clone()
     };
-    let predicted: Vec<Vector3<f64>> = (0..obs.len()).map(|i| local.point(obs.joints(i))).collect();
+    let predicted: Vec<Vector3<f64>> = (0..obs.len())
+        .map(|i| local.for_target(obs.target(&local, i)).point(obs.joints(i)))
+        .collect();
     let (r, t) = kabsch(&predicted, &obs.points)?;
     Ok(Robot {
         base: Base {

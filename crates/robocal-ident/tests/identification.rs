@@ -39,6 +39,7 @@ fn observe(truth: &Robot, configs: &[Vec<f64>], noise: f64, seed: u64) -> Observ
         q: Vec::new(),
         loads: Vec::new(),
         points: Vec::new(),
+        targets: Vec::new(),
     };
     for q in configs {
         obs.q.extend_from_slice(q);
@@ -366,6 +367,7 @@ fn observe_loaded(
         q: Vec::new(),
         loads: Vec::new(),
         points: Vec::new(),
+        targets: Vec::new(),
     };
     for q in configs {
         for &load in loads {

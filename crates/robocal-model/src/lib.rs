@@ -23,7 +23,7 @@
 //! # )?;
 //! # CalibratedModel::kinematic(robot).save(&model_dir, &serde_json::json!({}))?;
 //! let model = CalibratedModel::load(&model_dir)?;
-//! let pose = Sample { pose: "p1".into(), joints: vec![10.0, 20.0], load: 0.0, line: 0 };
+//! let pose = Sample { pose: "p1".into(), joints: vec![10.0, 20.0], load: 0.0, line: 0, target: String::new() };
 //! let points = model.predict([&pose]);
 //! assert!((points[0].x - (300.0 * 10f64.to_radians().cos() + 100.0 * 30f64.to_radians().cos())).abs() < 1e-9);
 //! # Ok::<(), Box<dyn std::error::Error>>(())

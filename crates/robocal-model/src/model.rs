@@ -99,9 +99,27 @@ impl CalibratedModel {
         self.physical_point(q, load) + self.residual_at(q, load)
     }
 
-    /// The table and joint-error part of the prediction for a sample, mm, world frame.
+    /// The table and joint-error part of the prediction for a sample, mm, world frame: of the
+    /// point its `target` names (the default point for an empty name, and for a name the table
+    /// lacks — data are checked against the table when read, [`Self::check_targets`]).
     pub fn base_point(&self, s: &Sample) -> Vector3<f64> {
-        self.physical_point(&s.joints_rad(), s.load)
+        let t = self.robot.target_index(&s.target).unwrap_or(0);
+        self.robot.for_target(t).point_under_load(
+            self.joint_errors.as_ref(),
+            &s.joints_rad(),
+            s.load,
+        )
+    }
+
+    /// Checks that every sample's `target` names a point of the table: the first that does not
+    /// is an error naming `source`, its line and the points there are.
+    pub fn check_targets<'a>(
+        &self,
+        source: &std::path::Path,
+        samples: impl IntoIterator<Item = &'a Sample>,
+    ) -> std::result::Result<(), robocal_data::DataError> {
+        let names: Vec<&str> = self.robot.points.iter().map(|(n, _)| n.as_str()).collect();
+        robocal_data::check_targets(source, samples, &names)
     }
 
     /// Predicted points for `samples`, mm, world frame (the residual model in one batch).

@@ -24,6 +24,7 @@ fn samples(n: usize, seed: u64) -> Vec<Sample> {
             joints: (0..6).map(|_| rng.random_range(-60.0..60.0)).collect(),
             load: rng.random_range(0.0..20.0),
             line: 0,
+            target: String::new(),
         })
         .collect()
 }

@@ -31,6 +31,7 @@ fn samples(configs: &[Vec<f64>], tag: &str) -> Vec<Sample> {
             joints: q.iter().map(|v| v.to_degrees()).collect(),
             load: 0.0,
             line: 0,
+            target: String::new(),
         })
         .collect()
 }

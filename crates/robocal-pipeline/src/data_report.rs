@@ -719,6 +719,7 @@ mod tests {
                             joints: joints.clone(),
                             load,
                             line: 2 + i as u64,
+                            target: String::new(),
                         },
                     }
                 })

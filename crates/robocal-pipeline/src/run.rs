@@ -635,7 +635,10 @@ impl Outcome {
     pub fn table4(&self) -> Vec<Table4Row> {
         let mut rows = Vec::new();
         for id in self.nominal.param_ids() {
-            if matches!(id, ParamId::Base(_) | ParamId::Tool(_)) {
+            if matches!(
+                id,
+                ParamId::Base(_) | ParamId::Tool(_) | ParamId::Point { .. }
+            ) {
                 continue;
             }
             let name = id.to_string();

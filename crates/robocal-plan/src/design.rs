@@ -88,6 +88,7 @@ impl Pool {
             q: Vec::new(),
             loads: Vec::new(),
             points: Vec::new(),
+            targets: Vec::new(),
         };
         for q in candidates.iter().chain(checks) {
             for &load in loads {

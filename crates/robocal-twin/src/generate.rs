@@ -47,24 +47,32 @@ impl TwinConfig {
                 continue;
             };
             let q: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
+            // Every load, and at each every reflector: the default point, then the named
+            // points of the truth's `[tool.points]` (their rows name them in `target`).
+            let targets: Vec<String> = std::iter::once(String::new())
+                .chain(self.truth.points.iter().map(|(n, _)| n.clone()))
+                .collect();
             for &load in &loads {
-                let sample = Sample {
-                    pose: point.id.clone(),
-                    joints: deg.clone(),
-                    load,
-                    line: 0,
-                };
-                let point = self.true_point(&q, load);
-                let exact = point.map(round6);
-                let noisy = self.add_noise(point, &mut rng).map(round6);
-                truth.push(Measurement {
-                    sample: sample.clone(),
-                    position: exact,
-                });
-                measured.push(Measurement {
-                    sample,
-                    position: noisy,
-                });
+                for target in &targets {
+                    let sample = Sample {
+                        pose: point.id.clone(),
+                        joints: deg.clone(),
+                        load,
+                        line: 0,
+                        target: target.clone(),
+                    };
+                    let point = self.true_point_of(&q, load, target);
+                    let exact = point.map(round6);
+                    let noisy = self.add_noise(point, &mut rng).map(round6);
+                    truth.push(Measurement {
+                        sample: sample.clone(),
+                        position: exact,
+                    });
+                    measured.push(Measurement {
+                        sample,
+                        position: noisy,
+                    });
+                }
             }
         }
         let n = self.truth.dof();
@@ -91,7 +99,7 @@ impl TwinConfig {
         let mut measured = Vec::with_capacity(samples.len());
         let mut truth = Vec::with_capacity(samples.len());
         for sample in samples {
-            let point = self.true_point(&sample.joints_rad(), sample.load);
+            let point = self.true_point_of(&sample.joints_rad(), sample.load, &sample.target);
             truth.push(Measurement {
                 sample: sample.clone(),
                 position: point.map(round6),

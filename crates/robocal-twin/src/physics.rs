@@ -140,6 +140,15 @@ impl TwinConfig {
         self.truth.point(&self.actual_joints(q, load))
     }
 
+    /// The true position of the truth's target `target` (a `[tool.points]` name; empty or
+    /// unknown: the default point), mm.
+    pub fn true_point_of(&self, q: &[f64], load: f64, target: &str) -> Vector3<f64> {
+        let t = self.truth.target_index(target).unwrap_or(0);
+        self.truth
+            .for_target(t)
+            .point(&self.actual_joints(q, load))
+    }
+
     /// A tracker measurement of the true point: noise as configured (or none).
     pub fn measure(&self, q: &[f64], load: f64, rng: &mut impl Rng) -> Vector3<f64> {
         self.add_noise(self.true_point(q, load), rng)

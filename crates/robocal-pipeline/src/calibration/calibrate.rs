@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer};
+use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, check_targets};
 use robocal_ident::KinematicReport;
 use robocal_model::CalibratedModel;
 use robocal_robot::Robot;
@@ -105,6 +105,12 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         data: data.clone(),
         source: Box::new(source),
     };
+    let names: Vec<&str> = (input.nominal.points.iter())
+        .map(|(n, _)| n.as_str())
+        .collect();
+    for set in std::iter::once(input.data).chain(input.validation) {
+        check_targets(&set.source, set.rows.iter().map(|m| &m.sample), &names)?;
+    }
     let rows: Vec<&Measurement> = input.data.rows.iter().collect();
     let val_rows: Option<Vec<&Measurement>> = input.validation.map(|v| v.rows.iter().collect());
     let val = (val_rows.as_deref())
