@@ -9,5 +9,6 @@ mod compensation;
 mod export;
 mod hardening;
 mod planning;
+mod reflectors;
 mod report;
 mod robustness;

@@ -105,9 +105,11 @@ impl Observations {
         compliance: Option<&Compliance>,
         i: usize,
     ) -> Vector3<f64> {
-        robot
-            .for_target(self.target(robot, i))
-            .point_under_load(compliance, self.joints(i), self.loads[i])
+        robot.for_target(self.target(robot, i)).point_under_load(
+            compliance,
+            self.joints(i),
+            self.loads[i],
+        )
     }
 
     /// Euclidean errors of `robot`'s predictions (rigid), mm.
@@ -350,8 +352,8 @@ impl<'a> CalibrationProblem<'a> {
         let measuring: Vec<Robot> = (0..=robot.points.len())
             .map(|t| robot.for_target(t).into_owned())
             .collect();
-        for i in 0..m {
-            let (q, load, t) = (self.obs.joints(i), self.obs.loads[i], targets[i]);
+        for (i, &t) in targets.iter().enumerate() {
+            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
             let p = match &compliance {
                 Some(c) => {
                     let (_, jac) = c.param_jacobian(&measuring[t], q, load, params);
@@ -398,8 +400,8 @@ impl<'a> CalibrationProblem<'a> {
         let mut cost = 0.0;
         let mut g = vec![0.0; self.selected.len()];
         let targets = self.obs.target_indices(&robot);
-        for i in 0..m {
-            let d = robot.write_param_jacobian_at(self.obs.joints(i), targets[i], &mut block, 0)
+        for (i, &t) in targets.iter().enumerate() {
+            let d = robot.write_param_jacobian_at(self.obs.joints(i), t, &mut block, 0)
                 - self.obs.points[i];
             let norm = d.norm();
             cost += norm;

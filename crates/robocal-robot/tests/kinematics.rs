@@ -601,10 +601,12 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
 #[test]
 fn named_points_in_robot_files() {
     let base = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robots/pmc6va030.toml"),
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../configs/robots/pmc6va030.toml"),
     )
     .unwrap();
-    let text = format!("{base}\n[tool.points]\nsmr2 = [10.0, 0.0, 50.0]\nsmr3 = [0.0, 10.0, 50.0]\n");
+    let text =
+        format!("{base}\n[tool.points]\nsmr2 = [10.0, 0.0, 50.0]\nsmr3 = [0.0, 10.0, 50.0]\n");
     let robot = Robot::from_toml_str(&text, "r.toml").unwrap();
     assert_eq!(robot.points.len(), 2);
     assert_eq!(robot.target_index(""), Some(0));
@@ -623,7 +625,10 @@ fn named_points_in_robot_files() {
             .to_string()
     };
     let twice = bad("smr2 = [1.0, 2.0, 3.0]\nsmr2 = [1.0, 2.0, 4.0]");
-    assert!(twice.contains("bad.toml: line") && twice.contains("duplicate"), "{twice}");
+    assert!(
+        twice.contains("bad.toml: line") && twice.contains("duplicate"),
+        "{twice}"
+    );
     let short = bad("smr2 = [1.0, 2.0]");
     assert!(short.contains("expected 3 numbers"), "{short}");
     let inf = bad("smr2 = [1.0, 2.0, inf]");

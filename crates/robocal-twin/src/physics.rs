@@ -144,9 +144,7 @@ impl TwinConfig {
     /// unknown: the default point), mm.
     pub fn true_point_of(&self, q: &[f64], load: f64, target: &str) -> Vector3<f64> {
         let t = self.truth.target_index(target).unwrap_or(0);
-        self.truth
-            .for_target(t)
-            .point(&self.actual_joints(q, load))
+        self.truth.for_target(t).point(&self.actual_joints(q, load))
     }
 
     /// A tracker measurement of the true point: noise as configured (or none).
