@@ -6,10 +6,9 @@
 //! each leaves unidentified. Two twins: geometry and tracker noise only, at 0 kg, calibrated by
 //! LM (`configs/stages/kinematic-lm.toml`: the model holds everything the twin does, so the
 //! error is what the poses leave); and every effect, at 0, 10 and 20 kg, LM + joint compliance
-//! (`configs/stages/compliance.toml`: gear errors and backlash stay unmodelled). The robot's
-//! repeatability is set to zero in both: the twin draws it per row, which would give three
-//! reflectors of one pose three independent robot errors where a real arm has one. Twin
-//! numbers, not a real robot's.
+//! (`configs/stages/compliance.toml`: gear errors and backlash stay unmodelled). The twin's
+//! noise as bundled: tracker noise per reflector, the robot's repeatability (0.05 mm) once per
+//! pose and load, shared by its reflectors. Twin numbers, not a real robot's.
 //!
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example reflectors -- [--seeds N]
@@ -53,9 +52,6 @@ fn run(
     seeds: u64,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let stages_file = stages.replace("configs/", "configs/stages/");
-    if let Some(noise) = twin.noise.as_mut() {
-        noise.repeatability = 0.0;
-    }
     // Two more reflectors on a plate about 80 mm from the default one; the robot file's values
     // are the plate's drawing, the truth's a few millimetres off.
     let tool = twin.truth.tool;

@@ -176,9 +176,18 @@ impl Noise {
     /// Per-coordinate standard deviation of a measurement of a point `distance_mm` from the
     /// tracker, mm.
     pub fn sigma(&self, distance_mm: f64) -> f64 {
-        let tracker = self.tracker_base + self.tracker_per_metre * distance_mm / 1000.0;
-        let robot = self.repeatability / 3.6;
+        let (tracker, robot) = (self.tracker_sigma(distance_mm), self.robot_sigma());
         (tracker * tracker + robot * robot).sqrt()
+    }
+
+    /// The tracker's part of [`Self::sigma`], mm.
+    pub fn tracker_sigma(&self, distance_mm: f64) -> f64 {
+        self.tracker_base + self.tracker_per_metre * distance_mm / 1000.0
+    }
+
+    /// The robot's repeatability part of [`Self::sigma`], mm per coordinate.
+    pub fn robot_sigma(&self) -> f64 {
+        self.repeatability / 3.6
     }
 }
 

@@ -1,8 +1,10 @@
 //! Generating a twin dataset: every kept configuration at every load, noisy and noise-free.
 
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{Measurement, MeasurementSet, Sample, write_dir_atomically, write_text_in};
@@ -53,6 +55,10 @@ impl TwinConfig {
                 .chain(self.truth.points.iter().map(|(n, _)| n.clone()))
                 .collect();
             for &load in &loads {
+                // One reflector: the combined noise as always (the bundled datasets stay
+                // byte-identical). Several: the robot's repeatability error once per pose and
+                // load, shared by its reflectors, the tracker's per reflector.
+                let robot = (targets.len() > 1).then(|| self.draw_repeatability(&mut rng));
                 for target in &targets {
                     let sample = Sample {
                         pose: point.id.clone(),
@@ -63,7 +69,11 @@ impl TwinConfig {
                     };
                     let point = self.true_point_of(&q, load, target);
                     let exact = point.map(round6);
-                    let noisy = self.add_noise(point, &mut rng).map(round6);
+                    let noisy = match robot {
+                        Some(robot) => self.add_tracker_noise(point, robot, &mut rng),
+                        None => self.add_noise(point, &mut rng),
+                    }
+                    .map(round6);
                     truth.push(Measurement {
                         sample: sample.clone(),
                         position: exact,
@@ -98,15 +108,27 @@ impl TwinConfig {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed ^ NOISE_STREAM ^ POSES_STREAM);
         let mut measured = Vec::with_capacity(samples.len());
         let mut truth = Vec::with_capacity(samples.len());
+        // With several reflectors, one repeatability error per pose and load (see `generate`).
+        let several = !self.truth.points.is_empty();
+        let mut robot_errors: HashMap<(String, u64), Vector3<f64>> = HashMap::new();
         for sample in samples {
             let point = self.true_point_of(&sample.joints_rad(), sample.load, &sample.target);
             truth.push(Measurement {
                 sample: sample.clone(),
                 position: point.map(round6),
             });
+            let noisy = if several {
+                let key = (sample.pose.clone(), sample.load.to_bits());
+                let robot = *robot_errors
+                    .entry(key)
+                    .or_insert_with(|| self.draw_repeatability(&mut rng));
+                self.add_tracker_noise(point, robot, &mut rng)
+            } else {
+                self.add_noise(point, &mut rng)
+            };
             measured.push(Measurement {
                 sample: sample.clone(),
-                position: self.add_noise(point, &mut rng).map(round6),
+                position: noisy.map(round6),
             });
         }
         let n = self.truth.dof();

@@ -152,6 +152,24 @@ impl TwinConfig {
         self.add_noise(self.true_point(q, load), rng)
     }
 
+    /// The robot's repeatability error of one pose and load, mm (zero without noise): shared
+    /// by every reflector measured there ([`Self::add_tracker_noise`]).
+    pub fn draw_repeatability(&self, rng: &mut impl Rng) -> Vector3<f64> {
+        gaussian(self.noise.map_or(0.0, |n| n.robot_sigma()), rng)
+    }
+
+    /// What the tracker reads for the true point `p` of a pose whose repeatability error is
+    /// `robot`: `p + robot` plus the tracker's own noise.
+    pub fn add_tracker_noise(
+        &self,
+        p: Vector3<f64>,
+        robot: Vector3<f64>,
+        rng: &mut impl Rng,
+    ) -> Vector3<f64> {
+        let tracker = self.noise.map_or(0.0, |n| n.tracker_sigma(p.norm()));
+        p + robot + gaussian(tracker, rng)
+    }
+
     /// What the tracker reads for the true point `p`: `p` plus noise as configured (or none).
     pub fn add_noise(&self, p: Vector3<f64>, rng: &mut impl Rng) -> Vector3<f64> {
         match &self.noise {
@@ -164,5 +182,13 @@ impl TwinConfig {
             }
             None => p,
         }
+    }
+}
+
+/// Three independent normal draws of standard deviation `sigma` (zeros for `sigma` ≤ 0).
+fn gaussian(sigma: f64, rng: &mut impl Rng) -> Vector3<f64> {
+    match Normal::new(0.0, sigma) {
+        Ok(normal) if sigma > 0.0 => Vector3::from_fn(|_, _| normal.sample(rng)),
+        _ => Vector3::zeros(),
     }
 }

@@ -324,3 +324,48 @@ fn bad_twin_files_are_rejected_with_the_key() {
     let err = bad(|t| t.replace("a = 800.882", "a = nan"));
     assert!(err.to_string().contains("truth.joint[3].a"), "{err}");
 }
+
+/// Several reflectors: every point measured at every pose and load, named in `target`; the
+/// robot's repeatability error shared by the reflectors of one pose and load (the arm is in one
+/// place), the tracker's drawn per reflector.
+#[test]
+fn reflectors_of_one_pose_share_the_robots_error() {
+    let mut config = twin().geometry_only();
+    config.noise = Some(robocal_twin::Noise {
+        tracker_base: 0.0,
+        tracker_per_metre: 0.0,
+        repeatability: 0.05,
+    });
+    config.poses.count = 6;
+    let tool = config.truth.tool;
+    config.truth.points = vec![
+        (
+            "smr2".into(),
+            tool + nalgebra::Vector3::new(80.0, 0.0, -30.0),
+        ),
+        (
+            "smr3".into(),
+            tool + nalgebra::Vector3::new(-40.0, 70.0, -30.0),
+        ),
+    ];
+    let data = config.generate().unwrap();
+    let loads = config.loads.all().len();
+    assert_eq!(data.measurements.len(), 6 * loads * 3);
+    let targets: Vec<&str> = (data.measurements.rows.iter().take(3))
+        .map(|m| m.sample.target.as_str())
+        .collect();
+    assert_eq!(targets, ["", "smr2", "smr3"]);
+    let errors: Vec<_> = (data.measurements.rows.iter().zip(&data.truth.rows))
+        .map(|(m, t)| m.position - t.position)
+        .collect();
+    for pose in errors.chunks(3) {
+        assert!(pose[0].norm() > 1e-4, "the robot's error is drawn");
+        assert!((pose[1] - pose[0]).norm() < 3e-6 && (pose[2] - pose[0]).norm() < 3e-6);
+    }
+    // The true points are the truth's: the named points sit where the plate puts them.
+    let first = &data.truth.rows[..3];
+    let q = first[0].sample.joints_rad();
+    for (t, m) in first.iter().enumerate() {
+        assert!((config.truth.for_target(t).point(&q) - m.position).norm() < 1e-6);
+    }
+}
