@@ -78,6 +78,7 @@ fn samples(
     load: &Bound<'_, PyAny>,
     dof: usize,
     pose: Option<Vec<String>>,
+    target: Option<Vec<String>>,
 ) -> PyResult<Vec<Sample>> {
     let joints = rows_of(q, "q", dof, &format!("a robot with {dof} joints"))?;
     let loads = loads_of(load, joints.len())?;
@@ -90,7 +91,20 @@ fn samples(
             joints.len()
         )));
     }
-    samples_from_arrays(Path::new(source), pose, joints, loads).map_err(fail)
+    if let Some(t) = &target
+        && t.len() != joints.len()
+    {
+        return Err(bad(format!(
+            "target: {} names for {} rows",
+            t.len(),
+            joints.len()
+        )));
+    }
+    let mut rows = samples_from_arrays(Path::new(source), pose, joints, loads).map_err(fail)?;
+    for (row, t) in rows.iter_mut().zip(target.into_iter().flatten()) {
+        row.target = t;
+    }
+    Ok(rows)
 }
 
 /// A validated measurement set from arrays.
@@ -101,8 +115,9 @@ fn measurements(
     xyz: ArrayView2<f64>,
     dof: usize,
     pose: Option<Vec<String>>,
+    target: Option<Vec<String>>,
 ) -> PyResult<MeasurementSet> {
-    let samples = samples(source, q, load, dof, pose)?;
+    let samples = samples(source, q, load, dof, pose, target)?;
     let points = rows_of(xyz, "xyz", 3, "a point")?;
     if points.len() != samples.len() {
         return Err(bad(format!(
@@ -149,9 +164,11 @@ struct PyRobot {
 impl PyRobot {
     /// A table from arrays: `mdh` rows (a, alpha, d, theta) per joint, base to tip; `beta` one
     /// per joint (NaN: none); `limits` (joints × 2, deg); base `xyz` (mm) and `rpy` (deg,
-    /// fixed-axis) in the world frame; `tool` the measured point in the flange frame (mm).
+    /// fixed-axis) in the world frame; `tool` the measured point in the flange frame (mm);
+    /// `points` more reflectors by name (`{"smr2": [x, y, z]}`, flange frame, mm).
     #[new]
-    #[pyo3(signature = (mdh, *, beta=None, limits=None, base_xyz=None, base_rpy=None, tool=None, name="robot"))]
+    #[pyo3(signature = (mdh, *, beta=None, limits=None, base_xyz=None, base_rpy=None, tool=None, points=None, name="robot"))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         mdh: Matrix,
         beta: Option<Column>,
@@ -159,6 +176,7 @@ impl PyRobot {
         base_xyz: Option<Column>,
         base_rpy: Option<Column>,
         tool: Option<Column>,
+        points: Option<std::collections::BTreeMap<String, Vec<f64>>>,
         name: &str,
     ) -> PyResult<Self> {
         let table = mdh.as_array();
@@ -215,6 +233,14 @@ impl PyRobot {
             triple(rpy.view(), "base_rpy")?,
             triple(tool.view(), "tool")?
         );
+        if let Some(points) = points.filter(|p| !p.is_empty()) {
+            text += "\n[tool.points]\n";
+            for (n, p) in points {
+                let key = toml::Value::String(n.clone()).to_string();
+                let p = Array1::from(p);
+                text += &format!("{key} = {}\n", triple(p.view(), &format!("points[{n}]"))?);
+            }
+        }
         Robot::from_toml_str(&text, "(arrays)")
             .map(|inner| Self { inner })
             .map_err(fail)
@@ -239,19 +265,29 @@ impl PyRobot {
     }
 
     /// The measured point in the world frame for each row of `q` (rows × joints, deg): rows × 3,
-    /// mm.
-    fn forward<'py>(&self, py: Python<'py>, q: Matrix<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    /// mm; of the named point `target` when given.
+    #[pyo3(signature = (q, target=""))]
+    fn forward<'py>(
+        &self,
+        py: Python<'py>,
+        q: Matrix<'py>,
+        target: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let dof = self.inner.dof();
-        let rows = rows_of(
-            q.as_array(),
-            "q",
-            dof,
-            &format!("a robot with {dof} joints"),
-        )?;
+        let what = format!("a robot with {dof} joints");
+        let rows = rows_of(q.as_array(), "q", dof, &what)?;
+        let t = self.inner.target_index(target).ok_or_else(|| {
+            let names: Vec<&str> = self.inner.points.iter().map(|(n, _)| n.as_str()).collect();
+            bad(format!(
+                "target: no point `{target}` (the robot's points: {})",
+                names.join(", ")
+            ))
+        })?;
+        let robot = self.inner.for_target(t);
         let mut out = Array2::zeros((rows.len(), 3));
         for (i, r) in rows.iter().enumerate() {
             let rad: Vec<f64> = r.iter().map(|d| d.to_radians()).collect();
-            let p = self.inner.point(&rad);
+            let p = robot.point(&rad);
             for a in 0..3 {
                 out[[i, a]] = p[a];
             }
@@ -345,16 +381,21 @@ impl PyModel {
 
     /// The predicted point (world frame, mm) for each row of `q` (rows × joints, deg) under
     /// `load` (kg: one per row or one number). With `sigma=True`, also each point's standard
-    /// deviation (mm; models with a Gaussian-process residual): `(points, sigma)`.
-    #[pyo3(signature = (q, load, sigma=false))]
+    /// deviation (mm; models with a Gaussian-process residual): `(points, sigma)`. `target`:
+    /// one point name per row (`[tool.points]`; empty: the default point).
+    #[pyo3(signature = (q, load, sigma=false, *, target=None))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
         q: Matrix<'py>,
         load: &Bound<'py, PyAny>,
         sigma: bool,
+        target: Option<Vec<String>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let rows = samples("q", q.as_array(), load, self.inner.dof(), None)?;
+        let rows = samples("q", q.as_array(), load, self.inner.dof(), None, target)?;
+        self.inner
+            .check_targets(Path::new("q"), &rows)
+            .map_err(fail)?;
         let (points, sigmas) = py.detach(|| self.inner.predict_with_sigma(&rows, sigma));
         let mut out = Array2::zeros((points.len(), 3));
         for (i, p) in points.iter().enumerate() {
@@ -375,13 +416,15 @@ impl PyModel {
     }
 
     /// Error statistics (mm) against measured points `xyz` (rows × 3): a dict with count, mean,
-    /// std, rms, max, as `robocal evaluate --json` prints.
+    /// std, rms, max, as `robocal evaluate --json` prints. `target` as in `predict`.
+    #[pyo3(signature = (q, load, xyz, *, target=None))]
     fn evaluate<'py>(
         &self,
         py: Python<'py>,
         q: Matrix<'py>,
         load: &Bound<'py, PyAny>,
         xyz: Matrix<'py>,
+        target: Option<Vec<String>>,
     ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
         let set = measurements(
             "q",
@@ -390,7 +433,11 @@ impl PyModel {
             xyz.as_array(),
             self.inner.dof(),
             None,
+            target,
         )?;
+        self.inner
+            .check_targets(&set.source, set.rows.iter().map(|m| &m.sample))
+            .map_err(fail)?;
         let rows: Vec<_> = set.rows.iter().collect();
         stats_dict(py, &self.inner.stats(&rows))
     }
@@ -411,7 +458,7 @@ impl PyModel {
         tool: Option<Column<'py>>,
     ) -> PyResult<Compensated<'py>> {
         let dof = self.inner.dof();
-        let rows = samples("seed", seed.as_array(), load, dof, None)?;
+        let rows = samples("seed", seed.as_array(), load, dof, None, None)?;
         let points = rows_of(targets.as_array(), "targets", 3, "a point")?;
         if points.len() != rows.len() {
             return Err(bad(format!(
@@ -494,6 +541,7 @@ impl PyModel {
             xyz.as_array(),
             self.inner.dof(),
             None,
+            None,
         )?;
         let role = if training {
             DataRole::Training
@@ -526,10 +574,11 @@ impl PyModel {
 /// calibrate`: the default chooses the stages by cross-validation; `config` a stage file;
 /// `validate` a `(q, load, xyz)` tuple of held-out rows; `force` makes a model from data that
 /// do not fit the robot file; `keep_outliers` keeps the bad shots. Rows with the same joint
-/// readings are one configuration (or give `pose`, one id per row, as the CSV's `pose` column).
+/// readings are one configuration (or give `pose`, one id per row, as the CSV's `pose` column);
+/// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -542,9 +591,18 @@ fn calibrate<'py>(
     force: bool,
     keep_outliers: bool,
     pose: Option<Vec<String>>,
+    target: Option<Vec<String>>,
 ) -> PyResult<PyModel> {
     let dof = robot.inner.dof();
-    let data = measurements("(arrays)", q.as_array(), load, xyz.as_array(), dof, pose)?;
+    let data = measurements(
+        "(arrays)",
+        q.as_array(),
+        load,
+        xyz.as_array(),
+        dof,
+        pose,
+        target,
+    )?;
     let validation = validate
         .map(|(q, load, xyz)| {
             measurements(
@@ -553,6 +611,7 @@ fn calibrate<'py>(
                 &load,
                 xyz.as_array(),
                 dof,
+                None,
                 None,
             )
         })

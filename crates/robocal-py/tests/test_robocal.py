@@ -263,3 +263,66 @@ def test_the_readme_example_runs_and_prints_a_held_out_error():
     assert done.returncode == 0, done.stderr
     printed = done.stdout
     assert printed.startswith("Model(6 joints") and "'mean': 0." in printed, printed
+
+
+def reflector_twin(tmp_path):
+    """The bundled twin measuring three reflectors at 30 configurations, 0 and 20 kg."""
+    text = (ROOT / "configs/twin/pmc6va030.toml").read_text()
+    text = text.replace(
+        'nominal = "../robots/pmc6va030.toml"', f'nominal = "{ROBOT}"'
+    ).replace("count = 168", "count = 30")
+    text = text.replace(
+        "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n",
+        "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n\n[truth.tool.points]\n"
+        "smr2 = [83.1, 1.2, 62.0]\nsmr3 = [-37.0, 71.5, 63.1]\n",
+    )
+    lines = text.splitlines()
+    lines = [
+        "trained = [0.0, 20.0]" if l.startswith("trained = [") else
+        "untrained = []" if l.startswith("untrained = [") else l
+        for l in lines
+    ]
+    twin = tmp_path / "twin.toml"
+    twin.write_text("\n".join(lines) + "\n")
+    cli("simulate", "--twin", twin, "--out", tmp_path / "data")
+    with open(tmp_path / "data/measurements.csv", newline="") as f:
+        measured = list(csv.DictReader(f))
+    robot = tmp_path / "robot.toml"
+    robot.write_text(
+        ROBOT.read_text()
+        + "\n[tool.points]\nsmr2 = [80.0, 0.0, 60.0]\nsmr3 = [-40.0, 70.0, 60.0]\n"
+    )
+    return robot, tmp_path / "data/measurements.csv", measured
+
+
+def test_several_reflectors_equal_the_cli(tmp_path):
+    robot_file, data, measured = reflector_twin(tmp_path)
+    q, load, xyz, pose = arrays(measured)
+    target = [r["target"] for r in measured]
+    assert set(target) == {"", "smr2", "smr3"}
+    stage = STAGES / "kinematic-lm.toml"
+    model_dir = tmp_path / "cli-model"
+    cli("calibrate", "--robot", robot_file, "--data", data, "--out", model_dir, "--config", stage)
+    out = tmp_path / "pred.csv"
+    cli("predict", "--model", model_dir, "--data", data, "--out", out)
+    with open(out, newline="") as f:
+        predicted = list(csv.DictReader(f))
+    assert [r["target"] for r in predicted] == target
+    theirs = np.array([[float(r[a]) for a in "xyz"] for r in predicted])
+
+    robot = robocal.Robot.load(robot_file)
+    model = robocal.calibrate(robot, q, load, xyz, config=stage, pose=pose, target=target)
+    mine = model.predict(q, load, target=target)
+    np.testing.assert_allclose(mine, theirs, atol=2e-6, rtol=0)
+    # The points differ as the plate does; the identified table carries them.
+    assert np.linalg.norm(mine[1] - mine[0]) > 50.0
+    assert "[tool.points]" in model.robot.to_toml()
+    # Built from arrays with the same points: the same forward kinematics per target.
+    built = robocal.Robot(
+        [[0.0, 0.0, 0.0, 0.0]], points={"smr2": [1.0, 2.0, 3.0]}, tool=[0.0, 0.0, 5.0]
+    )
+    np.testing.assert_allclose(built.forward([[0.0]], "smr2"), [[1.0, 2.0, 3.0]])
+    with pytest.raises(robocal.RobocalError, match="column `target`: no point `smr9`"):
+        model.predict(q[:2], load[:2], target=["", "smr9"])
+    with pytest.raises(robocal.RobocalError, match="target: 1 names for 2 rows"):
+        model.predict(q[:2], load[:2], target=[""])
