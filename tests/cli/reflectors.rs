@@ -113,6 +113,75 @@ fn three_reflectors_are_simulated_calibrated_and_predicted_by_target() {
     let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(stats["count"], 240);
     assert!(stats["mean"].as_f64().unwrap() < 1.0, "{stats}");
+
+    // Compensation puts the row's target point on the target: smr2's predicted points as
+    // targets, seeds half a degree off; the commands bring smr2 back onto them.
+    let truth = std::fs::read_to_string(data.join("truth.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = (truth.lines().skip(1))
+        .map(|l| l.split(',').collect())
+        .filter(|f: &Vec<&str>| f[1] == "smr2")
+        .take(5)
+        .collect();
+    let predicted: Vec<Vec<&str>> = (lines.iter().skip(1))
+        .map(|l| l.split(',').collect())
+        .filter(|f: &Vec<&str>| f[1] == "smr2")
+        .take(5)
+        .collect();
+    let mut targets = "id,target,q1,q2,q3,q4,q5,q6,load,x,y,z\n".to_string();
+    for (i, (r, p)) in rows.iter().zip(&predicted).enumerate() {
+        let seed: Vec<String> = (r[2..8].iter())
+            .map(|v| (v.parse::<f64>().unwrap() + 0.5).to_string())
+            .collect();
+        targets += &format!(
+            "t{i},smr2,{},{},{},{},{}\n",
+            seed.join(","),
+            r[8],
+            p[3],
+            p[4],
+            p[5]
+        );
+    }
+    let targets_file = write(dir.path(), "targets.csv", &targets);
+    let commands = dir.path().join("commands.csv");
+    let o = robocal(&[
+        "compensate",
+        "--model",
+        s(&model),
+        "--targets",
+        s(&targets_file),
+        "--out",
+        s(&commands),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut check = "pose,target,q1,q2,q3,q4,q5,q6,load\n".to_string();
+    for (line, r) in (std::fs::read_to_string(&commands).unwrap().lines().skip(1)).zip(&rows) {
+        let f: Vec<&str> = line.split(',').collect();
+        check += &format!("{},smr2,{},{}\n", f[0], f[1..].join(","), r[8]);
+    }
+    let check_file = write(dir.path(), "check.csv", &check);
+    let reached = dir.path().join("reached.csv");
+    let o = robocal(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--data",
+        s(&check_file),
+        "--out",
+        s(&reached),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reached = std::fs::read_to_string(&reached).unwrap();
+    for (line, p) in reached.lines().skip(1).zip(&predicted) {
+        let f: Vec<f64> = line
+            .split(',')
+            .skip(3)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let want: Vec<f64> = p[3..6].iter().map(|v| v.parse().unwrap()).collect();
+        let d =
+            ((f[0] - want[0]).powi(2) + (f[1] - want[1]).powi(2) + (f[2] - want[2]).powi(2)).sqrt();
+        assert!(d < 2e-3, "{line}: {d} mm from the target");
+    }
 }
 
 #[test]

@@ -6,7 +6,8 @@
 //! RotZ(θ + q) TransZ(d)`. The translation along z commutes with the rotation about z, so the
 //! URDF joint's fixed origin is `RotX(α) TransX(a) RotY(β) RotZ(θ) TransZ(d)` and its axis z:
 //! exact, not an approximation. The base is a fixed joint from `world`, the measured point a
-//! fixed joint to `tool0`. URDF lengths are metres.
+//! fixed joint to `tool0`, each named point (`[tool.points]`) a fixed joint `point_NAME` to a link
+//! `point_NAME`. URDF lengths are metres.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use robocal_robot::{Robot, matrix_to_rpy};
@@ -120,6 +121,17 @@ pub fn urdf_robot(robot: &Robot) -> urdf_rs::Robot {
         "tool0",
         pose(&Matrix3::identity(), &robot.tool),
     ));
+    for (name, p) in &robot.points {
+        let leaf = point_link(name);
+        links.push(link(&leaf));
+        joints.push(joint(
+            leaf.clone(),
+            JointType::Fixed,
+            &parent,
+            &leaf,
+            pose(&Matrix3::identity(), p),
+        ));
+    }
     urdf_rs::Robot {
         name: robot.name.clone(),
         links,
@@ -128,20 +140,37 @@ pub fn urdf_robot(robot: &Robot) -> urdf_rs::Robot {
     }
 }
 
+/// The URDF link (and fixed joint) of the named point `name`.
+pub fn point_link(name: &str) -> String {
+    format!("point_{name}")
+}
+
 /// The URDF text of the model's kinematic table.
 pub fn urdf_text(robot: &Robot) -> Result<String, String> {
     urdf_rs::write_to_string(&urdf_robot(robot)).map_err(|e| e.to_string())
 }
 
 /// The measured point (mm, world frame) of a URDF robot at the readings `q` (rad) of its
-/// movable joints in chain order from `world`: each joint's origin, then its rotation about its
-/// axis.
-pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64]) -> Result<Vector3<f64>, String> {
+/// movable joints in chain order from `world`: the origin of link `leaf` (`tool0`, or a named
+/// point's link), each joint on the way applying its origin, then its rotation about its axis.
+pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64], leaf: &str) -> Result<Vector3<f64>, String> {
+    // The chain from `leaf` back to `world`, each link's one parent joint.
+    let mut path = Vec::new();
+    let mut link = leaf.to_string();
+    while link != "world" {
+        let j = (robot.joints.iter())
+            .find(|j| j.child.link == link)
+            .ok_or_else(|| format!("no joint leads to link `{link}`"))?;
+        if path.len() > robot.joints.len() {
+            return Err("the URDF's joints form a loop".into());
+        }
+        path.push(j);
+        link = j.parent.link.clone();
+    }
     let mut r = Matrix3::identity();
     let mut t = Vector3::zeros();
-    let mut link = "world".to_string();
     let mut k = 0;
-    while let Some(j) = robot.joints.iter().find(|j| j.parent.link == link) {
+    for j in path.into_iter().rev() {
         let o = &j.origin;
         let jr = robocal_robot::rpy_to_matrix(&Vector3::new(o.rpy[0], o.rpy[1], o.rpy[2]));
         t += r * Vector3::new(o.xyz[0], o.xyz[1], o.xyz[2]) * 1e3;
@@ -156,7 +185,6 @@ pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64]) -> Result<Vector3<f64>, Str
             r *= Rotation3::from_axis_angle(&axis, angle).matrix();
             k += 1;
         }
-        link = j.child.link.clone();
     }
     if k != q.len() {
         return Err(format!(
@@ -168,8 +196,8 @@ pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64]) -> Result<Vector3<f64>, Str
 }
 
 /// Reads `text` back (`urdf-rs`) and compares its forward kinematics with `robot`'s at
-/// [`PARITY_CONFIGURATIONS`] configurations spread over the joint limits (±180° without):
-/// the largest difference, mm.
+/// [`PARITY_CONFIGURATIONS`] configurations spread over the joint limits (±180° without), at the
+/// measured point and every named point: the largest difference, mm.
 pub fn urdf_parity(robot: &Robot, text: &str) -> Result<f64, String> {
     let back = urdf_rs::read_from_string(text).map_err(|e| e.to_string())?;
     let mut worst: f64 = 0.0;
@@ -184,7 +212,11 @@ pub fn urdf_parity(robot: &Robot, text: &str) -> Result<f64, String> {
                 lo + (hi - lo) * ((i as f64 + 0.5) * step).fract()
             })
             .collect();
-        worst = worst.max((urdf_point(&back, &q)? - robot.point(&q)).norm());
+        worst = worst.max((urdf_point(&back, &q, "tool0")? - robot.point(&q)).norm());
+        for (k, (name, _)) in robot.points.iter().enumerate() {
+            let model = robot.for_target(k + 1).point(&q);
+            worst = worst.max((urdf_point(&back, &q, &point_link(name))? - model).norm());
+        }
     }
     Ok(worst)
 }
@@ -229,6 +261,12 @@ pub fn json_table(
     ]
     .map(sigma);
     let tool_std = ["tool.x", "tool.y", "tool.z"].map(sigma);
+    let points: serde_json::Map<String, serde_json::Value> = (robot.points.iter().enumerate())
+        .map(|(k, (name, p))| {
+            let std = ["x", "y", "z"].map(|a| sigma(&format!("point{}.{a}", k + 1)));
+            (name.clone(), json!({"xyz": [p.x, p.y, p.z], "std": std}))
+        })
+        .collect();
     json!({
         "format": "robocal MDH table",
         "units": {"length": "mm", "angle": "deg"},
@@ -244,6 +282,7 @@ pub fn json_table(
             "xyz": [robot.tool.x, robot.tool.y, robot.tool.z],
             "std": tool_std,
         },
+        "points": points,
         "not_carried": not_carried(model),
     })
 }

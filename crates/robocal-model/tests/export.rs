@@ -50,3 +50,32 @@ fn the_json_table_holds_the_values_their_sigmas_and_what_it_leaves_out() {
     assert_eq!(t["base"]["std"][5].as_f64().unwrap(), 0.001);
     assert!(t["not_carried"].as_array().unwrap().is_empty());
 }
+
+/// Named points travel as fixed frames of their own, each checked like the measured point; a
+/// moved point is seen; the JSON table lists them.
+#[test]
+fn named_points_export_as_frames_of_their_own() {
+    let mut robot = robot();
+    robot.points = vec![
+        ("smr2".into(), nalgebra::Vector3::new(80.0, 0.5, 60.0)),
+        ("smr3".into(), nalgebra::Vector3::new(-40.0, 70.0, 61.0)),
+    ];
+    let text = urdf_text(&robot).unwrap();
+    assert!(
+        text.contains("point_smr2") && text.contains("point_smr3"),
+        "{text}"
+    );
+    let worst = urdf_parity(&robot, &text).unwrap();
+    assert!(worst < PARITY_TOLERANCE_MM, "{worst} mm");
+    let mut back = urdf_rs::read_from_string(&text).unwrap();
+    let j = back
+        .joints
+        .iter_mut()
+        .find(|j| j.name == "point_smr3")
+        .unwrap();
+    j.origin.xyz.0[2] += 1e-4;
+    let moved = urdf_rs::write_to_string(&back).unwrap();
+    assert!(urdf_parity(&robot, &moved).unwrap() > 0.05);
+    let table = json_table(&CalibratedModel::kinematic(robot), None);
+    assert_eq!(table["points"]["smr3"]["xyz"][1], 70.0);
+}
