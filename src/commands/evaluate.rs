@@ -22,13 +22,25 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
     let stats = ErrorStats::from_errors(&errors);
     if let Some(path) = per_pose {
         let said = super::replacing(path);
+        // A `target` column after `pose` when the rows name reflectors.
+        let targets = set.rows.iter().any(|m| !m.sample.target.is_empty());
         write_atomically(path, |w| {
-            writeln!(w, "pose,line,load,dx,dy,dz,error")?;
+            let target_header = if targets { ",target" } else { "" };
+            writeln!(w, "pose{target_header},line,load,dx,dy,dz,error")?;
             for ((m, r), e) in set.rows.iter().zip(&residuals).zip(&errors) {
+                let pose = if targets {
+                    format!(
+                        "{},{}",
+                        csv_text(&m.sample.pose),
+                        csv_text(&m.sample.target)
+                    )
+                } else {
+                    csv_text(&m.sample.pose)
+                };
                 writeln!(
                     w,
                     "{},{},{},{},{},{},{}",
-                    csv_text(&m.sample.pose),
+                    pose,
                     m.sample.line,
                     m.sample.load,
                     fixed6(r.x),

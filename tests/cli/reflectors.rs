@@ -101,6 +101,7 @@ fn three_reflectors_are_simulated_calibrated_and_predicted_by_target() {
     );
     // Rigid LM on a twin with compliance, gears and backlash: well under a millimetre at every
     // reflector against the noise-free points.
+    let per_pose = dir.path().join("errors.csv");
     let o = robocal(&[
         "evaluate",
         "--model",
@@ -108,7 +109,14 @@ fn three_reflectors_are_simulated_calibrated_and_predicted_by_target() {
         "--data",
         s(&data.join("truth.csv")),
         "--json",
+        "--per-pose",
+        s(&per_pose),
     ]);
+    let errors = std::fs::read_to_string(&per_pose).unwrap();
+    assert!(
+        errors.starts_with("pose,target,line,load,dx,dy,dz,error\n") && errors.contains(",smr3,"),
+        "{errors}"
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(stats["count"], 240);

@@ -68,6 +68,19 @@ pub struct LoadStats {
     pub after: f64,
 }
 
+/// The error at one reflector (rows naming targets).
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetStats {
+    /// The point (`target`; empty: the default point).
+    pub target: String,
+    /// Rows measuring it.
+    pub rows: usize,
+    /// Mean error before calibration, mm (when the model carries its nominal table).
+    pub before: Option<f64>,
+    /// Mean error after, mm.
+    pub after: f64,
+}
+
 /// One of the worst rows.
 #[derive(Debug, Clone, Serialize)]
 pub struct WorstRow {
@@ -117,6 +130,8 @@ pub struct DataReport {
     pub axes: Vec<AxisStats>,
     /// Mean error per load.
     pub by_load: Vec<LoadStats>,
+    /// Mean error per reflector (empty unless rows name targets).
+    pub by_target: Vec<TargetStats>,
     /// The five worst rows after calibration.
     pub worst: Vec<WorstRow>,
     /// The figures.
@@ -370,6 +385,34 @@ fn draw(
     Ok(figures)
 }
 
+/// Mean errors per target, in order of first appearance (none when no row names a target).
+fn by_target(rows: &[&Measurement], before: Option<&[f64]>, after: &[f64]) -> Vec<TargetStats> {
+    if rows.iter().all(|m| m.sample.target.is_empty()) {
+        return Vec::new();
+    }
+    let mut names: Vec<&str> = Vec::new();
+    for m in rows {
+        if !names.contains(&m.sample.target.as_str()) {
+            names.push(&m.sample.target);
+        }
+    }
+    names
+        .into_iter()
+        .map(|name| {
+            let at: Vec<usize> = (0..rows.len())
+                .filter(|&i| rows[i].sample.target == name)
+                .collect();
+            let mean_of = |e: &[f64]| mean(&at.iter().map(|&i| e[i]).collect::<Vec<_>>());
+            TargetStats {
+                target: name.to_string(),
+                rows: at.len(),
+                before: before.map(mean_of),
+                after: mean_of(after),
+            }
+        })
+        .collect()
+}
+
 /// Statistics of the signed errors along each axis.
 fn axis_stats(signed: &[Vector3<f64>]) -> Vec<AxisStats> {
     (0..3)
@@ -445,6 +488,7 @@ pub fn write_data_report(
                 after: after_mean,
             })
             .collect(),
+        by_target: by_target(rows, before.as_deref(), &after),
         worst: order
             .iter()
             .take(5)
@@ -580,6 +624,28 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
             })
             .collect(),
     };
+    let mut by_reflector = Vec::new();
+    if !r.by_target.is_empty() {
+        by_reflector.push(Table {
+            header: ["target", "rows", "mean before", "mean after"]
+                .map(String::from)
+                .to_vec(),
+            rows: (r.by_target.iter())
+                .map(|t| {
+                    vec![
+                        if t.target.is_empty() {
+                            "(default point)".into()
+                        } else {
+                            t.target.clone()
+                        },
+                        t.rows.to_string(),
+                        t.before.map_or("–".into(), f),
+                        f(t.after),
+                    ]
+                })
+                .collect(),
+        });
+    }
     vec![
         ("What was measured".into(), about, Vec::new()),
         (
@@ -593,6 +659,7 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
             vec![axes],
         ),
         ("Per load (mm)".into(), Vec::new(), vec![by_load]),
+        ("Per reflector (mm)".into(), Vec::new(), by_reflector),
         ("The worst rows after calibration (mm)".into(), Vec::new(), vec![worst]),
     ]
 }
@@ -604,6 +671,9 @@ fn markdown(r: &DataReport) -> String {
         env!("CARGO_PKG_VERSION")
     );
     for (heading, paragraphs, tables) in sections(r) {
+        if paragraphs.is_empty() && tables.is_empty() {
+            continue;
+        }
         let _ = write!(s, "\n## {heading}\n\n");
         for p in paragraphs {
             let _ = write!(s, "{p}\n\n");
@@ -658,6 +728,9 @@ fn html(r: &DataReport, dir: &Path) -> std::result::Result<String, (String, std:
         env!("CARGO_PKG_VERSION")
     );
     for (heading, paragraphs, tables) in sections(r) {
+        if paragraphs.is_empty() && tables.is_empty() {
+            continue;
+        }
         let _ = writeln!(s, "<h2>{}</h2>", escape(&heading));
         for p in paragraphs {
             let _ = writeln!(s, "<p>{}</p>", paragraph(&p));
@@ -758,6 +831,10 @@ mod tests {
         assert_eq!(r.figures.len(), 5);
         let md = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(md.contains("shown after calibration only"), "{md}");
+        assert!(
+            r.by_target.is_empty() && !md.contains("Per reflector"),
+            "{md}"
+        );
         // Nothing is written for no rows.
         let empty = dir.path().join("e");
         assert!(

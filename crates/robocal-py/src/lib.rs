@@ -446,8 +446,10 @@ impl PyModel {
     /// mm) under `load`, starting from `seed` (the program's commands, deg). `frame`: `world`
     /// (the tracker's, as measured) or `base` (the calibrated base frame); `tool`: a production
     /// tool point in the flange frame (mm) instead of the reflector. Returns `(commands,
-    /// model_error)`; a target that cannot be reached gets NaN and a warning naming it.
-    #[pyo3(signature = (targets, seed, load, frame="world", tool=None))]
+    /// model_error)`; a target that cannot be reached gets NaN and a warning naming it. With
+    /// several reflectors, `target` names the point each row puts on its target.
+    #[pyo3(signature = (targets, seed, load, frame="world", tool=None, *, target=None))]
+    #[allow(clippy::too_many_arguments)]
     fn compensate<'py>(
         &self,
         py: Python<'py>,
@@ -456,9 +458,13 @@ impl PyModel {
         load: &Bound<'py, PyAny>,
         frame: &str,
         tool: Option<Column<'py>>,
+        target: Option<Vec<String>>,
     ) -> PyResult<Compensated<'py>> {
         let dof = self.inner.dof();
-        let rows = samples("seed", seed.as_array(), load, dof, None, None)?;
+        let rows = samples("seed", seed.as_array(), load, dof, None, target)?;
+        self.inner
+            .check_targets(Path::new("seed"), &rows)
+            .map_err(fail)?;
         let points = rows_of(targets.as_array(), "targets", 3, "a point")?;
         if points.len() != rows.len() {
             return Err(bad(format!(
@@ -490,7 +496,14 @@ impl PyModel {
                 .zip(&points)
                 .map(|(s, p)| {
                     let target = rotation * Vector3::new(p[0], p[1], p[2]) + origin;
-                    compensate(&model, &target, s.load, &s.joints, &options)
+                    match model.robot.target_index(&s.target).unwrap_or(0) {
+                        0 => compensate(&model, &target, s.load, &s.joints, &options),
+                        k => {
+                            let mut m = model.clone();
+                            m.robot.tool = model.robot.target_point(k);
+                            compensate(&m, &target, s.load, &s.joints, &options)
+                        }
+                    }
                 })
                 .collect()
         });

@@ -324,5 +324,11 @@ def test_several_reflectors_equal_the_cli(tmp_path):
     np.testing.assert_allclose(built.forward([[0.0]], "smr2"), [[1.0, 2.0, 3.0]])
     with pytest.raises(robocal.RobocalError, match="column `target`: no point `smr9`"):
         model.predict(q[:2], load[:2], target=["", "smr9"])
+    # Compensation puts each row's named point on its target.
+    rows = [i for i, t in enumerate(target) if t == "smr3"][:4]
+    goals = mine[rows]
+    commands, error = model.compensate(goals, q[rows] + 0.5, load[rows], target=["smr3"] * 4)
+    reached = model.predict(commands, load[rows], target=["smr3"] * 4)
+    assert np.linalg.norm(reached - goals, axis=1).max() < 2e-3 and (error < 1e-3).all()
     with pytest.raises(robocal.RobocalError, match="target: 1 names for 2 rows"):
         model.predict(q[:2], load[:2], target=[""])
