@@ -31,7 +31,7 @@ pub struct Pool {
     pub scale: Vec<f64>,
     /// Parameters that the candidates cannot identify (held fixed, as calibrate would).
     pub fixed: Vec<String>,
-    /// One block per candidate configuration: `3L × k`.
+    /// One block per candidate configuration: `3LT × k` (L loads, T reflectors).
     pub blocks: Vec<DMatrix<f64>>,
     /// One block per check pose.
     pub checks: Vec<DMatrix<f64>>,
@@ -73,7 +73,8 @@ pub fn log_det(m: &DMatrix<f64>) -> f64 {
 
 impl Pool {
     /// The rows of every candidate (`candidates`, joint angles in rad) and check pose at
-    /// every load of `settings`, for the parameters calibrate would identify from the
+    /// every load of `settings` and every reflector of `robot` (the default point and each
+    /// `[tool.points]` point), for the parameters calibrate would identify from the
     /// candidates with `robot` (its table, base and tool; joint-error blocks as `settings`
     /// ask).
     pub fn new(
@@ -90,11 +91,19 @@ impl Pool {
             points: Vec::new(),
             targets: Vec::new(),
         };
+        // Every reflector of the robot file is measured at every pose and load: the default
+        // point, then each named point (`[tool.points]`).
+        let targets: Vec<String> = std::iter::once(String::new())
+            .chain(robot.points.iter().map(|(n, _)| n.clone()))
+            .collect();
         for q in candidates.iter().chain(checks) {
             for &load in loads {
-                obs.q.extend_from_slice(q);
-                obs.loads.push(load);
-                obs.points.push(robot.point(q));
+                for (t, name) in targets.iter().enumerate() {
+                    obs.q.extend_from_slice(q);
+                    obs.loads.push(load);
+                    obs.points.push(robot.for_target(t).point(q));
+                    obs.targets.push(name.clone());
+                }
             }
         }
         let selected = select(robot, None)?;
@@ -108,11 +117,11 @@ impl Pool {
         }
         let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
         // Identifiability from the candidates' rows alone (the check poses are not measured).
-        let rows = 3 * loads.len() * candidates.len();
+        let per = 3 * loads.len() * targets.len();
+        let rows = per * candidates.len();
         let candidate_rows = faer::Mat::from_fn(rows, jac.ncols(), |i, j| jac[(i, j)]);
         let ident = analyse(&candidate_rows, &columns, RANK_TOLERANCE);
         let keep = &ident.identifiable;
-        let per = 3 * loads.len();
         let block =
             |c: usize| DMatrix::from_fn(per, keep.len(), |r, k| jac[(c * per + r, keep[k])]);
         Ok(Self {

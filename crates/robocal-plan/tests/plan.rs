@@ -178,3 +178,29 @@ fn bad_settings_and_counts_are_named() {
         "{e}"
     );
 }
+
+/// Several reflectors: every point is measured at every pose, so the plan's information holds
+/// their rows; the wrist offsets one point leaves to the nominal are identified with three.
+#[test]
+fn a_plan_for_three_reflectors_identifies_what_one_cannot() {
+    let one = robot();
+    let mut three = one.clone();
+    three.points = vec![
+        (
+            "smr2".into(),
+            one.tool + nalgebra::Vector3::new(80.0, 0.0, -35.0),
+        ),
+        (
+            "smr3".into(),
+            one.tool + nalgebra::Vector3::new(-40.0, 70.0, -35.0),
+        ),
+    ];
+    let settings = PlanSettings::default();
+    let (candidates, checks) = pool(&one, &settings, 60);
+    let p1 = Pool::new(&one, &candidates, &checks, &settings).unwrap();
+    let p3 = Pool::new(&three, &candidates, &checks, &settings).unwrap();
+    assert!(p1.fixed.iter().any(|f| f == "j6.a"), "{:?}", p1.fixed);
+    assert!(!p3.fixed.iter().any(|f| f == "j6.a"), "{:?}", p3.fixed);
+    assert!(p3.names.iter().any(|n| n == "point2.z"));
+    assert_eq!(p3.parameters(), p1.parameters() + 2 + 6);
+}
