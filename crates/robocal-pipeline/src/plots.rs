@@ -11,6 +11,7 @@ use std::sync::OnceLock;
 
 use nalgebra::Vector3;
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::{ColorMap, ViridisRGB};
 use plotters::style::{FontStyle, register_font};
@@ -153,6 +154,40 @@ fn tick(v: &f64) -> String {
 /// Width of the legend column at the right of a figure, pixels.
 const LEGEND_W: u32 = 340;
 
+/// A panel's axes: its title, labelled axes over `ranges` (tick labels sized to the panel,
+/// trailing zeros dropped), `label_width` pixels for the y labels.
+fn axes<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    (x_label, y_label): (&str, &str),
+    (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
+    label_width: u32,
+) -> std::result::Result<
+    ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    Box<dyn Error>,
+>
+where
+    DB::ErrorType: 'static,
+{
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(label_width)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .x_labels(ticks(area.dim_in_pixel().0))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .draw()?;
+    Ok(chart)
+}
+
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     panel: &Panel,
@@ -175,22 +210,13 @@ where
             .flat_map(|s| s.points.iter().map(|p| p.1)),
         true,
     );
-    let mut chart = ChartBuilder::on(area)
-        .caption(&panel.title, ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(60)
-        .build_cartesian_2d(x0..x1, y0..y1)?;
-    chart
-        .configure_mesh()
-        .x_labels(ticks(area.dim_in_pixel().0))
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .x_desc(panel.x_label.as_str())
-        .y_desc(panel.y_label.as_str())
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 15))
-        .draw()?;
+    let mut chart = axes(
+        area,
+        &panel.title,
+        (&panel.x_label, &panel.y_label),
+        (x0..x1, y0..y1),
+        60,
+    )?;
     for s in &panel.series {
         let st = style_of(&s.name);
         let c = st.colour;
@@ -383,22 +409,13 @@ where
     for (area, panel) in plots.split_evenly((1, panels.len())).iter().zip(panels) {
         let (x0, x1) = range(panel.points.iter().map(|p| p.0), false);
         let (y0, y1) = range(panel.points.iter().map(|p| p.1), false);
-        let mut chart = ChartBuilder::on(area)
-            .caption(&panel.title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_labels(ticks(area.dim_in_pixel().0))
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
-            .x_desc(panel.x_label.as_str())
-            .y_desc(panel.y_label.as_str())
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 15))
-            .draw()?;
+        let mut chart = axes(
+            area,
+            &panel.title,
+            (&panel.x_label, &panel.y_label),
+            (x0..x1, y0..y1),
+            70,
+        )?;
         // Largest values last, on top.
         let mut points = panel.points.clone();
         points.sort_by(|a, b| a.2.total_cmp(&b.2));
