@@ -101,6 +101,12 @@ pub fn run(
             );
         }
     }
+    if !r.identified_by_reflectors.is_empty() {
+        eprintln!(
+            "robocal: identified thanks to the extra reflectors (the default one alone would hold them fixed): {}",
+            r.identified_by_reflectors.join(", ")
+        );
+    }
     if !r.fixed.is_empty() {
         let names: Vec<&str> = r.fixed.iter().map(|f| f.name.as_str()).collect();
         eprintln!(

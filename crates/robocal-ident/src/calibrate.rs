@@ -1,6 +1,7 @@
 //! Kinematic calibration end to end: registration, best-fit alignment ("before"),
 //! identifiability, the chosen solver, statistics and parameter uncertainties.
 
+use faer::Mat;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, robust_std};
 use robocal_robot::{Compliance, DEG_PER_KNM, ErrorParam, JointErrors, ParamId, Robot, Unit};
@@ -8,7 +9,7 @@ use serde::Serialize;
 
 use crate::bfgs::run_bfgs;
 use crate::error::{IdentError, Result};
-use crate::identifiability::{Column, analyse, standard_deviations};
+use crate::identifiability::{Column, Identifiability, analyse, standard_deviations};
 use crate::lm::run_lm;
 use crate::problem::{CalibrationProblem, LeastSquares, Observations, select};
 use crate::registration::register_base;
@@ -284,6 +285,10 @@ pub struct KinematicReport {
     pub parameters: Vec<ParameterReport>,
     /// Parameters held fixed as unidentifiable with this pose set.
     pub fixed: Vec<FixedParameter>,
+    /// With several reflectors: the parameters identified that the default reflector's rows
+    /// alone would leave fixed (the points' own offsets aside).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub identified_by_reflectors: Vec<String>,
     /// Condition number of the scaled Jacobian of the identified parameters.
     pub condition_number: f64,
     /// Observability index O1 (Borm & Menq) of the scaled Jacobian.
@@ -700,6 +705,32 @@ fn solve_gated(
     })
 }
 
+/// The parameters `ident` identifies that the rows of the default reflector alone (`jac`'s rows
+/// of observations without a target) would not: what the extra reflectors buy. Empty when no
+/// row names a target.
+fn by_reflectors(
+    obs: &Observations,
+    jac: &Mat<f64>,
+    columns: &[Column],
+    ident: &Identifiability,
+    settings: &KinematicSettings,
+) -> Vec<String> {
+    if obs.targets.iter().all(String::is_empty) {
+        return Vec::new();
+    }
+    let rows: Vec<usize> = (0..obs.len())
+        .filter(|&i| obs.targets[i].is_empty())
+        .flat_map(|i| 3 * i..3 * i + 3)
+        .collect();
+    let alone = Mat::from_fn(rows.len(), jac.ncols(), |r, c| jac[(rows[r], c)]);
+    let alone = analyse(&alone, columns, settings.rank_tolerance);
+    (ident.identifiable.iter())
+        .filter(|p| !alone.identifiable.contains(p))
+        .filter(|&&p| !matches!(columns[p], Column::Param(ParamId::Point { .. })))
+        .map(|&p| columns[p].to_string())
+        .collect()
+}
+
 /// Identifies the kinematic parameters of `nominal` from `obs` (and, when the settings ask for
 /// it, the joint compliances with them: then the points of every load take part).
 pub fn calibrate_kinematics(
@@ -740,6 +771,7 @@ pub fn calibrate_kinematics(
     }
     let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
     let ident = analyse(&jac, &columns, settings.rank_tolerance);
+    let identified_by_reflectors = by_reflectors(obs, &jac, &columns, &ident, settings);
     let mut problem = problem.restricted(&ident.identifiable);
     let mut kept: Vec<Column> = ident.identifiable.iter().map(|&p| columns[p]).collect();
     let mut fixed: Vec<FixedParameter> = ident
@@ -865,6 +897,7 @@ pub fn calibrate_kinematics(
             after,
             parameters,
             fixed,
+            identified_by_reflectors,
             condition_number: ident.condition_number,
             observability_index: ident.observability_index,
             compliance: compliance_report,

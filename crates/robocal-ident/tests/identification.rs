@@ -899,6 +899,20 @@ fn lm_recovers_named_points_with_the_geometry() {
         .map(|p| p.name.clone())
         .collect();
     assert!(names.iter().any(|n| n == "point1.x") && names.iter().any(|n| n == "point2.z"));
+    // Many configurations: one reflector identifies as much; three at few configurations
+    // identify wrist offsets one leaves fixed, and the report names them.
+    assert!(cal.report.identified_by_reflectors.is_empty());
+    let few = calibrate_kinematics(
+        &nominal,
+        &observe_all(&train[..8]),
+        &KinematicSettings::default(),
+    )
+    .unwrap();
+    let gained = &few.report.identified_by_reflectors;
+    assert!(
+        !gained.is_empty() && gained.iter().all(|n| n.starts_with('j')),
+        "{gained:?}"
+    );
     // The points relative to the default point are fixed by the plate, whatever the flange
     // frame's own redundancy with the wrist: they come back as the truth's.
     for k in 0..2 {
