@@ -79,3 +79,33 @@ fn named_points_export_as_frames_of_their_own() {
     let table = json_table(&CalibratedModel::kinematic(robot), None);
     assert_eq!(table["points"]["smr3"]["xyz"][1], 70.0);
 }
+
+/// Every bundled arm (6-, 7- and 5-axis, β on parallel joints, heavy and small six-axis), its
+/// table moved as a calibration moves it and its base tilted: the URDF reproduces it within
+/// the tolerance.
+#[test]
+fn the_urdf_of_every_bundled_arm_reproduces_its_table() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robots");
+    let mut arms = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let mut r = Robot::load(&path).unwrap();
+        let x: Vec<f64> = (r.params().iter().enumerate())
+            .map(|(i, v)| v + 1e-3 * ((i * 37 % 11) as f64 - 5.0))
+            .collect();
+        r = r.with_params(&x).unwrap();
+        r.base.rpy = nalgebra::Vector3::new(0.2, -0.15, 2.9);
+        let text = urdf_text(&r).unwrap();
+        let worst = urdf_parity(&r, &text).unwrap();
+        assert!(
+            worst < PARITY_TOLERANCE_MM,
+            "{}: {worst} mm",
+            path.display()
+        );
+        arms += 1;
+    }
+    assert!(arms >= 5, "{arms} robot files");
+}
