@@ -207,3 +207,46 @@ fn evaluate_per_pose_finds_the_bad_shot_and_replaced_outputs_are_said() {
             .contains(&format!("{} existed and was replaced", s(&per_pose)))
     );
 }
+
+/// Few poses are not wrong units: with 14 configurations the wrist offsets move far from the
+/// drawing but within their uncertainty; calibrate writes the model and says the poses barely
+/// determine them (it used to call the data implausible), while metres are still refused.
+#[test]
+fn few_poses_are_warned_about_not_refused_as_wrong_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(
+        dir.path(),
+        "few.csv",
+        &select_rows(&twin_rows(), |c, l| c % 12 == 0 && l == 0.0),
+    );
+    let lm = |data: &Path, out: &Path| {
+        let o = robocal(&[
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(data),
+            "--out",
+            s(out),
+            "--config",
+            "configs/stages/kinematic-lm.toml",
+        ]);
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (ok, err) = lm(&data, &dir.path().join("model"));
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("link lengths the poses barely determine") && err.contains("j5.d"),
+        "{err}"
+    );
+    let metres = edited(&data, "metres.csv", |_, f| {
+        for v in &mut f[8..11] {
+            *v = (v.parse::<f64>().unwrap() / 1000.0).to_string();
+        }
+    });
+    let (ok, err) = lm(&metres, &dir.path().join("m2"));
+    assert!(!ok && err.contains("metres"), "{err}");
+}

@@ -467,17 +467,45 @@ fn fit_warnings(
     warnings
 }
 
+/// Standard deviations a far move must exceed to count as determined by the data.
+pub const FAR_SIGMAS: f64 = 3.0;
+
 /// Identified link lengths that moved more than [`FAR_FROM_NOMINAL`] mm and 10 % from the
-/// robot file: the data are in other units (a table scaled with them fits exactly), or the
-/// robot file is not this arm's. Base and tool are frames whose nominal values are guesses, so
-/// they are left out. `ids` are the table's parameters, in the order of `parameters`.
+/// robot file, by more than [`FAR_SIGMAS`] standard deviations: the data are in other units (a
+/// table scaled with them fits exactly), or the robot file is not this arm's. A move within its
+/// uncertainty says only that the poses barely determine the parameter
+/// ([`poorly_determined`]). Base, tool and named points are frames whose nominal values are
+/// guesses, so they are left out. `ids` are the table's parameters, in the order of
+/// `parameters`.
 pub fn far_from_nominal<'a>(
     parameters: &'a [ParameterReport],
     ids: &[ParamId],
 ) -> Vec<&'a ParameterReport> {
+    far_moves(parameters, ids)
+        .filter(|p| p.std.is_none_or(|s| p.delta.abs() > FAR_SIGMAS * s))
+        .collect()
+}
+
+/// Identified link lengths that moved as far as [`far_from_nominal`] says, but within
+/// [`FAR_SIGMAS`] standard deviations: the poses barely determine them.
+pub fn poorly_determined<'a>(
+    parameters: &'a [ParameterReport],
+    ids: &[ParamId],
+) -> Vec<&'a ParameterReport> {
+    far_moves(parameters, ids)
+        .filter(|p| p.std.is_some_and(|s| p.delta.abs() <= FAR_SIGMAS * s))
+        .collect()
+}
+
+/// Identified link lengths (not frames) more than [`FAR_FROM_NOMINAL`] mm and 10 % from the
+/// robot file.
+fn far_moves<'a>(
+    parameters: &'a [ParameterReport],
+    ids: &[ParamId],
+) -> impl Iterator<Item = &'a ParameterReport> {
     parameters
         .iter()
-        .zip(ids)
+        .zip(ids.to_vec())
         .filter(|(p, id)| {
             p.identified_flag
                 && id.unit() == Unit::Mm
@@ -488,7 +516,6 @@ pub fn far_from_nominal<'a>(
                 && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
         })
         .map(|(p, _)| p)
-        .collect()
 }
 
 /// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
@@ -864,6 +891,24 @@ pub fn calibrate_kinematics(
         warnings.push(format!(
             "identified link lengths far from the nominal table (more than {FAR_FROM_NOMINAL} mm and 10 %): {}; check the units of the data (mm) and that the robot file describes this arm",
             far.join(", ")
+        ));
+    }
+    let poor: Vec<String> = poorly_determined(&parameters, &ids)
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {:.1} → {:.1} ± {:.1} mm",
+                p.name,
+                p.nominal,
+                p.identified,
+                p.std.unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    if !poor.is_empty() {
+        warnings.push(format!(
+            "link lengths the poses barely determine (moved far, within {FAR_SIGMAS} standard deviations): {}; measure more configurations, or plan them (`robocal plan`), before trusting the model",
+            poor.join(", ")
         ));
     }
     let compliance_report = compliance_report(
