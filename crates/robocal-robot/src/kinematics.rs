@@ -168,16 +168,30 @@ impl Robot {
         out: &mut DMatrix<f64>,
         row: usize,
     ) -> Vector3<f64> {
+        self.write_param_jacobian_at(q, 0, out, row)
+    }
+
+    /// As [`Self::write_param_jacobian`] for target `t` ([`Robot::target_index`]): the point
+    /// the row measures, with the columns of its offset (`tool.*` for the default point,
+    /// `pointK.*` for a named one) and zeros in every other point's columns (all three rows of
+    /// every column are written, so a buffer can be reused across rows).
+    pub fn write_param_jacobian_at(
+        &self,
+        q: &[f64],
+        t: usize,
+        out: &mut DMatrix<f64>,
+        row: usize,
+    ) -> Vector3<f64> {
         debug_assert_eq!(out.ncols(), self.param_count());
         debug_assert!(row + 3 <= out.nrows());
-        let p = self.point(q);
+        let (flange, origin) = self.flange_frame(q);
+        let p = origin + flange * self.target_point(t);
         let mut put = |col: usize, v: Vector3<f64>| {
             out[(row, col)] = v.x;
             out[(row + 1, col)] = v.y;
             out[(row + 2, col)] = v.z;
         };
         let rb = self.base_rotation();
-        let mut r = rb;
         let mut col = 0;
         for (joint, s) in self.joints.iter().zip(self.steps_from(rb, q)) {
             let wx = s.r0.column(0).into_owned();
@@ -193,7 +207,6 @@ impl Robot {
             put(col, wz); // d
             put(col + 1, wz.cross(&(p - s.o2))); // theta
             col += 2;
-            r = s.r;
         }
         let rel = p - self.base.xyz;
         for axis in 0..3 {
@@ -204,32 +217,16 @@ impl Robot {
         put(col + 4, Vector3::new(-sy, cy, 0.0).cross(&rel)); // pitch about Rz(yaw) ŷ
         put(col + 5, Vector3::z().cross(&rel)); // yaw about world ẑ
         col += 6;
-        for axis in 0..3 {
-            put(col + axis, r.column(axis).into_owned());
-        }
-        p
-    }
-
-    /// As [`Self::write_param_jacobian`] for target `t` ([`Robot::target_index`]): the point
-    /// the row measures, with the columns of its offset (`tool.*` for the default point,
-    /// `pointK.*` for a named one) and zeros in the other points' columns.
-    pub fn write_param_jacobian_at(
-        &self,
-        q: &[f64],
-        t: usize,
-        out: &mut DMatrix<f64>,
-        row: usize,
-    ) -> Vector3<f64> {
-        if t == 0 {
-            return self.write_param_jacobian(q, out, row);
-        }
-        let p = self.for_target(t).write_param_jacobian(q, out, row);
-        let tool = self.param_count() - 3 * self.points.len() - 3;
-        let point = tool + 3 * t;
-        for r in row..row + 3 {
+        // The offsets of the default point (target 0) and of each named point: the flange's
+        // axes for the row's target, zero for the others.
+        for target in 0..=self.points.len() {
             for axis in 0..3 {
-                out[(r, point + axis)] = out[(r, tool + axis)];
-                out[(r, tool + axis)] = 0.0;
+                let v = if target == t {
+                    flange.column(axis).into_owned()
+                } else {
+                    Vector3::zeros()
+                };
+                put(col + 3 * target + axis, v);
             }
         }
         p

@@ -122,9 +122,15 @@ proptest! {
             prop_assert!((fd - an).norm() < 1e-5 * (1.0 + fd.norm()), "{id}: analytic {an} vs fd {fd}");
         }
         // Every named point: its own offset's columns, the others' zero.
-        for t in 0..=robot.points.len() {
+        let last = robot.points.len();
+        for t in 0..=last {
             let mut out = nalgebra::DMatrix::zeros(3, robot.param_count());
             let p = robot.write_param_jacobian_at(&q, t, &mut out, 0);
+            // A buffer reused across rows of other targets holds the same block.
+            let mut reused = nalgebra::DMatrix::from_element(3, robot.param_count(), 7.0);
+            robot.write_param_jacobian_at(&q, last - t, &mut reused, 0);
+            robot.write_param_jacobian_at(&q, t, &mut reused, 0);
+            prop_assert_eq!(&reused, &out, "target {} after target {}", t, last - t);
             let point = |r: &Robot| r.for_target(t).point(&q);
             prop_assert!((p - point(&robot)).norm() < 1e-12);
             for (k, id) in robot.param_ids().iter().enumerate() {
