@@ -85,17 +85,8 @@ pub fn run(
     let mut worst: f64 = 0.0;
     for t in &targets {
         // A row naming a reflector puts that point on its target.
-        let index = model.robot.target_index(&t.sample.target).unwrap_or(0);
-        let measuring = match index {
-            0 => None,
-            k => {
-                let mut m = model.clone();
-                m.robot.tool = model.robot.target_point(k);
-                Some(m)
-            }
-        };
         match compensate(
-            measuring.as_ref().unwrap_or(&model),
+            &model.for_target(&t.sample.target),
             &t.position,
             t.sample.load,
             &t.sample.joints,

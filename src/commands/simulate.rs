@@ -12,10 +12,7 @@ pub fn run(twin: &Path, out: &Path, poses: Option<&Path>) -> Result<()> {
     let config = TwinConfig::load(twin)?;
     if let Some(poses) = poses {
         let samples = SampleSet::read(poses, config.truth.dof())?;
-        let names: Vec<&str> = (config.truth.points.iter())
-            .map(|(n, _)| n.as_str())
-            .collect();
-        check_targets(poses, &samples.rows, &names)?;
+        check_targets(poses, &samples.rows, &config.truth.point_names())?;
         let (measured, truth) = config.measure_samples(&samples.rows);
         let said = super::replacing(out);
         write_dir_atomically(out, |dir| -> Result<()> {

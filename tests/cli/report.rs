@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::common::{robocal, s, select_rows, twin_rows, write};
+use crate::common::{calibrate_with, robocal, s, select_rows, twin_rows, write};
 
 const STEMS: [&str; 5] = ["histogram", "per-pose", "axes-joints", "load", "workspace"];
 
@@ -156,17 +156,11 @@ fn a_bad_report_writes_nothing() {
         "train.csv",
         &select_rows(&twin_rows(), |c, l| c < 60 && l == 0.0),
     );
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        "configs/robots/pmc6va030.toml",
-        "--data",
-        s(&train),
-        "--out",
-        s(&model),
-        "--config",
-        "configs/stages/kinematic-lm.toml",
-    ]);
+    let o = calibrate_with(
+        &train,
+        &model,
+        Path::new("configs/stages/kinematic-lm.toml"),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&train).unwrap();
     let bad = text.replacen(",0,", ",zero,", 1);

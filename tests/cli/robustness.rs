@@ -35,6 +35,11 @@ fn edited(csv: &Path, name: &str, f: impl Fn(usize, &mut Vec<String>)) -> PathBu
 }
 
 fn calibrate(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
+    calibrate_with_stage(data, out, STAGE, extra)
+}
+
+/// `calibrate` with the stage file `stage`: (success, stderr).
+fn calibrate_with_stage(data: &Path, out: &Path, stage: &str, extra: &[&str]) -> (bool, String) {
     let mut args = vec![
         "calibrate",
         "--robot",
@@ -44,7 +49,7 @@ fn calibrate(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
         "--out",
         s(out),
         "--config",
-        STAGE,
+        stage,
     ];
     args.extend(extra);
     let o = robocal(&args);
@@ -220,21 +225,7 @@ fn few_poses_are_warned_about_not_refused_as_wrong_units() {
         &select_rows(&twin_rows(), |c, l| c % 12 == 0 && l == 0.0),
     );
     let lm = |data: &Path, out: &Path| {
-        let o = robocal(&[
-            "calibrate",
-            "--robot",
-            ROBOT,
-            "--data",
-            s(data),
-            "--out",
-            s(out),
-            "--config",
-            "configs/stages/kinematic-lm.toml",
-        ]);
-        (
-            o.status.success(),
-            String::from_utf8_lossy(&o.stderr).into_owned(),
-        )
+        calibrate_with_stage(data, out, "configs/stages/kinematic-lm.toml", &[])
     };
     let (ok, err) = lm(&data, &dir.path().join("model"));
     assert!(ok, "{err}");

@@ -505,7 +505,7 @@ fn far_moves<'a>(
 ) -> impl Iterator<Item = &'a ParameterReport> {
     parameters
         .iter()
-        .zip(ids.to_vec())
+        .zip(ids)
         .filter(|(p, id)| {
             p.identified_flag
                 && id.unit() == Unit::Mm

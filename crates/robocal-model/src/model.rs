@@ -111,6 +111,20 @@ impl CalibratedModel {
         )
     }
 
+    /// This model measuring the point `target` names (a `[tool.points]` name; empty, or a name
+    /// the table lacks: the default point): its table's default point replaced by that point,
+    /// everything else kept — what compensation puts on a row's target.
+    pub fn for_target(&self, target: &str) -> std::borrow::Cow<'_, CalibratedModel> {
+        match self.robot.target_index(target).unwrap_or(0) {
+            0 => std::borrow::Cow::Borrowed(self),
+            t => {
+                let mut m = self.clone();
+                m.robot.tool = self.robot.target_point(t);
+                std::borrow::Cow::Owned(m)
+            }
+        }
+    }
+
     /// Checks that every sample's `target` names a point of the table: the first that does not
     /// is an error naming `source`, its line and the points there are.
     pub fn check_targets<'a>(
@@ -118,8 +132,7 @@ impl CalibratedModel {
         source: &std::path::Path,
         samples: impl IntoIterator<Item = &'a Sample>,
     ) -> std::result::Result<(), robocal_data::DataError> {
-        let names: Vec<&str> = self.robot.points.iter().map(|(n, _)| n.as_str()).collect();
-        robocal_data::check_targets(source, samples, &names)
+        robocal_data::check_targets(source, samples, &self.robot.point_names())
     }
 
     /// Predicted points for `samples`, mm, world frame (the residual model in one batch).

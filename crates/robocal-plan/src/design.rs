@@ -93,16 +93,14 @@ impl Pool {
         };
         // Every reflector of the robot file is measured at every pose and load: the default
         // point, then each named point (`[tool.points]`).
-        let targets: Vec<String> = std::iter::once(String::new())
-            .chain(robot.points.iter().map(|(n, _)| n.clone()))
-            .collect();
+        let targets = robot.target_names();
         for q in candidates.iter().chain(checks) {
             for &load in loads {
                 for (t, name) in targets.iter().enumerate() {
                     obs.q.extend_from_slice(q);
                     obs.loads.push(load);
                     obs.points.push(robot.for_target(t).point(q));
-                    obs.targets.push(name.clone());
+                    obs.targets.push(name.to_string());
                 }
             }
         }

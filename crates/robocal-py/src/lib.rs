@@ -277,7 +277,7 @@ impl PyRobot {
         let what = format!("a robot with {dof} joints");
         let rows = rows_of(q.as_array(), "q", dof, &what)?;
         let t = self.inner.target_index(target).ok_or_else(|| {
-            let names: Vec<&str> = self.inner.points.iter().map(|(n, _)| n.as_str()).collect();
+            let names = self.inner.point_names();
             bad(format!(
                 "target: no point `{target}` (the robot's points: {})",
                 names.join(", ")
@@ -496,14 +496,8 @@ impl PyModel {
                 .zip(&points)
                 .map(|(s, p)| {
                     let target = rotation * Vector3::new(p[0], p[1], p[2]) + origin;
-                    match model.robot.target_index(&s.target).unwrap_or(0) {
-                        0 => compensate(&model, &target, s.load, &s.joints, &options),
-                        k => {
-                            let mut m = model.clone();
-                            m.robot.tool = model.robot.target_point(k);
-                            compensate(&m, &target, s.load, &s.joints, &options)
-                        }
-                    }
+                    let measuring = model.for_target(&s.target);
+                    compensate(&measuring, &target, s.load, &s.joints, &options)
                 })
                 .collect()
         });

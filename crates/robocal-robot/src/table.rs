@@ -351,6 +351,17 @@ impl Robot {
             .map(|k| k + 1)
     }
 
+    /// The names of the named points, in [`Self::points`] order.
+    pub fn point_names(&self) -> Vec<&str> {
+        self.points.iter().map(|(n, _)| n.as_str()).collect()
+    }
+
+    /// Every target a row may name, in target-index order: the default point (an empty name),
+    /// then each named point.
+    pub fn target_names(&self) -> Vec<&str> {
+        std::iter::once("").chain(self.point_names()).collect()
+    }
+
     /// The point of target index `t` in the flange frame, mm (see [`Self::target_index`]).
     pub fn target_point(&self, t: usize) -> Vector3<f64> {
         match t {

@@ -44,16 +44,14 @@ impl TwinConfig {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed ^ NOISE_STREAM);
         let mut measured = Vec::new();
         let mut truth = Vec::new();
+        // Every load, and at each every reflector: the default point, then the named
+        // points of the truth's `[tool.points]` (their rows name them in `target`).
+        let targets = self.truth.target_names();
         for point in design.kept() {
             let Some(deg) = &point.joints_deg else {
                 continue;
             };
             let q: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
-            // Every load, and at each every reflector: the default point, then the named
-            // points of the truth's `[tool.points]` (their rows name them in `target`).
-            let targets: Vec<String> = std::iter::once(String::new())
-                .chain(self.truth.points.iter().map(|(n, _)| n.clone()))
-                .collect();
             for &load in &loads {
                 // One reflector: the combined noise as always (the bundled datasets stay
                 // byte-identical). Several: the robot's repeatability error once per pose and
@@ -65,7 +63,7 @@ impl TwinConfig {
                         joints: deg.clone(),
                         load,
                         line: 0,
-                        target: target.clone(),
+                        target: target.to_string(),
                     };
                     let point = self.true_point_of(&q, load, target);
                     let exact = point.map(round6);

@@ -105,9 +105,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         data: data.clone(),
         source: Box::new(source),
     };
-    let names: Vec<&str> = (input.nominal.points.iter())
-        .map(|(n, _)| n.as_str())
-        .collect();
+    let names = input.nominal.point_names();
     for set in std::iter::once(input.data).chain(input.validation) {
         check_targets(&set.source, set.rows.iter().map(|m| &m.sample), &names)?;
     }
