@@ -20,6 +20,11 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
     let residuals = model.residuals(&set.rows);
     let errors: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let stats = ErrorStats::from_errors(&errors);
+    // A 6-DoF probe's rows: the angle between measured and predicted tool frames, deg.
+    let rows: Vec<&robocal_data::Measurement> = set.rows.iter().collect();
+    let orientation = set
+        .has_orientation()
+        .then(|| ErrorStats::from_errors(&model.orientation_errors(&rows)));
     if let Some(path) = per_pose {
         let said = super::replacing(path);
         // A `target` column after `pose` when the rows name reflectors.
@@ -54,13 +59,25 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
         said();
     }
     if json {
-        println!("{}", serde_json::to_string(&stats)?);
+        let mut value = serde_json::to_value(stats)?;
+        if let (Some(o), Some(map)) = (&orientation, value.as_object_mut()) {
+            map.insert("orientation_deg".into(), serde_json::to_value(o)?);
+        }
+        println!("{value}");
     } else {
         println!("count {}", stats.count);
         println!("mean  {:.6} mm", stats.mean);
         println!("std   {:.6} mm", stats.std);
         println!("rms   {:.6} mm", stats.rms);
         println!("max   {:.6} mm", stats.max);
+        if let Some(o) = &orientation {
+            println!("orientation (angle between measured and predicted tool frames):");
+            println!("  count {}", o.count);
+            println!("  mean  {:.6} deg", o.mean);
+            println!("  std   {:.6} deg", o.std);
+            println!("  rms   {:.6} deg", o.rms);
+            println!("  max   {:.6} deg", o.max);
+        }
         let mut order: Vec<usize> = (0..errors.len()).collect();
         order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
         println!("worst rows:");

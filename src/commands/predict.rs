@@ -9,7 +9,9 @@ use super::model;
 use crate::cli::ModelSource;
 
 /// Predicts every row of `data` and writes `pose,load,x,y,z` to `out`, atomically; with
-/// `sigma`, also each point's standard deviation (a model with a Gaussian-process residual).
+/// `sigma`, also each point's standard deviation (a model with a Gaussian-process residual);
+/// with `rx, ry, rz` columns in `data` (a 6-DoF probe's file), the tool frame's predicted
+/// orientation in them.
 pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result<()> {
     let model = model::load(source)?;
     let samples = SampleSet::read(data, model.robot.dof())?;
@@ -27,12 +29,16 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
             load: s.load,
             position,
             sigma: sigmas.as_ref().map(|v| v[i]),
+            // A 6-DoF probe's file: the tool frame's orientation too.
+            orientation: samples.orientation.then(|| model.orientation_deg(s)),
         })
         .collect();
     // Finite inputs through a finite model give finite points; a table with absurd values can
     // still overflow, and a file must never hold NaN.
     if let Some((s, _)) =
-        (samples.rows.iter().zip(&rows)).find(|(_, p)| !p.position.iter().all(|v| v.is_finite()))
+        (samples.rows.iter().zip(&rows)).find(|(_, p)| {
+            !(p.position.iter().chain(p.orientation.iter().flatten())).all(|v| v.is_finite())
+        })
     {
         bail!(
             "{}: line {}: the model's prediction for pose `{}` is not a finite number (check the robot table's values); nothing written",

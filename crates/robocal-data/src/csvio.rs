@@ -38,7 +38,19 @@ pub struct Measurement {
     pub sample: Sample,
     /// Measured target position, mm, world (tracker) frame.
     pub position: Vector3<f64>,
+    /// Measured orientation of the tool frame (a 6-DoF probe's `rx, ry, rz`), fixed-axis roll,
+    /// pitch, yaw in the world frame, deg; `None` for a row without.
+    pub orientation: Option<Vector3<f64>>,
 }
+
+/// The orientation columns of a 6-DoF probe, in order.
+pub const ORIENTATION_COLUMNS: [&str; 3] = ["rx", "ry", "rz"];
+
+/// Largest magnitude of a roll or yaw, deg (both ±180 and 0..360 conventions pass).
+pub const ROLL_YAW_LIMIT: f64 = 360.0;
+
+/// Largest magnitude of a pitch, deg (fixed-axis roll-pitch-yaw puts pitch in [−90, 90]).
+pub const PITCH_LIMIT: f64 = 90.0;
 
 /// A validated measurement file: rows in file order.
 #[derive(Debug, Clone, PartialEq)]
@@ -60,6 +72,8 @@ pub struct SampleSet {
     pub joint_count: usize,
     /// Rows in file order.
     pub rows: Vec<Sample>,
+    /// Whether the file has the orientation columns `rx, ry, rz` (then `predict` writes them).
+    pub orientation: bool,
 }
 
 /// A compensation target: a seed command and the world position the target point must reach.
@@ -88,6 +102,8 @@ struct Columns {
     joints: Vec<usize>,
     load: usize,
     xyz: Option<[usize; 3]>,
+    /// `rx, ry, rz`, when the header has them (all three, or an error).
+    orientation: Option<[usize; 3]>,
     names: Vec<String>,
 }
 
@@ -154,9 +170,32 @@ fn find_columns(
             *index.get("z").ok_or_else(|| missing("z"))?,
         ]),
     };
+    let found: Vec<Option<usize>> = ORIENTATION_COLUMNS
+        .iter()
+        .map(|c| index.get(c).copied())
+        .collect();
+    let orientation = match (found[0], found[1], found[2]) {
+        (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+        (None, None, None) => None,
+        _ => {
+            let name = |want: bool| {
+                ORIENTATION_COLUMNS
+                    .iter()
+                    .zip(&found)
+                    .find(|(_, f)| f.is_some() == want)
+                    .map_or(String::new(), |(c, _)| (*c).to_string())
+            };
+            return Err(DataError::PartialOrientation {
+                path: path.to_path_buf(),
+                present: name(true),
+                missing: name(false),
+            });
+        }
+    };
     Ok(Columns {
         id,
         target: index.get("target").copied(),
+        orientation,
         joints,
         load,
         xyz,
@@ -167,9 +206,11 @@ fn find_columns(
 struct Parsed {
     sample: Sample,
     position: Option<Vector3<f64>>,
+    orientation: Option<Vector3<f64>>,
 }
 
-fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
+/// The rows of a file, and whether its header has the orientation columns.
+fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool)> {
     let bytes = std::fs::read(path).map_err(|source| DataError::Io {
         path: path.to_path_buf(),
         source,
@@ -196,6 +237,7 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
         .from_reader(bytes.as_slice());
     let header = reader.headers().map_err(malformed)?.clone();
     let cols = find_columns(path, &header, n, layout)?;
+    let orientation = cols.orientation.is_some();
     let mut rows = Vec::new();
     let mut first_seen: HashMap<String, (u64, Vec<f64>)> = HashMap::new();
     for record in reader.records() {
@@ -276,8 +318,45 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
                 first_seen.insert(pose.clone(), (line, joints.clone()));
             }
         }
+        let orientation = match cols.orientation {
+            Some(columns) if layout == Layout::Measurements => {
+                let filled = columns.map(|i| !field(i).is_empty());
+                if filled.iter().all(|f| !f) {
+                    None
+                } else if let Some(k) = filled.iter().position(|f| !f) {
+                    return Err(DataError::PartialOrientationRow {
+                        path: path.to_path_buf(),
+                        line,
+                        column: ORIENTATION_COLUMNS[k].into(),
+                    });
+                } else {
+                    let mut angles = Vector3::zeros();
+                    for (k, &i) in columns.iter().enumerate() {
+                        let (limit, range) = if k == 1 {
+                            (PITCH_LIMIT, "pitch within ±90")
+                        } else {
+                            (ROLL_YAW_LIMIT, "within ±360")
+                        };
+                        let value = number(i)?;
+                        if value.abs() > limit {
+                            return Err(DataError::AngleOutOfRange {
+                                path: path.to_path_buf(),
+                                line,
+                                column: ORIENTATION_COLUMNS[k].into(),
+                                value,
+                                range,
+                            });
+                        }
+                        angles[k] = value;
+                    }
+                    Some(angles)
+                }
+            }
+            _ => None,
+        };
         let target = cols.target.map_or("", field).to_string();
         rows.push(Parsed {
+            orientation,
             sample: Sample {
                 pose,
                 joints,
@@ -293,7 +372,7 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<Vec<Parsed>> {
             path: path.to_path_buf(),
         });
     }
-    Ok(rows)
+    Ok((rows, orientation))
 }
 
 impl MeasurementSet {
@@ -301,11 +380,13 @@ impl MeasurementSet {
     pub fn read(path: impl AsRef<Path>, joint_count: usize) -> Result<Self> {
         let path = path.as_ref();
         let rows = read_rows(path, joint_count, Layout::Measurements)?
+            .0
             .into_iter()
             .filter_map(|p| {
                 Some(Measurement {
                     position: p.position?,
                     sample: p.sample,
+                    orientation: p.orientation,
                 })
             })
             .collect();
@@ -320,6 +401,7 @@ impl MeasurementSet {
     /// exact form so that reading the file back gives the same values.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
         let targets = self.rows.iter().any(|r| !r.sample.target.is_empty());
+        let orientation = self.has_orientation();
         write_atomically(path.as_ref(), |w| {
             write!(w, "pose")?;
             if targets {
@@ -328,7 +410,7 @@ impl MeasurementSet {
             for k in 1..=self.joint_count {
                 write!(w, ",q{k}")?;
             }
-            writeln!(w, ",load,x,y,z")?;
+            writeln!(w, ",load,x,y,z{}", if orientation { ",rx,ry,rz" } else { "" })?;
             for row in &self.rows {
                 write!(w, "{}", csv_text(&row.sample.pose))?;
                 if targets {
@@ -338,10 +420,20 @@ impl MeasurementSet {
                     write!(w, ",{q}")?;
                 }
                 let p = row.position;
-                writeln!(w, ",{},{},{},{}", row.sample.load, p.x, p.y, p.z)?;
+                write!(w, ",{},{},{},{}", row.sample.load, p.x, p.y, p.z)?;
+                match row.orientation {
+                    Some(r) if orientation => writeln!(w, ",{},{},{}", r.x, r.y, r.z)?,
+                    None if orientation => writeln!(w, ",,,")?,
+                    _ => writeln!(w)?,
+                }
             }
             Ok(())
         })
+    }
+
+    /// Whether any row carries a measured orientation (a 6-DoF probe's).
+    pub fn has_orientation(&self) -> bool {
+        self.rows.iter().any(|r| r.orientation.is_some())
     }
 
     /// Number of rows.
@@ -461,6 +553,7 @@ impl MeasurementSet {
             rows.push(Measurement {
                 sample,
                 position: Vector3::from(p),
+                orientation: None,
             });
         }
         Ok(Self {
@@ -499,21 +592,19 @@ impl SampleSet {
     /// Reads and validates a file of samples; `x, y, z` columns are not needed and are ignored.
     pub fn read(path: impl AsRef<Path>, joint_count: usize) -> Result<Self> {
         let path = path.as_ref();
-        let rows = read_rows(path, joint_count, Layout::Samples)?
-            .into_iter()
-            .map(|p| p.sample)
-            .collect();
+        let (rows, orientation) = read_rows(path, joint_count, Layout::Samples)?;
         Ok(Self {
             source: path.to_path_buf(),
             joint_count,
-            rows,
+            rows: rows.into_iter().map(|p| p.sample).collect(),
+            orientation,
         })
     }
 }
 
 /// Reads and validates a targets file (`id, q1..qN, load, x, y, z`; ids unique).
 pub fn read_targets(path: impl AsRef<Path>, joint_count: usize) -> Result<Vec<Target>> {
-    let rows = read_rows(path.as_ref(), joint_count, Layout::Targets)?;
+    let (rows, _) = read_rows(path.as_ref(), joint_count, Layout::Targets)?;
     Ok(rows
         .into_iter()
         .filter_map(|p| {
@@ -557,19 +648,25 @@ pub struct Prediction {
     /// Standard deviation of the predicted point (the root sum of the axes' variances), mm,
     /// when the model gives one.
     pub sigma: Option<f64>,
+    /// Predicted orientation of the tool frame, fixed-axis roll, pitch, yaw in the world, deg
+    /// (written as `rx, ry, rz` when every row has one).
+    pub orientation: Option<Vector3<f64>>,
 }
 
 /// Writes `pose,load,x,y,z` with 6 decimals on x, y, z, atomically; with a `sigma` column
-/// (6 decimals) when every row has one.
+/// (6 decimals) when every row has one, then `rx, ry, rz` (deg, 6 decimals) when every row has
+/// an orientation.
 pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<()> {
     let sigma = !rows.is_empty() && rows.iter().all(|r| r.sigma.is_some());
+    let orientation = !rows.is_empty() && rows.iter().all(|r| r.orientation.is_some());
     let targets = rows.iter().any(|r| !r.target.is_empty());
     write_atomically(path.as_ref(), |w| {
         writeln!(
             w,
-            "pose{},load,x,y,z{}",
+            "pose{},load,x,y,z{}{}",
             if targets { ",target" } else { "" },
-            if sigma { ",sigma" } else { "" }
+            if sigma { ",sigma" } else { "" },
+            if orientation { ",rx,ry,rz" } else { "" }
         )?;
         for r in rows {
             let p = r.position;
@@ -585,8 +682,11 @@ pub fn write_predictions(path: impl AsRef<Path>, rows: &[Prediction]) -> Result<
                 fixed6(p.y),
                 fixed6(p.z)
             )?;
-            match r.sigma.filter(|_| sigma) {
-                Some(s) => writeln!(w, ",{}", fixed6(s))?,
+            if let Some(s) = r.sigma.filter(|_| sigma) {
+                write!(w, ",{}", fixed6(s))?;
+            }
+            match r.orientation.filter(|_| orientation) {
+                Some(a) => writeln!(w, ",{},{},{}", fixed6(a.x), fixed6(a.y), fixed6(a.z))?,
                 None => writeln!(w)?,
             }
         }

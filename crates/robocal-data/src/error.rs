@@ -144,6 +144,46 @@ pub enum DataError {
         /// The names there are.
         known: String,
     },
+    /// Some of the orientation columns `rx, ry, rz` are in the header, not all three.
+    #[error(
+        "{path}: line 1: orientation column `{present}` without `{missing}`: a 6-DoF probe's rows have all of `rx, ry, rz` (deg) or none"
+    )]
+    PartialOrientation {
+        /// File at fault.
+        path: PathBuf,
+        /// A column that is there.
+        present: String,
+        /// A column that is not.
+        missing: String,
+    },
+    /// A row fills some of `rx, ry, rz`, not all three.
+    #[error(
+        "{path}: line {line}, column `{column}`: empty while the row's other orientation columns are given: give all of `rx, ry, rz` or none"
+    )]
+    PartialOrientationRow {
+        /// File at fault.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The empty column.
+        column: String,
+    },
+    /// An orientation angle outside its range.
+    #[error(
+        "{path}: line {line}, column `{column}`: {value} deg is out of range ({range}); orientation is fixed-axis roll-pitch-yaw in degrees"
+    )]
+    AngleOutOfRange {
+        /// File at fault.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The value found.
+        value: f64,
+        /// The accepted range, in words.
+        range: &'static str,
+    },
     /// Two targets share an id.
     #[error("{path}: line {line}, column `id`: id `{id}` already used on line {first_line}")]
     DuplicateId {

@@ -246,6 +246,7 @@ proptest! {
             .map(|(i, (pose, joints, load, p))| Measurement {
                 sample: Sample { pose: format!("{}{i}", pose.trim()), joints, load, line: i as u64 + 2, target: String::new() },
                 position: Vector3::from(p),
+                orientation: None,
             })
             .collect();
         let set = MeasurementSet { source: path.clone(), joint_count: 4, rows };

@@ -11,8 +11,11 @@ use crate::bfgs::run_bfgs;
 use crate::error::{IdentError, Result};
 use crate::identifiability::{Column, Identifiability, analyse, standard_deviations};
 use crate::lm::run_lm;
-use crate::problem::{CalibrationProblem, LeastSquares, Observations, select};
-use crate::registration::register_base;
+use crate::problem::{
+    CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, Observations,
+    angle_weight, select,
+};
+use crate::registration::{register_base, register_tool_rotation};
 
 /// Which optimiser identifies the parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -59,6 +62,23 @@ pub struct KinematicSettings {
     pub joint_errors: Option<JointErrorSettings>,
     /// How the points' errors are weighed.
     pub loss: Loss,
+    /// Weight of a measured orientation's residual, mm per deg (`[kinematic] angle_weight`);
+    /// `None`: `noise_mm / noise_deg`.
+    pub angle_weight: Option<f64>,
+    /// The tracker's position noise, mm per coordinate (1σ).
+    pub noise_mm: f64,
+    /// The 6-DoF probe's angular noise, deg per axis (1σ).
+    pub noise_deg: f64,
+}
+
+impl KinematicSettings {
+    /// The weight of an orientation residual, mm per rad (see [`Self::angle_weight`]).
+    pub fn angle_weight_per_rad(&self) -> f64 {
+        match self.angle_weight {
+            Some(w) => w.to_degrees(),
+            None => angle_weight(self.noise_mm, self.noise_deg),
+        }
+    }
 }
 
 /// How the identification weighs the points' errors.
@@ -130,6 +150,9 @@ impl Default for KinematicSettings {
             compliance: None,
             joint_errors: None,
             loss: Loss::Squared,
+            angle_weight: None,
+            noise_mm: DEFAULT_NOISE_MM,
+            noise_deg: DEFAULT_NOISE_DEG,
         }
     }
 }
@@ -253,6 +276,19 @@ pub struct ParameterReport {
     pub identified_flag: bool,
 }
 
+/// The orientation part of a kinematic report (a 6-DoF probe's rows).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrientationReport {
+    /// Rows with a measured orientation.
+    pub rows: usize,
+    /// Weight of an orientation residual, mm per deg.
+    pub angle_weight: f64,
+    /// Angle between measured and predicted tool frames, deg: the aligned nominal table.
+    pub before: ErrorStats,
+    /// The same, identified model.
+    pub after: ErrorStats,
+}
+
 /// A parameter held fixed because the data cannot determine it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FixedParameter {
@@ -281,6 +317,10 @@ pub struct KinematicReport {
     pub before: ErrorStats,
     /// Identified model on the same points.
     pub after: ErrorStats,
+    /// With a 6-DoF probe's rows: the angle between measured and predicted tool frames, deg,
+    /// of the aligned nominal table and of the identified model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<OrientationReport>,
     /// Every parameter of the table.
     pub parameters: Vec<ParameterReport>,
     /// Parameters held fixed as unidentifiable with this pose set.
@@ -343,15 +383,18 @@ fn indices(robot: &Robot, keep: impl Fn(ParamId) -> bool) -> Vec<usize> {
 /// Fits only the base and tool of `robot` (after a closed-form registration of the base):
 /// the "before calibration" model of a tracker's best-fit alignment.
 pub fn align(robot: &Robot, obs: &Observations) -> Result<Robot> {
-    let registered = register_base(robot, obs)?;
+    let registered = register_tool_rotation(&register_base(robot, obs)?, obs)?;
     // Tool (and the named points) first (base held), then base and tool together.
     let tool = indices(&registered, |id| {
-        matches!(id, ParamId::Tool(_) | ParamId::Point { .. })
+        matches!(
+            id,
+            ParamId::Tool(_) | ParamId::ToolRot(_) | ParamId::Point { .. }
+        )
     });
     let frame = indices(&registered, |id| {
         matches!(
             id,
-            ParamId::Base(_) | ParamId::Tool(_) | ParamId::Point { .. }
+            ParamId::Base(_) | ParamId::Tool(_) | ParamId::ToolRot(_) | ParamId::Point { .. }
         )
     });
     let mut current = registered;
@@ -511,7 +554,7 @@ fn far_moves<'a>(
                 && id.unit() == Unit::Mm
                 && !matches!(
                     id,
-                    ParamId::Base(_) | ParamId::Tool(_) | ParamId::Point { .. }
+                    ParamId::Base(_) | ParamId::Tool(_) | ParamId::ToolRot(_) | ParamId::Point { .. }
                 )
                 && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
         })
@@ -771,6 +814,27 @@ pub fn calibrate_kinematics(
             found: obs.dof,
         });
     }
+    // A 6-DoF probe's rows weigh as the settings say; its tool frame is identified (from the
+    // flange's when the table declares none).
+    let weighted;
+    let obs = if obs.oriented().is_empty() {
+        obs
+    } else {
+        let mut o = obs.clone();
+        o.angle_weight = settings.angle_weight_per_rad();
+        weighted = o;
+        &weighted
+    };
+    let probe;
+    let nominal = if obs.oriented().is_empty() || nominal.tool_rpy.is_some() {
+        nominal
+    } else {
+        probe = Robot {
+            tool_rpy: Some(Vector3::zeros()),
+            ..nominal.clone()
+        };
+        &probe
+    };
     let selected = select(nominal, settings.parameters.as_deref())?;
     if 3 * obs.len() < selected.len().min(9) || obs.len() < 3 {
         return Err(IdentError::TooFewMeasurements {
@@ -854,6 +918,15 @@ pub fn calibrate_kinematics(
         });
     }
     let after = ErrorStats::from_errors(&obs.errors_with(&robot, compliance.as_ref()));
+    let degrees = |errors: Vec<f64>| {
+        ErrorStats::from_errors(&errors.iter().map(|e| e.to_degrees()).collect::<Vec<_>>())
+    };
+    let orientation = (!obs.oriented().is_empty()).then(|| OrientationReport {
+        rows: obs.oriented().len(),
+        angle_weight: obs.angle_weight.to_radians(),
+        before: degrees(obs.orientation_errors_with(&aligned, None)),
+        after: degrees(obs.orientation_errors_with(&robot, compliance.as_ref())),
+    });
     let mut warnings = fit_warnings(obs, selected.len(), ident.condition_number, after.mean);
     let (r, jac) = problem.residuals_and_jacobian(&u);
     let std_u = standard_deviations(&jac, &r);
@@ -940,6 +1013,7 @@ pub fn calibrate_kinematics(
             points: obs.len(),
             before,
             after,
+            orientation,
             parameters,
             fixed,
             identified_by_reflectors,

@@ -107,6 +107,7 @@ fn priority(column: Column) -> (usize, usize, usize) {
     match id {
         ParamId::Base(a) => (0, 0, a),
         ParamId::Tool(a) => (1, 0, a),
+        ParamId::ToolRot(a) => (1, 0, 3 + a),
         ParamId::Point { index, axis } => (1, index + 1, axis),
         ParamId::Joint { index, field } => {
             let f = match field {

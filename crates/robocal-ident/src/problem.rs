@@ -9,9 +9,11 @@ use std::rc::Rc;
 
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Operator};
 use faer::Mat;
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 use robocal_data::MeasurementSet;
-use robocal_robot::{Compliance, ErrorParam, JointErrors, ParamId, Robot};
+use robocal_robot::{
+    Compliance, ErrorParam, JointErrors, ParamId, Robot, rotation_vector, rpy_to_matrix,
+};
 
 /// Measured points with their joint readings and loads.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,9 +29,40 @@ pub struct Observations {
     /// The point each row measures (`target`: a `[tool.points]` name, empty for the default
     /// point); empty when every row measures the default point.
     pub targets: Vec<String>,
+    /// Measured orientation of the tool frame of each row (a 6-DoF probe's `rx, ry, rz`),
+    /// world frame; `None` for a row without. Empty when no row has one.
+    pub orientations: Vec<Option<Matrix3<f64>>>,
+    /// Weight of an orientation residual against a position one, mm per rad: a rotation
+    /// residual of `ω` rad counts as `angle_weight · ω` mm ([`angle_weight`]).
+    pub angle_weight: f64,
+}
+
+/// A tracker's position noise when none is stated, mm per coordinate (1σ).
+pub const DEFAULT_NOISE_MM: f64 = 0.02;
+
+/// A 6-DoF probe's angular noise when none is stated, deg per axis (1σ).
+pub const DEFAULT_NOISE_DEG: f64 = 0.01;
+
+/// The weight of an orientation residual, mm per rad, from the stated noises: `noise_mm /
+/// noise_deg` (mm per deg) in radians, so that both kinds of residual weigh by their noise.
+pub fn angle_weight(noise_mm: f64, noise_deg: f64) -> f64 {
+    noise_mm / noise_deg.to_radians()
 }
 
 impl Observations {
+    /// No observation yet, of an arm with `dof` joints (the default angle weight).
+    pub fn new(dof: usize) -> Self {
+        Self {
+            dof,
+            q: Vec::new(),
+            loads: Vec::new(),
+            points: Vec::new(),
+            targets: Vec::new(),
+            orientations: Vec::new(),
+            angle_weight: angle_weight(DEFAULT_NOISE_MM, DEFAULT_NOISE_DEG),
+        }
+    }
+
     /// Rows of a measurement set (all of them).
     pub fn from_set(set: &MeasurementSet) -> Self {
         Self::from_rows(set.joint_count, set.rows.iter())
@@ -40,15 +73,13 @@ impl Observations {
         dof: usize,
         rows: impl Iterator<Item = &'a robocal_data::Measurement>,
     ) -> Self {
-        let mut obs = Self {
-            dof,
-            q: Vec::new(),
-            loads: Vec::new(),
-            points: Vec::new(),
-            targets: Vec::new(),
-        };
+        let mut obs = Self::new(dof);
         for row in rows {
             obs.targets.push(row.sample.target.clone());
+            obs.orientations.push(
+                row.orientation
+                    .map(|a| rpy_to_matrix(&a.map(f64::to_radians))),
+            );
             obs.q
                 .extend(row.sample.joints.iter().map(|d| d.to_radians()));
             obs.loads.push(row.sample.load);
@@ -57,7 +88,50 @@ impl Observations {
         if obs.targets.iter().all(String::is_empty) {
             obs.targets.clear();
         }
+        if obs.orientations.iter().all(Option::is_none) {
+            obs.orientations.clear();
+        }
         obs
+    }
+
+    /// The measured orientation of observation `i`, when it has one.
+    pub fn orientation(&self, i: usize) -> Option<&Matrix3<f64>> {
+        self.orientations.get(i).and_then(Option::as_ref)
+    }
+
+    /// The observations with a measured orientation, in order.
+    pub fn oriented(&self) -> Vec<usize> {
+        (0..self.len())
+            .filter(|&i| self.orientation(i).is_some())
+            .collect()
+    }
+
+    /// The model's tool frame orientation for observation `i` (deflected by `compliance`
+    /// under its load when there is one).
+    pub fn predict_rotation(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+        i: usize,
+    ) -> Matrix3<f64> {
+        robot.rotation_under_load(compliance, self.joints(i), self.loads[i])
+    }
+
+    /// The angle between the measured and the predicted tool frame of every observation with
+    /// a measured orientation, rad.
+    pub fn orientation_errors_with(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+    ) -> Vec<f64> {
+        self.oriented()
+            .into_iter()
+            .filter_map(|i| {
+                let measured = self.orientation(i)?;
+                let predicted = self.predict_rotation(robot, compliance, i);
+                Some(rotation_vector(&(predicted * measured.transpose())).norm())
+            })
+            .collect()
     }
 
     /// The target index of observation `i` in `robot` ([`Robot::target_index`]; 0, the default
@@ -140,6 +214,9 @@ pub struct CalibrationProblem<'a> {
     scale: Vec<f64>,
     compliance: Option<ComplianceFit>,
     obs: &'a Observations,
+    /// The observations with a measured orientation: their three rotation residuals follow
+    /// the `3m` position residuals, in this order.
+    oriented: Vec<usize>,
     /// Square roots of the points' weights (none: every point weighs 1); the iteratively
     /// reweighted least squares of a robust loss set them.
     root_weights: Option<Vec<f64>>,
@@ -176,20 +253,89 @@ impl<'a> CalibrationProblem<'a> {
     /// `robot`'s values, rigid (no compliance).
     pub fn new(robot: &Robot, selected: Vec<usize>, obs: &'a Observations) -> Self {
         let x0 = robot.params();
-        let (_, full) = robot.param_jacobian_batch_at(&obs.q, &obs.target_indices(robot));
-        let m = obs.len().max(1) as f64;
-        let norms: Vec<f64> = selected
-            .iter()
-            .map(|&j| full.column(j).norm() / m.sqrt())
-            .collect();
-        Self {
+        let mut problem = Self {
             robot: robot.clone(),
             x0,
             selected,
-            scale: column_scales(&norms),
+            scale: Vec::new(),
             compliance: None,
             obs,
+            oriented: obs.oriented(),
             root_weights: None,
+        };
+        let (_, full, _) = problem.full_jacobian(robot, None);
+        let m = obs.len().max(1) as f64;
+        let norms: Vec<f64> = (problem.selected.iter())
+            .map(|&j| full.column(j).norm() / m.sqrt())
+            .collect();
+        problem.scale = column_scales(&norms);
+        problem
+    }
+
+    /// Rows of the residual vector: three per point, three per measured orientation.
+    pub fn rows(&self) -> usize {
+        3 * self.obs.len() + 3 * self.oriented.len()
+    }
+
+    /// The unweighted residuals (position rows, then the rotation rows times the angle weight)
+    /// of `robot` (deflected by `compliance`), with the Jacobian of every table parameter and
+    /// of every identified joint-error coefficient (unscaled, internal units).
+    fn full_jacobian(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+    ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
+        let m = self.obs.len();
+        let params = self.error_params();
+        let rows = self.rows();
+        let mut full = DMatrix::zeros(rows, robot.param_count());
+        let mut cjac = DMatrix::zeros(rows, params.len());
+        let mut r = Vec::with_capacity(rows);
+        let targets = self.obs.target_indices(robot);
+        let measuring: Vec<Robot> = (0..=robot.points.len())
+            .map(|t| robot.for_target(t).into_owned())
+            .collect();
+        for (i, &t) in targets.iter().enumerate() {
+            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
+            let p = match compliance {
+                Some(c) => {
+                    let (_, jac) = c.param_jacobian(&measuring[t], q, load, params);
+                    cjac.view_mut((3 * i, 0), (3, params.len())).copy_from(&jac);
+                    let deflected = c.deflected(robot, q, load);
+                    robot.write_param_jacobian_at(&deflected, t, &mut full, 3 * i)
+                }
+                None => robot.write_param_jacobian_at(q, t, &mut full, 3 * i),
+            };
+            r.extend_from_slice((p - self.obs.points[i]).as_slice());
+        }
+        let w = self.obs.angle_weight;
+        for (k, &i) in self.oriented.iter().enumerate() {
+            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
+            let row = 3 * m + 3 * k;
+            let rot = match compliance {
+                Some(c) => {
+                    let (_, jac) = c.orientation_param_jacobian(robot, q, load, params);
+                    cjac.view_mut((row, 0), (3, params.len()))
+                        .copy_from(&(jac * w));
+                    let deflected = c.deflected(robot, q, load);
+                    robot.write_orientation_jacobian(&deflected, &mut full, row)
+                }
+                None => robot.write_orientation_jacobian(q, &mut full, row),
+            };
+            full.view_mut((row, 0), (3, full.ncols())).scale_mut(w);
+            let measured = self.obs.orientation(i).copied().unwrap_or(rot);
+            r.extend_from_slice((rotation_vector(&(rot * measured.transpose())) * w).as_slice());
+        }
+        (r, full, cjac)
+    }
+
+    /// The root weight of residual row `row` (a position row's point, or a rotation row's).
+    fn row_weight(&self, row: usize) -> f64 {
+        let m3 = 3 * self.obs.len();
+        if row < m3 {
+            self.root_weight(row / 3)
+        } else {
+            self.root_weight(self.oriented[(row - m3) / 3])
         }
     }
 
@@ -206,18 +352,16 @@ impl<'a> CalibrationProblem<'a> {
     /// columns are scaled like the geometric ones (unit RMS per point).
     pub fn with_joint_errors(mut self, start: JointErrors, params: Vec<ErrorParam>) -> Self {
         let m = self.obs.len().max(1) as f64;
-        let mut sums = vec![0.0; params.len()];
-        for i in 0..self.obs.len() {
-            let (_, jac) =
-                start.param_jacobian(&self.robot, self.obs.joints(i), self.obs.loads[i], &params);
-            for (k, sum) in sums.iter_mut().enumerate() {
-                *sum += jac.column(k).norm_squared();
-            }
-        }
-        let norms: Vec<f64> = sums.iter().map(|s| (s / m).sqrt()).collect();
+        self.compliance = Some(ComplianceFit {
+            start: start.clone(),
+            params,
+        });
+        let (_, _, cjac) = self.full_jacobian(&self.robot, Some(&start));
+        let norms: Vec<f64> = (0..cjac.ncols())
+            .map(|k| cjac.column(k).norm() / m.sqrt())
+            .collect();
         self.scale.truncate(self.selected.len());
         self.scale.extend(column_scales(&norms));
-        self.compliance = Some(ComplianceFit { start, params });
         self
     }
 
@@ -244,6 +388,7 @@ impl<'a> CalibrationProblem<'a> {
             scale: order.iter().map(|&p| self.scale[p]).collect(),
             compliance,
             obs: self.obs,
+            oriented: self.oriented.clone(),
             root_weights: self.root_weights.clone(),
         }
     }
@@ -324,14 +469,29 @@ impl<'a> CalibrationProblem<'a> {
     }
 
     /// Predicted minus measured coordinates, mm, `3m` entries (each point's times the root of its
-    /// weight when the problem is weighted).
+    /// weight when the problem is weighted), then, for each observation with a measured
+    /// orientation, the rotation vector from the measured to the predicted tool frame times the
+    /// angle weight (mm-equivalent; times the point's weight root too).
     pub fn residuals(&self, u: &[f64]) -> Vec<f64> {
-        (self.point_errors(u).iter().enumerate())
+        let mut r: Vec<f64> = (self.point_errors(u).iter().enumerate())
             .flat_map(|(i, d)| {
                 let d = d * self.root_weight(i);
                 [d.x, d.y, d.z]
             })
-            .collect()
+            .collect();
+        if !self.oriented.is_empty() {
+            let robot = self.robot_at(u);
+            let compliance = self.compliance_at(u);
+            for &i in &self.oriented {
+                let predicted = self.obs.predict_rotation(&robot, compliance.as_ref(), i);
+                let measured = self.obs.orientation(i).copied().unwrap_or(predicted);
+                let w = self.obs.angle_weight * self.root_weight(i);
+                r.extend_from_slice(
+                    (rotation_vector(&(predicted * measured.transpose())) * w).as_slice(),
+                );
+            }
+        }
+        r
     }
 
     /// Residuals and the `3m × k` Jacobian with respect to `u`.
@@ -342,45 +502,31 @@ impl<'a> CalibrationProblem<'a> {
     pub fn residuals_and_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
         let robot = self.robot_at(u);
         let compliance = self.compliance_at(u);
-        let m = self.obs.len();
         let ng = self.selected.len();
-        let params = self.error_params();
-        let mut full = DMatrix::zeros(3 * m, robot.param_count());
-        let mut cjac = DMatrix::zeros(3 * m, params.len());
-        let mut r = Vec::with_capacity(3 * m);
-        let targets = self.obs.target_indices(&robot);
-        let measuring: Vec<Robot> = (0..=robot.points.len())
-            .map(|t| robot.for_target(t).into_owned())
-            .collect();
-        for (i, &t) in targets.iter().enumerate() {
-            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
-            let p = match &compliance {
-                Some(c) => {
-                    let (_, jac) = c.param_jacobian(&measuring[t], q, load, params);
-                    cjac.view_mut((3 * i, 0), (3, params.len())).copy_from(&jac);
-                    let deflected = c.deflected(&robot, q, load);
-                    robot.write_param_jacobian_at(&deflected, t, &mut full, 3 * i)
-                }
-                None => robot.write_param_jacobian_at(q, t, &mut full, 3 * i),
-            };
-            r.extend_from_slice(((p - self.obs.points[i]) * self.root_weight(i)).as_slice());
+        let (mut r, full, cjac) = self.full_jacobian(&robot, compliance.as_ref());
+        if self.root_weights.is_some() {
+            for (row, v) in r.iter_mut().enumerate() {
+                *v *= self.row_weight(row);
+            }
         }
-        let jac = Mat::from_fn(3 * m, self.unknowns(), |row, col| {
+        let jac = Mat::from_fn(self.rows(), self.unknowns(), |row, col| {
             let v = if col < ng {
                 full[(row, self.selected[col])]
             } else {
                 cjac[(row, col - ng)]
             };
-            v * self.scale[col] * self.root_weight(row / 3)
+            v * self.scale[col] * self.row_weight(row)
         });
         (r, jac)
     }
 
-    /// The paper's cost, eq. (15): mean Euclidean distance, mm.
+    /// The paper's cost, eq. (15): mean Euclidean distance, mm (of the points: measured
+    /// orientations take no part in it).
     pub fn mean_distance(&self, u: &[f64]) -> f64 {
         let r = self.residuals(u);
         let m = self.obs.len().max(1) as f64;
-        r.chunks_exact(3)
+        r[..3 * self.obs.len()]
+            .chunks_exact(3)
             .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
             .sum::<f64>()
             / m
@@ -425,7 +571,7 @@ impl<'a> CalibrationProblem<'a> {
         let m = self.obs.len().max(1) as f64;
         let mut cost = 0.0;
         let mut g = vec![0.0; self.unknowns()];
-        for (i, d) in r.chunks_exact(3).enumerate() {
+        for (i, d) in r[..3 * self.obs.len()].chunks_exact(3).enumerate() {
             let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             cost += norm;
             if norm == 0.0 {

@@ -59,3 +59,34 @@ pub fn register_base(robot: &Robot, obs: &Observations) -> Result<Robot> {
         ..robot.clone()
     })
 }
+
+/// `robot` with its tool frame orientation (`[tool] rpy`) replaced by the rotation that best
+/// maps its flange frames onto the measured tool frames of the observations that have one: the
+/// chordal mean of `Fᵢᵀ Rᵢ`, projected onto the rotations by SVD. `robot` unchanged when no
+/// observation has an orientation or the table declares no tool frame.
+pub fn register_tool_rotation(robot: &Robot, obs: &Observations) -> Result<Robot> {
+    let oriented = obs.oriented();
+    if oriented.is_empty() || robot.tool_rpy.is_none() {
+        return Ok(robot.clone());
+    }
+    let sum: Matrix3<f64> = oriented
+        .iter()
+        .filter_map(|&i| {
+            let measured = obs.orientation(i)?;
+            Some(robot.flange_frame(obs.joints(i)).0.transpose() * measured)
+        })
+        .sum();
+    let svd = sum.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return Err(IdentError::Registration("SVD failed".into()));
+    };
+    let d = (u * vt).determinant().signum();
+    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, if d == 0.0 { 1.0 } else { d })) * vt;
+    if !r.iter().all(|x| x.is_finite()) {
+        return Err(IdentError::Registration("degenerate orientations".into()));
+    }
+    Ok(Robot {
+        tool_rpy: Some(matrix_to_rpy(&r)),
+        ..robot.clone()
+    })
+}

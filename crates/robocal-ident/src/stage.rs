@@ -22,6 +22,16 @@ pub struct RawKinematicStage {
     /// `"squared"` (least squares, the default) or `"huber"` (robust to a few wild points).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loss: Option<String>,
+    /// Weight of a measured orientation's residual (a 6-DoF probe's `rx, ry, rz`), mm per
+    /// deg; absent: `noise_mm / noise_deg`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_weight: Option<f64>,
+    /// The tracker's position noise, mm per coordinate (1σ).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_mm: Option<f64>,
+    /// The probe's angular noise, deg per axis (1σ).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_deg: Option<f64>,
 }
 
 impl RawKinematicStage {
@@ -77,6 +87,22 @@ impl RawKinematicStage {
                 ));
             }
             s.rank_tolerance = t;
+        }
+        let positive = |key: &str, v: f64, unit: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(Invalid::new(key, format!("must be a positive number ({unit})")))
+            }
+        };
+        if let Some(w) = self.angle_weight {
+            s.angle_weight = Some(positive("kinematic.angle_weight", w, "mm per deg")?);
+        }
+        if let Some(v) = self.noise_mm {
+            s.noise_mm = positive("kinematic.noise_mm", v, "mm")?;
+        }
+        if let Some(v) = self.noise_deg {
+            s.noise_deg = positive("kinematic.noise_deg", v, "deg")?;
         }
         Ok(s)
     }

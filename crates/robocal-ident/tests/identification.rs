@@ -34,13 +34,7 @@ fn configurations() -> Vec<Vec<f64>> {
 fn observe(truth: &Robot, configs: &[Vec<f64>], noise: f64, seed: u64) -> Observations {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let normal = Normal::new(0.0, noise.max(1e-300)).unwrap();
-    let mut obs = Observations {
-        dof: 6,
-        q: Vec::new(),
-        loads: Vec::new(),
-        points: Vec::new(),
-        targets: Vec::new(),
-    };
+    let mut obs = Observations::new(6);
     for q in configs {
         obs.q.extend_from_slice(q);
         obs.loads.push(0.0);
@@ -362,13 +356,7 @@ fn observe_loaded(
     configs: &[Vec<f64>],
     loads: &[f64],
 ) -> Observations {
-    let mut obs = Observations {
-        dof: truth.dof(),
-        q: Vec::new(),
-        loads: Vec::new(),
-        points: Vec::new(),
-        targets: Vec::new(),
-    };
+    let mut obs = Observations::new(truth.dof());
     for q in configs {
         for &load in loads {
             obs.q.extend_from_slice(q);

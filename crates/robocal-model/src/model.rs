@@ -1,11 +1,11 @@
 //! The calibrated model and its predictions.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use robocal_data::{ErrorStats, Measurement, Sample};
 use robocal_residual::{
     ClassifierSettings, GatePhysics, PHYSICS_PER_JOINT, ResidualModel, Samples, inputs_of,
 };
-use robocal_robot::{JointErrors, Robot};
+use robocal_robot::{JointErrors, Robot, matrix_to_rpy, rotation_vector, rpy_to_matrix};
 
 /// A calibrated model: the identified table, the joint-error physics identified with it and the
 /// residual model learned on what they leave. Each part beyond the table is optional; a nominal
@@ -188,6 +188,36 @@ impl CalibratedModel {
     pub fn stats(&self, rows: &[&Measurement]) -> ErrorStats {
         ErrorStats::from_errors(&self.errors(rows))
     }
+
+    /// The tool frame's predicted orientation for a sample, world frame: the table and the
+    /// joint errors (the residual model corrects positions only). Its target does not matter:
+    /// every point rides on the one tool frame.
+    pub fn rotation(&self, s: &Sample) -> Matrix3<f64> {
+        self.robot
+            .rotation_under_load(self.joint_errors.as_ref(), &s.joints_rad(), s.load)
+    }
+
+    /// The predicted orientation of a sample as fixed-axis roll, pitch, yaw, deg (the `rx, ry,
+    /// rz` of a measurement file).
+    pub fn orientation_deg(&self, s: &Sample) -> Vector3<f64> {
+        matrix_to_rpy(&self.rotation(s)).map(f64::to_degrees)
+    }
+
+    /// Angle between the measured and the predicted tool frame of every row that has a
+    /// measured orientation, deg (rows without one are left out).
+    pub fn orientation_errors(&self, rows: &[&Measurement]) -> Vec<f64> {
+        (rows.iter())
+            .filter_map(|m| {
+                let measured = rpy_to_matrix(&m.orientation?.map(f64::to_radians));
+                Some(rotation_angle(&(measured * self.rotation(&m.sample).transpose())).to_degrees())
+            })
+            .collect()
+    }
+}
+
+/// The angle of a rotation matrix, rad in [0, π] (precise for small and large angles alike).
+pub fn rotation_angle(r: &Matrix3<f64>) -> f64 {
+    rotation_vector(r).norm()
 }
 
 /// What a CA-SOMM gate reading physics sees of command `q` (rad) under `load` kg, besides the

@@ -787,6 +787,7 @@ mod tests {
                     let q: Vec<f64> = joints.iter().map(|d| d.to_radians()).collect();
                     Measurement {
                         position: robot.point(&q) + Vector3::new(0.1 * i as f64, 0.0, 0.02),
+                        orientation: None,
                         sample: Sample {
                             pose: format!("p{i}"),
                             joints: joints.clone(),

@@ -431,6 +431,12 @@ impl Experiment {
                             max_iterations: Some(k.max_iterations),
                             rank_tolerance: Some(k.rank_tolerance),
                             loss: (k.loss == robocal_ident::Loss::Huber).then(|| "huber".into()),
+                            angle_weight: k.angle_weight,
+                            // Stated only when not the defaults (resolved files stay as they were).
+                            noise_mm: (k.noise_mm != robocal_ident::DEFAULT_NOISE_MM)
+                                .then_some(k.noise_mm),
+                            noise_deg: (k.noise_deg != robocal_ident::DEFAULT_NOISE_DEG)
+                                .then_some(k.noise_deg),
                         }),
                         compliance: k
                             .compliance

@@ -637,7 +637,7 @@ impl Outcome {
         for id in self.nominal.param_ids() {
             if matches!(
                 id,
-                ParamId::Base(_) | ParamId::Tool(_) | ParamId::Point { .. }
+                ParamId::Base(_) | ParamId::Tool(_) | ParamId::ToolRot(_) | ParamId::Point { .. }
             ) {
                 continue;
             }

@@ -84,13 +84,7 @@ impl Pool {
         settings: &PlanSettings,
     ) -> Result<Self> {
         let loads = &settings.loads;
-        let mut obs = Observations {
-            dof: robot.dof(),
-            q: Vec::new(),
-            loads: Vec::new(),
-            points: Vec::new(),
-            targets: Vec::new(),
-        };
+        let mut obs = Observations::new(robot.dof());
         // Every reflector of the robot file is measured at every pose and load: the default
         // point, then each named point (`[tool.points]`).
         let targets = robot.target_names();

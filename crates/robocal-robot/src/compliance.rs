@@ -41,7 +41,7 @@
 
 use std::path::Path;
 
-use nalgebra::{Matrix3xX, Vector3};
+use nalgebra::{Matrix3, Matrix3xX, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, RobotError};
@@ -163,6 +163,20 @@ impl Robot {
         match compliance {
             Some(c) => c.point(self, q, load),
             None => self.point(q),
+        }
+    }
+
+    /// The tool frame's orientation for command `q` (rad) under `load` kg, world frame: at the
+    /// angles `compliance` deflects the arm to when there is a compliance model.
+    pub fn rotation_under_load(
+        &self,
+        compliance: Option<&Compliance>,
+        q: &[f64],
+        load: f64,
+    ) -> Matrix3<f64> {
+        match compliance {
+            Some(c) => c.rotation(self, q, load),
+            None => self.tool_rotation(q),
         }
     }
 }
@@ -461,6 +475,34 @@ impl JointErrors {
             jac.column_mut(k).copy_from(&(joint.column(j) * phi));
         }
         (robot.point(&qd), jac)
+    }
+
+    /// Jacobian of the tool frame's orientation with respect to each of `params` (rad per
+    /// internal unit, world-frame rotation vectors), and the tool frame's rotation, at command
+    /// `q` under `load`: column `k` is the coefficient's joint axis, at the deflected angles,
+    /// times its basis value.
+    pub fn orientation_param_jacobian(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        params: &[ErrorParam],
+    ) -> (Matrix3<f64>, Matrix3xX<f64>) {
+        let qd = self.deflected(robot, q, load);
+        let axes = robot.joint_axes(&qd);
+        let mut jac = Matrix3xX::zeros(params.len());
+        for (k, (j, phi)) in self.basis(robot, q, load, params).into_iter().enumerate() {
+            jac.column_mut(k).copy_from(&(axes.axes[j].0 * phi));
+        }
+        (
+            axes.flange_rotation * robot.tool_frame_rotation(),
+            jac,
+        )
+    }
+
+    /// The tool frame's orientation for command `q` (rad) under `load` kg, world frame.
+    pub fn rotation(&self, robot: &Robot, q: &[f64], load: f64) -> Matrix3<f64> {
+        robot.tool_rotation(&self.deflected(robot, q, load))
     }
 
     /// The model's target point for command `q` (rad) under `load` kg, mm, world frame.

@@ -39,6 +39,24 @@ pub fn matrix_to_rpy(r: &Matrix3<f64>) -> Vector3<f64> {
     Vector3::new(roll, pitch, yaw)
 }
 
+/// The rotation vector (axis × angle, rad; angle in [0, π]) of a rotation matrix: the log map,
+/// precise for small angles (from the skew part) and large ones (angle by `atan2`).
+pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
+    let skew = Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]);
+    let sin = 0.5 * skew.norm();
+    let cos = 0.5 * (r.trace() - 1.0);
+    let angle = sin.atan2(cos);
+    if sin > 1e-6 {
+        skew * (0.5 * angle / sin)
+    } else if cos > 0.0 {
+        // Near the identity: sin θ ≈ θ.
+        skew * 0.5
+    } else {
+        // Near a half turn the skew part vanishes: the axis from the symmetric part.
+        Rotation3::from_matrix_unchecked(*r).scaled_axis()
+    }
+}
+
 /// Frames met while walking through one joint's elementary transforms.
 struct JointStep {
     /// Rotation of frame {i-1} (axis of α and direction of a: its x column).
@@ -229,7 +247,84 @@ impl Robot {
                 put(col + 3 * target + axis, v);
             }
         }
+        // The tool frame's angles turn no point.
+        if self.tool_rpy.is_some() {
+            let col = col + 3 * (self.points.len() + 1);
+            for axis in 0..3 {
+                put(col + axis, Vector3::zeros());
+            }
+        }
         p
+    }
+
+    /// Orientation of the tool frame in the flange frame (`[tool] rpy`; identity without).
+    pub fn tool_frame_rotation(&self) -> Matrix3<f64> {
+        self.tool_rpy
+            .as_ref()
+            .map_or_else(Matrix3::identity, rpy_to_matrix)
+    }
+
+    /// Orientation of the tool frame in the world frame (what a 6-DoF probe reports); `q` in
+    /// rad.
+    pub fn tool_rotation(&self, q: &[f64]) -> Matrix3<f64> {
+        self.flange_frame(q).0 * self.tool_frame_rotation()
+    }
+
+    /// Writes the 3 × P Jacobian of the tool frame's orientation with respect to every
+    /// parameter ([`Robot::param_ids`] order; rad per internal unit) into rows `row..row+3` of
+    /// `out` (every column written), and returns the tool frame's rotation. Column `j` is the
+    /// world-frame rotation vector `ω` of a unit change of parameter `j`: `R' ≈ (I + [ω]×) R`.
+    /// Lengths turn nothing; α turns about the x axis of the frame before it, β about the y axis
+    /// after α, θ about the joint axis, the base angles and the tool's about their own axes.
+    pub fn write_orientation_jacobian(
+        &self,
+        q: &[f64],
+        out: &mut DMatrix<f64>,
+        row: usize,
+    ) -> Matrix3<f64> {
+        debug_assert_eq!(out.ncols(), self.param_count());
+        debug_assert!(row + 3 <= out.nrows());
+        let mut put = |col: usize, v: Vector3<f64>| {
+            out[(row, col)] = v.x;
+            out[(row + 1, col)] = v.y;
+            out[(row + 2, col)] = v.z;
+        };
+        let rb = self.base_rotation();
+        let mut flange = rb;
+        let mut col = 0;
+        for (joint, s) in self.joints.iter().zip(self.steps_from(rb, q)) {
+            put(col, Vector3::zeros()); // a
+            put(col + 1, s.r0.column(0).into_owned()); // alpha
+            col += 2;
+            if joint.beta.is_some() {
+                put(col, s.r1.column(1).into_owned());
+                col += 1;
+            }
+            put(col, Vector3::zeros()); // d
+            put(col + 1, s.r3.column(2).into_owned()); // theta
+            col += 2;
+            flange = s.r;
+        }
+        for axis in 0..3 {
+            put(col + axis, Vector3::zeros());
+        }
+        let (sy, cy) = self.base.rpy.z.sin_cos();
+        put(col + 3, rb.column(0).into_owned());
+        put(col + 4, Vector3::new(-sy, cy, 0.0));
+        put(col + 5, Vector3::z());
+        col += 6;
+        for k in 0..3 * (self.points.len() + 1) {
+            put(col + k, Vector3::zeros());
+        }
+        col += 3 * (self.points.len() + 1);
+        let tool = self.tool_frame_rotation();
+        if let Some(rpy) = self.tool_rpy {
+            let (sy, cy) = rpy.z.sin_cos();
+            put(col, flange * tool.column(0)); // roll about the tool frame's own x̂
+            put(col + 1, flange * Vector3::new(-sy, cy, 0.0)); // pitch about Rz(yaw) ŷ
+            put(col + 2, flange.column(2).into_owned()); // yaw about the flange's ẑ
+        }
+        flange * tool
     }
 
     /// Target point and its 3 × P parameter Jacobian for one configuration (allocates the result).

@@ -43,6 +43,9 @@ pub enum ParamId {
         /// 0..3.
         axis: usize,
     },
+    /// Tool frame roll, pitch, yaw in the flange frame (axis 0..3, rad; `tool.rx|ry|rz`): only
+    /// in a table that declares `[tool] rpy`.
+    ToolRot(usize),
 }
 
 /// Whether a parameter is a length or an angle.
@@ -80,7 +83,7 @@ impl ParamId {
             | Self::Tool(_)
             | Self::Point { .. } => Unit::Mm,
             Self::Base(axis) if axis < 3 => Unit::Mm,
-            _ => Unit::Rad,
+            Self::Base(_) | Self::Joint { .. } | Self::ToolRot(_) => Unit::Rad,
         }
     }
 
@@ -116,6 +119,7 @@ impl fmt::Display for ParamId {
             Self::Base(axis) => write!(f, "base.{}", BASE_NAMES[axis]),
             Self::Tool(axis) => write!(f, "tool.{}", AXES[axis]),
             Self::Point { index, axis } => write!(f, "point{}.{}", index + 1, AXES[axis]),
+            Self::ToolRot(axis) => write!(f, "tool.{}", BASE_NAMES[axis + 3]),
         }
     }
 }
@@ -135,11 +139,11 @@ impl FromStr for ParamId {
                 .position(|n| *n == tail)
                 .map(Self::Base)
                 .ok_or_else(unknown),
-            "tool" => AXES
-                .iter()
-                .position(|n| *n == tail)
-                .map(Self::Tool)
-                .ok_or_else(unknown),
+            "tool" => match BASE_NAMES.iter().position(|n| *n == tail) {
+                Some(axis) if axis < 3 => Ok(Self::Tool(axis)),
+                Some(axis) => Ok(Self::ToolRot(axis - 3)),
+                None => Err(unknown()),
+            },
             _ if head.starts_with("point") => {
                 let index = head["point".len()..]
                     .parse::<usize>()
@@ -178,7 +182,8 @@ impl FromStr for ParamId {
 impl Robot {
     /// Every parameter of this model in canonical order: for each joint `a, alpha, [beta,] d, theta`,
     /// then `base.x, base.y, base.z, base.rx, base.ry, base.rz`, then `tool.x, tool.y, tool.z`,
-    /// then `x, y, z` of each named point.
+    /// then `x, y, z` of each named point, then `tool.rx, tool.ry, tool.rz` when the table
+    /// declares `[tool] rpy`.
     ///
     /// For a 6-joint arm with one β this is 25 + 6 + 3 = 34 parameters.
     pub fn param_ids(&self) -> Vec<ParamId> {
@@ -212,15 +217,19 @@ impl Robot {
         for index in 0..self.points.len() {
             ids.extend((0..3).map(|axis| ParamId::Point { index, axis }));
         }
+        if self.tool_rpy.is_some() {
+            ids.extend((0..3).map(ParamId::ToolRot));
+        }
         ids
     }
 
-    /// Number of parameters, `4 n + (joints with β) + 9 + 3 (named points)`.
+    /// Number of parameters, `4 n + (joints with β) + 9 + 3 (named points) + 3 (tool rpy)`.
     pub fn param_count(&self) -> usize {
         4 * self.joints.len()
             + self.joints.iter().filter(|j| j.beta.is_some()).count()
             + 9
             + 3 * self.points.len()
+            + if self.tool_rpy.is_some() { 3 } else { 0 }
     }
 
     /// Checks that `id` exists in this table (joint in range, β declared).
@@ -233,6 +242,7 @@ impl Robot {
             ParamId::Base(axis) => axis < 6,
             ParamId::Tool(axis) => axis < 3,
             ParamId::Point { index, axis } => index < self.points.len() && axis < 3,
+            ParamId::ToolRot(axis) => self.tool_rpy.is_some() && axis < 3,
         }
     }
 
@@ -268,6 +278,10 @@ impl Robot {
                 .get(index)
                 .and_then(|p| p.1.get(axis).copied())
                 .unwrap_or(0.0),
+            ParamId::ToolRot(axis) => self
+                .tool_rpy
+                .and_then(|r| r.get(axis).copied())
+                .unwrap_or(0.0),
         }
     }
 
@@ -293,6 +307,11 @@ impl Robot {
             ParamId::Base(axis) => self.base.rpy[axis - 3] = value,
             ParamId::Tool(axis) => self.tool[axis] = value,
             ParamId::Point { index, axis } => self.points[index].1[axis] = value,
+            ParamId::ToolRot(axis) => {
+                if let Some(r) = self.tool_rpy.as_mut() {
+                    r[axis] = value;
+                }
+            }
         }
         Ok(())
     }

@@ -54,6 +54,10 @@ pub struct Robot {
     /// Further named points on the flange (reflectors), flange frame, mm, in name order
     /// (`[tool.points]`): a row whose `target` names one measures it.
     pub points: Vec<(String, Vector3<f64>)>,
+    /// Orientation of the tool frame in the flange frame, fixed-axis roll, pitch, yaw, rad
+    /// (`[tool] rpy`): the frame a 6-DoF probe reports. `None`: the table says nothing of it (the
+    /// tool frame is the flange's, and its angles are no parameters).
+    pub tool_rpy: Option<Vector3<f64>>,
 }
 
 /// The robot file as written (mm, degrees), before validation. Other configuration files embed
@@ -115,6 +119,13 @@ pub struct RawTool {
     /// mm, flange frame.
     #[serde(deserialize_with = "crate::exact::array")]
     pub xyz: [f64; 3],
+    /// Tool frame orientation in the flange frame, roll, pitch, yaw, deg (6-DoF probe).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::exact::option"
+    )]
+    pub rpy: Option<[f64; 3]>,
     /// `[tool.points]`: named points, mm, flange frame.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub points: BTreeMap<String, RawPoint>,
@@ -256,6 +267,9 @@ impl RobotTable {
         check_finite(path, format!("{prefix}base.xyz"), &raw.base.xyz)?;
         check_finite(path, format!("{prefix}base.rpy"), &raw.base.rpy)?;
         check_finite(path, format!("{prefix}tool.xyz"), &raw.tool.xyz)?;
+        if let Some(rpy) = &raw.tool.rpy {
+            check_finite(path, format!("{prefix}tool.rpy"), rpy)?;
+        }
         let mut points = Vec::with_capacity(raw.tool.points.len());
         for (name, RawPoint(xyz)) in &raw.tool.points {
             let key = format!("{prefix}tool.points.{name}");
@@ -278,6 +292,7 @@ impl RobotTable {
             },
             tool: Vector3::from(raw.tool.xyz),
             points,
+            tool_rpy: raw.tool.rpy.map(|r| Vector3::from(r).map(f64::to_radians)),
         })
     }
 }
@@ -328,6 +343,7 @@ impl Robot {
             },
             tool: RawTool {
                 xyz: self.tool.into(),
+                rpy: self.tool_rpy.map(|r| r.map(degrees).into()),
                 points: self
                     .points
                     .iter()

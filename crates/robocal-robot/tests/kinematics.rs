@@ -74,8 +74,9 @@ fn robot_strategy() -> impl Strategy<Value = (Robot, Vec<f64>)> {
         (-3.1..3.1f64, -1.5..1.5f64, -3.1..3.1f64),
         prop::array::uniform3(-200.0..200.0f64),
         prop::collection::vec(prop::array::uniform3(-200.0..200.0f64), 0..=2),
+        prop::option::of((-3.1..3.1f64, -1.5..1.5f64, -3.1..3.1f64)),
     )
-        .prop_flat_map(|(joints, xyz, (r, p, y), tool, points)| {
+        .prop_flat_map(|(joints, xyz, (r, p, y), tool, points, tool_rpy)| {
             let n = joints.len();
             let robot = Robot {
                 name: "random".into(),
@@ -90,6 +91,7 @@ fn robot_strategy() -> impl Strategy<Value = (Robot, Vec<f64>)> {
                     .enumerate()
                     .map(|(k, p)| (format!("smr{}", k + 2), Vector3::from(*p)))
                     .collect(),
+                tool_rpy: tool_rpy.map(|(r, p, y)| Vector3::new(r, p, y)),
             };
             (Just(robot), prop::collection::vec(-3.2..3.2f64, n))
         })
@@ -146,6 +148,34 @@ proptest! {
         }
     }
 
+    /// The orientation Jacobian against central differences of the tool frame's rotation
+    /// (rotation vector of `R(x + h) R(x − h)ᵀ` over 2h), and the tool frame against the plain
+    /// matrix product.
+    #[test]
+    fn orientation_jacobian_matches_central_differences((robot, q) in robot_strategy()) {
+        let mut out = nalgebra::DMatrix::from_element(3, robot.param_count(), 7.0);
+        let r = robot.write_orientation_jacobian(&q, &mut out, 0);
+        let flange = robot.flange_pose(&q).rotation.into_inner();
+        let tool = robot.tool_rpy.map_or_else(nalgebra::Matrix3::identity, |v| robocal_robot::rpy_to_matrix(&v));
+        prop_assert!((r - flange * tool).norm() < 1e-12);
+        prop_assert!((r - robot.tool_rotation(&q)).norm() < 1e-12);
+        let x = robot.params();
+        let h = 1e-6;
+        for (k, id) in robot.param_ids().iter().enumerate() {
+            let mut plus = x.clone();
+            plus[k] += h;
+            let mut minus = x.clone();
+            minus[k] -= h;
+            let rp = robot.with_params(&plus).unwrap().tool_rotation(&q);
+            let rm = robot.with_params(&minus).unwrap().tool_rotation(&q);
+            // The skew part of a small rotation is its rotation vector (sin θ ≈ θ), precisely.
+            let d = rp * rm.transpose();
+            let fd = Vector3::new(d[(2, 1)] - d[(1, 2)], d[(0, 2)] - d[(2, 0)], d[(1, 0)] - d[(0, 1)]) / (4.0 * h);
+            let an = Vector3::new(out[(0, k)], out[(1, k)], out[(2, k)]);
+            prop_assert!((fd - an).norm() < 1e-6, "{id}: analytic {an} vs fd {fd}");
+        }
+    }
+
     #[test]
     fn joint_jacobian_matches_central_differences((robot, q) in robot_strategy()) {
         let jac = robot.joint_jacobian(&q);
@@ -189,6 +219,9 @@ proptest! {
         prop_assert_eq!(back.param_ids(), robot.param_ids());
         prop_assert!((back.point(&q) - robot.point(&q)).norm() < 1e-9);
         prop_assert_eq!(&back.points, &robot.points);
+        let rot = |r: &Robot| r.tool_rotation(&q);
+        prop_assert!((rot(&back) - rot(&robot)).norm() < 1e-12);
+        prop_assert_eq!(back.tool_rpy.is_some(), robot.tool_rpy.is_some());
     }
 }
 
@@ -219,6 +252,7 @@ fn written_angles_come_back_as_written() {
 fn one_joint(a: f64, alpha_deg: f64, beta_deg: Option<f64>, d: f64, tool: [f64; 3]) -> Robot {
     Robot {
         points: Vec::new(),
+        tool_rpy: None,
         name: "one".into(),
         joints: vec![Joint {
             a,
@@ -580,6 +614,31 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             "{}: {fd} vs {}",
             e.param_name(param),
             jac.column(k)
+        );
+    }
+    // The orientation columns (a 6-DoF probe's tool frame, tilted on the flange) likewise.
+    let probe = Robot {
+        tool_rpy: Some(Vector3::new(0.3, -0.2, 1.1)),
+        ..robot.clone()
+    };
+    let (rot, ojac) = e.orientation_param_jacobian(&probe, &q, load, &params);
+    assert!((rot - e.rotation(&probe, &q, load)).norm() < 1e-12);
+    for (k, &param) in params.iter().enumerate() {
+        let h = match param {
+            ErrorParam::Compliance(_) => 1e-9,
+            _ => 1e-7,
+        };
+        let (mut up, mut down) = (e.clone(), e.clone());
+        up.set_param(param, e.param(param) + h);
+        down.set_param(param, e.param(param) - h);
+        let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
+        let fd = Vector3::new(d[(2, 1)] - d[(1, 2)], d[(0, 2)] - d[(2, 0)], d[(1, 0)] - d[(0, 1)])
+            / (4.0 * h);
+        assert!(
+            (fd - ojac.column(k)).norm() < 1e-4 * fd.norm().max(1e-3),
+            "orientation {}: {fd} vs {}",
+            e.param_name(param),
+            ojac.column(k)
         );
     }
     let text = e.to_toml_string();

@@ -73,6 +73,8 @@ struct RawNoise {
     tracker_base: f64,
     tracker_per_metre: f64,
     repeatability: f64,
+    #[serde(default)]
+    probe_deg: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -170,7 +172,14 @@ pub struct Noise {
     /// Robot repeatability (ISO 9283 RP), mm; per-coordinate σ = RP / 3.6 (the RP of an
     /// isotropic 3-D Gaussian is about 3.6 σ).
     pub repeatability: f64,
+    /// A 6-DoF probe's angular noise, deg (1σ about each world axis); used when the truth
+    /// declares `[tool] rpy` (the probe's frame). Default [`DEFAULT_PROBE_DEG`].
+    pub probe_deg: f64,
 }
+
+/// A 6-DoF probe's angular noise when the twin file gives none, deg (1σ per axis): the order of
+/// a tracker's 6-DoF probe.
+pub const DEFAULT_PROBE_DEG: f64 = 0.01;
 
 impl Noise {
     /// Per-coordinate standard deviation of a measurement of a point `distance_mm` from the
@@ -446,10 +455,13 @@ impl TwinConfig {
             c.non_negative("noise.tracker_base", &[z.tracker_base])?;
             c.non_negative("noise.tracker_per_metre", &[z.tracker_per_metre])?;
             c.non_negative("noise.repeatability", &[z.repeatability])?;
+            let probe_deg = z.probe_deg.unwrap_or(DEFAULT_PROBE_DEG);
+            c.non_negative("noise.probe_deg", &[probe_deg])?;
             Some(Noise {
                 tracker_base: z.tracker_base,
                 tracker_per_metre: z.tracker_per_metre,
                 repeatability: z.repeatability,
+                probe_deg,
             })
         } else {
             None

@@ -7,6 +7,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use robocal_robot::matrix_to_rpy;
 use robocal_data::{Measurement, MeasurementSet, Sample, write_dir_atomically, write_text_in};
 
 use crate::config::{BacklashSide, TwinConfig};
@@ -72,13 +73,16 @@ impl TwinConfig {
                         None => self.add_noise(point, &mut rng),
                     }
                     .map(round6);
+                    let (exact_rpy, noisy_rpy) = self.probe_reading(&q, load, &mut rng);
                     truth.push(Measurement {
                         sample: sample.clone(),
                         position: exact,
+                        orientation: exact_rpy,
                     });
                     measured.push(Measurement {
                         sample,
                         position: noisy,
+                        orientation: noisy_rpy,
                     });
                 }
             }
@@ -99,6 +103,22 @@ impl TwinConfig {
         })
     }
 
+    /// A 6-DoF probe's reading of the tool frame at reading `q` (rad) under `load`, as
+    /// fixed-axis roll, pitch, yaw in degrees rounded to 1e-6: the exact one and the noisy one
+    /// (no draw, and `None`, when the truth has no `[tool] rpy`).
+    fn probe_reading(
+        &self,
+        q: &[f64],
+        load: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> (Option<Vector3<f64>>, Option<Vector3<f64>>) {
+        let Some(r) = self.true_rotation(q, load) else {
+            return (None, None);
+        };
+        let degrees = |m: &nalgebra::Matrix3<f64>| matrix_to_rpy(m).map(|a| round6(a.to_degrees()));
+        (Some(degrees(&r)), Some(degrees(&self.add_probe_noise(r, rng))))
+    }
+
     /// Measures the given `samples` (readings in degrees, each at its load), as the twin's
     /// tracker would: the noisy rows and the noise-free ones, in the samples' order (positions
     /// rounded to 1e-6 mm; the noise seeded from the twin's seed, a stream of its own).
@@ -111,9 +131,12 @@ impl TwinConfig {
         let mut robot_errors: HashMap<(String, u64), Vector3<f64>> = HashMap::new();
         for sample in samples {
             let point = self.true_point_of(&sample.joints_rad(), sample.load, &sample.target);
+            let (exact_rpy, noisy_rpy) =
+                self.probe_reading(&sample.joints_rad(), sample.load, &mut rng);
             truth.push(Measurement {
                 sample: sample.clone(),
                 position: point.map(round6),
+                orientation: exact_rpy,
             });
             let noisy = if several {
                 let key = (sample.pose.clone(), sample.load.to_bits());
@@ -127,6 +150,7 @@ impl TwinConfig {
             measured.push(Measurement {
                 sample: sample.clone(),
                 position: noisy.map(round6),
+                orientation: noisy_rpy,
             });
         }
         let n = self.truth.dof();

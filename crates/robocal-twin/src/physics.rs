@@ -3,7 +3,7 @@
 //! The controller's reading `q` is the motor/encoder side. The arm's real joint angle is
 //! `q + compliance + gear error + backlash`; the true geometry then places the reflector.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
@@ -145,6 +145,22 @@ impl TwinConfig {
     pub fn true_point_of(&self, q: &[f64], load: f64, target: &str) -> Vector3<f64> {
         let t = self.truth.target_index(target).unwrap_or(0);
         self.truth.for_target(t).point(&self.actual_joints(q, load))
+    }
+
+    /// The true orientation of the tool frame (the probe's), world frame, when the truth
+    /// declares `[tool] rpy` (a 6-DoF probe); `None` otherwise.
+    pub fn true_rotation(&self, q: &[f64], load: f64) -> Option<Matrix3<f64>> {
+        self.truth.tool_rpy?;
+        Some(self.truth.tool_rotation(&self.actual_joints(q, load)))
+    }
+
+    /// What a 6-DoF probe reads for the true orientation `r`: `r` turned by a small random
+    /// rotation, normal about each world axis with σ = the probe's angular noise (none without
+    /// noise).
+    pub fn add_probe_noise(&self, r: Matrix3<f64>, rng: &mut impl Rng) -> Matrix3<f64> {
+        let sigma = self.noise.map_or(0.0, |n| n.probe_deg.to_radians());
+        let w = gaussian(sigma, rng);
+        Rotation3::new(w).into_inner() * r
     }
 
     /// A tracker measurement of the true point: noise as configured (or none).

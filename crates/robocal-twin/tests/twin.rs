@@ -335,6 +335,7 @@ fn reflectors_of_one_pose_share_the_robots_error() {
         tracker_base: 0.0,
         tracker_per_metre: 0.0,
         repeatability: 0.05,
+        probe_deg: 0.0,
     });
     config.poses.count = 6;
     let tool = config.truth.tool;
