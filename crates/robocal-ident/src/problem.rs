@@ -12,7 +12,8 @@ use faer::Mat;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use robocal_data::MeasurementSet;
 use robocal_robot::{
-    Compliance, ErrorParam, JointErrors, ParamId, Robot, rotation_vector, rpy_to_matrix,
+    Compliance, ErrorParam, JointErrors, ParamId, Robot, left_jacobian_inverse, rotation_vector,
+    rpy_to_matrix,
 };
 
 /// Measured points with their joint readings and loads.
@@ -315,16 +316,21 @@ impl<'a> CalibrationProblem<'a> {
             let rot = match compliance {
                 Some(c) => {
                     let (_, jac) = c.orientation_param_jacobian(robot, q, load, params);
-                    cjac.view_mut((row, 0), (3, params.len()))
-                        .copy_from(&(jac * w));
+                    cjac.view_mut((row, 0), (3, params.len())).copy_from(&jac);
                     let deflected = c.deflected(robot, q, load);
                     robot.write_orientation_jacobian(&deflected, &mut full, row)
                 }
                 None => robot.write_orientation_jacobian(q, &mut full, row),
             };
-            full.view_mut((row, 0), (3, full.ncols())).scale_mut(w);
+            // r = log(R Rₘᵀ): a turn δ of R moves it by J⁻¹(r) δ (exact, not only near r = 0).
             let measured = self.obs.orientation(i).copied().unwrap_or(rot);
-            r.extend_from_slice((rotation_vector(&(rot * measured.transpose())) * w).as_slice());
+            let phi = rotation_vector(&(rot * measured.transpose()));
+            let jinv = left_jacobian_inverse(&phi) * w;
+            let block = &jinv * full.view((row, 0), (3, full.ncols()));
+            full.view_mut((row, 0), (3, full.ncols())).copy_from(&block);
+            let block = &jinv * cjac.view((row, 0), (3, cjac.ncols()));
+            cjac.view_mut((row, 0), (3, cjac.ncols())).copy_from(&block);
+            r.extend_from_slice((phi * w).as_slice());
         }
         (r, full, cjac)
     }

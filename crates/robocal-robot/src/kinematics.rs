@@ -57,6 +57,21 @@ pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
     }
 }
 
+/// The inverse of the left Jacobian of SO(3) at rotation vector `phi`: for a rotation
+/// `exp(φ)` turned by a small world-frame `δ`, `log(exp(δ) exp(φ)) ≈ φ + J⁻¹(φ) δ`. With it the
+/// Jacobian of a rotation residual `log(R Rₘᵀ)` is exact, not only near a zero residual.
+pub fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let theta = phi.norm();
+    let k = phi.cross_matrix();
+    // 1/θ² − (1 + cos θ) / (2 θ sin θ), by its series near 0 (1/12 + θ²/720).
+    let c = if theta < 1e-4 {
+        1.0 / 12.0 + theta * theta / 720.0
+    } else {
+        1.0 / (theta * theta) - (1.0 + theta.cos()) / (2.0 * theta * theta.sin())
+    };
+    Matrix3::identity() - 0.5 * k + c * k * k
+}
+
 /// Frames met while walking through one joint's elementary transforms.
 struct JointStep {
     /// Rotation of frame {i-1} (axis of α and direction of a: its x column).

@@ -41,7 +41,7 @@ pub use compliance::{
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
 pub use kinematics::JointAxes;
-pub use kinematics::{matrix_to_rpy, rotation_vector, rpy_to_matrix};
+pub use kinematics::{left_jacobian_inverse, matrix_to_rpy, rotation_vector, rpy_to_matrix};
 pub use params::{JointField, ParamId, Unit};
 pub use table::{
     Base, Joint, RawBase, RawJoint, RawTool, Robot, RobotTable, TomlFault, toml_error,
