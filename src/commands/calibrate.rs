@@ -83,6 +83,12 @@ pub fn run(
         r.after.max,
         r.iterations
     );
+    if let Some(o) = &r.orientation {
+        eprintln!(
+            "robocal: orientation (a 6-DoF probe's {} rows, {:.3} mm per deg): mean angle {:.4} → {:.4} deg (max {:.4} → {:.4})",
+            o.rows, o.angle_weight, o.before.mean, o.after.mean, o.before.max, o.after.max
+        );
+    }
     for w in &r.warnings {
         eprintln!("robocal: warning: {w}");
     }

@@ -9,6 +9,7 @@ mod compensation;
 mod export;
 mod hardening;
 mod planning;
+mod probe;
 mod reflectors;
 mod report;
 mod robustness;
