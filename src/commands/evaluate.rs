@@ -31,7 +31,13 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
         let targets = set.rows.iter().any(|m| !m.sample.target.is_empty());
         write_atomically(path, |w| {
             let target_header = if targets { ",target" } else { "" };
-            writeln!(w, "pose{target_header},line,load,dx,dy,dz,error")?;
+            // A 6-DoF probe's file: each row's angle between measured and predicted tool frames.
+            let angles = orientation.is_some();
+            let angle_header = if angles { ",angle_deg" } else { "" };
+            writeln!(
+                w,
+                "pose{target_header},line,load,dx,dy,dz,error{angle_header}"
+            )?;
             for ((m, r), e) in set.rows.iter().zip(&residuals).zip(&errors) {
                 let pose = if targets {
                     format!(
@@ -42,7 +48,7 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
                 } else {
                     csv_text(&m.sample.pose)
                 };
-                writeln!(
+                write!(
                     w,
                     "{},{},{},{},{},{},{}",
                     pose,
@@ -53,6 +59,11 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
                     fixed6(r.z),
                     fixed6(*e)
                 )?;
+                match model.orientation_error(m).filter(|_| angles) {
+                    Some(a) => writeln!(w, ",{}", fixed6(a))?,
+                    None if angles => writeln!(w, ",")?,
+                    None => writeln!(w)?,
+                }
             }
             Ok(())
         })?;

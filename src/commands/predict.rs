@@ -35,11 +35,9 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
         .collect();
     // Finite inputs through a finite model give finite points; a table with absurd values can
     // still overflow, and a file must never hold NaN.
-    if let Some((s, _)) =
-        (samples.rows.iter().zip(&rows)).find(|(_, p)| {
-            !(p.position.iter().chain(p.orientation.iter().flatten())).all(|v| v.is_finite())
-        })
-    {
+    if let Some((s, _)) = (samples.rows.iter().zip(&rows)).find(|(_, p)| {
+        !(p.position.iter().chain(p.orientation.iter().flatten())).all(|v| v.is_finite())
+    }) {
         bail!(
             "{}: line {}: the model's prediction for pose `{}` is not a finite number (check the robot table's values); nothing written",
             data.display(),

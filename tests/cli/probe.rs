@@ -23,7 +23,10 @@ fn twin_text() -> String {
         )
         // Backlash is no joint error robocal models: off, so that every effect the twin
         // holds is in the model family.
-        .replace("[[backlash]]\nenabled = true", "[[backlash]]\nenabled = false");
+        .replace(
+            "[[backlash]]\nenabled = true",
+            "[[backlash]]\nenabled = false",
+        );
     let start = text.find("trained = [").unwrap();
     let end = start + text[start..].find("\nuntrained").unwrap();
     let end = end + 1 + text[end + 1..].find('\n').unwrap();
@@ -72,7 +75,11 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let measured = std::fs::read_to_string(data.join("measurements.csv")).unwrap();
     assert!(
-        measured.lines().next().unwrap().ends_with(",load,x,y,z,rx,ry,rz"),
+        measured
+            .lines()
+            .next()
+            .unwrap()
+            .ends_with(",load,x,y,z,rx,ry,rz"),
         "{measured}"
     );
     // Train on the first 30 configurations, hold the last 10 out (noise-free truth).
@@ -80,7 +87,11 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
     let truth = std::fs::read_to_string(data.join("truth.csv")).unwrap();
     std::fs::write(&train, crate::common::select_rows(&measured, |c, _| c < 30)).unwrap();
     std::fs::write(&test, crate::common::select_rows(&truth, |c, _| c >= 30)).unwrap();
-    let robot = write(dir.path(), "robot.toml", &robot_text("rpy = [0.0, 0.0, 30.0]\n"));
+    let robot = write(
+        dir.path(),
+        "robot.toml",
+        &robot_text("rpy = [0.0, 0.0, 30.0]\n"),
+    );
     let calibrate = |data: &Path, model: &Path| {
         let o = robocal(&[
             "calibrate",
@@ -98,7 +109,10 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
     let said = calibrate(&train, &model);
     assert!(said.contains("orientation"), "{said}");
     let table = std::fs::read_to_string(model.join("kinematics.toml")).unwrap();
-    assert!(table.contains("[tool]") && table.contains("rpy = ["), "{table}");
+    assert!(
+        table.contains("[tool]") && table.contains("rpy = ["),
+        "{table}"
+    );
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap();
     let orientation = &report["kinematic"]["orientation"];
@@ -109,7 +123,11 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
     let angle = angle.expect("orientation statistics");
     assert!(angle < 2.0 * 0.01, "held-out orientation {angle} deg");
     let three = dir.path().join("train3.csv");
-    std::fs::write(&three, positions_only(&std::fs::read_to_string(&train).unwrap())).unwrap();
+    std::fs::write(
+        &three,
+        positions_only(&std::fs::read_to_string(&train).unwrap()),
+    )
+    .unwrap();
     let model3 = dir.path().join("model3");
     calibrate(&three, &model3);
     let (position3, none) = evaluate(&model3, &test);
@@ -119,6 +137,33 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
         position <= position3 * 1.05,
         "held-out position {position} mm with the probe's angles, {position3} without"
     );
+    // Per row: the angle between measured and predicted tool frames beside the distance.
+    let per_pose = dir.path().join("errors.csv");
+    let o = robocal(&[
+        "evaluate",
+        "--model",
+        s(&model),
+        "--data",
+        s(&test),
+        "--per-pose",
+        s(&per_pose),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("orientation") && said.contains(" deg"),
+        "{said}"
+    );
+    let errors = std::fs::read_to_string(&per_pose).unwrap();
+    assert!(
+        errors.starts_with("pose,line,load,dx,dy,dz,error,angle_deg\n"),
+        "{errors}"
+    );
+    let mean_angle = (errors.lines().skip(1))
+        .map(|l| l.rsplit(',').next().unwrap().parse::<f64>().unwrap())
+        .sum::<f64>()
+        / 20.0;
+    assert!((mean_angle - angle).abs() < 1e-5, "{mean_angle} vs {angle}");
     // Predict writes the tool frame's orientation for a file that has the columns.
     let pred = dir.path().join("pred.csv");
     let o = robocal(&[
@@ -136,7 +181,10 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
     // The last three fields of a row's line: rx, ry, rz.
     let angles = |line: &str| -> Vec<f64> {
         let f: Vec<&str> = line.split(',').collect();
-        f[f.len() - 3..].iter().map(|v| v.parse().unwrap()).collect()
+        f[f.len() - 3..]
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect()
     };
     let truth_text = std::fs::read_to_string(&test).unwrap();
     let want = angles(truth_text.lines().nth(1).unwrap());

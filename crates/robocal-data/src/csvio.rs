@@ -410,7 +410,11 @@ impl MeasurementSet {
             for k in 1..=self.joint_count {
                 write!(w, ",q{k}")?;
             }
-            writeln!(w, ",load,x,y,z{}", if orientation { ",rx,ry,rz" } else { "" })?;
+            writeln!(
+                w,
+                ",load,x,y,z{}",
+                if orientation { ",rx,ry,rz" } else { "" }
+            )?;
             for row in &self.rows {
                 write!(w, "{}", csv_text(&row.sample.pose))?;
                 if targets {

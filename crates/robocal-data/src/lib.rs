@@ -19,8 +19,8 @@ pub mod stats;
 
 pub use atomic::{write_atomically, write_dir_atomically, write_text_in};
 pub use csvio::{
-    Measurement, MeasurementSet, ORIENTATION_COLUMNS, Prediction, Sample, SampleSet, Target, check_targets, csv_text,
-    fixed6, read_targets, samples_from_arrays, write_predictions,
+    Measurement, MeasurementSet, ORIENTATION_COLUMNS, Prediction, Sample, SampleSet, Target,
+    check_targets, csv_text, fixed6, read_targets, samples_from_arrays, write_predictions,
 };
 pub use error::{DataError, Invalid, Result, one_of};
 pub use observe::{Lines, Observer, Silent};

@@ -554,7 +554,10 @@ fn far_moves<'a>(
                 && id.unit() == Unit::Mm
                 && !matches!(
                     id,
-                    ParamId::Base(_) | ParamId::Tool(_) | ParamId::ToolRot(_) | ParamId::Point { .. }
+                    ParamId::Base(_)
+                        | ParamId::Tool(_)
+                        | ParamId::ToolRot(_)
+                        | ParamId::Point { .. }
                 )
                 && p.delta.abs() > FAR_FROM_NOMINAL.max(0.1 * p.nominal.abs())
         })

@@ -24,16 +24,16 @@ pub mod stage;
 pub use calibrate::{
     COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport, FAR_FROM_NOMINAL,
     FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance,
-    JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings, Loss, POOR_FIT,
-    OrientationReport, ParameterReport, SolverKind, TORQUE_SHARE, align, calibrate_kinematics,
-    default_compliance_joints, far_from_nominal,
+    JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings, Loss,
+    OrientationReport, POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align,
+    calibrate_kinematics, default_compliance_joints, far_from_nominal,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};
 pub use lm::{LevenbergMarquardt, run_lm};
 pub use problem::{
-    BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares,
-    MeanDistance, Observations, angle_weight, select,
+    BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, MeanDistance,
+    Observations, angle_weight, select,
 };
 pub use registration::{kabsch, register_base, register_tool_rotation};
 pub use stage::{RawComplianceStage, RawJointErrorStage, RawKinematicStage};

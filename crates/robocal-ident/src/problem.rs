@@ -326,9 +326,9 @@ impl<'a> CalibrationProblem<'a> {
             let measured = self.obs.orientation(i).copied().unwrap_or(rot);
             let phi = rotation_vector(&(rot * measured.transpose()));
             let jinv = left_jacobian_inverse(&phi) * w;
-            let block = &jinv * full.view((row, 0), (3, full.ncols()));
+            let block = jinv * full.view((row, 0), (3, full.ncols()));
             full.view_mut((row, 0), (3, full.ncols())).copy_from(&block);
-            let block = &jinv * cjac.view((row, 0), (3, cjac.ncols()));
+            let block = jinv * cjac.view((row, 0), (3, cjac.ncols()));
             cjac.view_mut((row, 0), (3, cjac.ncols())).copy_from(&block);
             r.extend_from_slice((phi * w).as_slice());
         }

@@ -81,7 +81,8 @@ pub fn register_tool_rotation(robot: &Robot, obs: &Observations) -> Result<Robot
         return Err(IdentError::Registration("SVD failed".into()));
     };
     let d = (u * vt).determinant().signum();
-    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, if d == 0.0 { 1.0 } else { d })) * vt;
+    let r =
+        u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, if d == 0.0 { 1.0 } else { d })) * vt;
     if !r.iter().all(|x| x.is_finite()) {
         return Err(IdentError::Registration("degenerate orientations".into()));
     }

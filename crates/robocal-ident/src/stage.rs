@@ -92,7 +92,10 @@ impl RawKinematicStage {
             if v.is_finite() && v > 0.0 {
                 Ok(v)
             } else {
-                Err(Invalid::new(key, format!("must be a positive number ({unit})")))
+                Err(Invalid::new(
+                    key,
+                    format!("must be a positive number ({unit})"),
+                ))
             }
         };
         if let Some(w) = self.angle_weight {

@@ -994,8 +994,8 @@ fn lm_recovers_the_tool_frame_from_noise_free_6d_data() {
     truth.tool_rpy = Some(Vector3::new(0.6, -0.3, 2.2));
     let (train, test) = split(&configs);
     let observe6 = |c: &[Vec<f64>]| with_orientations(observe(&truth, c, 0.0, 0), &truth, 0.0, 0);
-    let cal = calibrate_kinematics(&nominal, &observe6(&train), &KinematicSettings::default())
-        .unwrap();
+    let cal =
+        calibrate_kinematics(&nominal, &observe6(&train), &KinematicSettings::default()).unwrap();
     let tool = cal.robot.tool_rpy.expect("the tool frame is identified");
     let err = robocal_robot::rotation_vector(
         &(robocal_robot::rpy_to_matrix(&tool)
@@ -1008,10 +1008,20 @@ fn lm_recovers_the_tool_frame_from_noise_free_6d_data() {
     assert!(worst < 1e-6, "held-out position error {worst} mm");
     let angles = held.orientation_errors_with(&cal.robot, None);
     let worst_angle = angles.iter().copied().fold(0.0, f64::max);
-    assert!(worst_angle < 1e-8, "held-out orientation error {worst_angle} rad (tool frame off by {err} rad)");
-    let report = cal.report.orientation.as_ref().expect("orientation statistics");
+    assert!(
+        worst_angle < 1e-8,
+        "held-out orientation error {worst_angle} rad (tool frame off by {err} rad)"
+    );
+    let report = cal
+        .report
+        .orientation
+        .as_ref()
+        .expect("orientation statistics");
     assert_eq!(report.rows, train.len());
-    assert!(report.before.mean > 1e-3 && report.after.mean < 1e-6, "{report:?}");
+    assert!(
+        report.before.mean > 1e-3 && report.after.mean < 1e-6,
+        "{report:?}"
+    );
     // The same data without orientations: the tool frame is no parameter of a table without one.
     let positions = calibrate_kinematics(
         &nominal,
@@ -1056,7 +1066,15 @@ fn noisy_6d_rows_help_the_positions_and_fit_the_orientation() {
         angles.push(mean(&held.orientation_errors_with(&six.robot, None)).to_degrees());
     }
     let (e6, e3, angle) = (mean(&e6), mean(&e3), mean(&angles));
-    eprintln!("held-out: positions {e6:.5} mm (positions only {e3:.5}), orientation {angle:.5} deg");
-    assert!(e6 <= e3, "held-out position error {e6} mm with orientations, {e3} without");
-    assert!(angle < noise_deg, "held-out orientation error {angle} deg vs truth");
+    eprintln!(
+        "held-out: positions {e6:.5} mm (positions only {e3:.5}), orientation {angle:.5} deg"
+    );
+    assert!(
+        e6 <= e3,
+        "held-out position error {e6} mm with orientations, {e3} without"
+    );
+    assert!(
+        angle < noise_deg,
+        "held-out orientation error {angle} deg vs truth"
+    );
 }

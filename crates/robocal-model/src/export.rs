@@ -119,7 +119,8 @@ pub fn urdf_robot(robot: &Robot) -> urdf_rs::Robot {
         JointType::Fixed,
         &parent,
         "tool0",
-        pose(&Matrix3::identity(), &robot.tool),
+        // A 6-DoF probe's frame (`[tool] rpy`) turns `tool0`; without one it is the flange's.
+        pose(&robot.tool_frame_rotation(), &robot.tool),
     ));
     for (name, p) in &robot.points {
         let leaf = point_link(name);
@@ -154,6 +155,16 @@ pub fn urdf_text(robot: &Robot) -> Result<String, String> {
 /// movable joints in chain order from `world`: the origin of link `leaf` (`tool0`, or a named
 /// point's link), each joint on the way applying its origin, then its rotation about its axis.
 pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64], leaf: &str) -> Result<Vector3<f64>, String> {
+    urdf_frame(robot, q, leaf).map(|(_, t)| t)
+}
+
+/// The frame of link `leaf` (rotation, origin mm; world frame) of a URDF robot at the readings
+/// `q` (rad) of its movable joints, as [`urdf_point`] walks it.
+pub fn urdf_frame(
+    robot: &urdf_rs::Robot,
+    q: &[f64],
+    leaf: &str,
+) -> Result<(Matrix3<f64>, Vector3<f64>), String> {
     // The chain from `leaf` back to `world`, each link's one parent joint.
     let mut path = Vec::new();
     let mut link = leaf.to_string();
@@ -192,12 +203,17 @@ pub fn urdf_point(robot: &urdf_rs::Robot, q: &[f64], leaf: &str) -> Result<Vecto
             q.len()
         ));
     }
-    Ok(t)
+    Ok((r, t))
 }
+
+/// How far an orientation difference counts in [`urdf_parity`], mm per rad: the displacement
+/// it gives a point 1 m out.
+pub const PARITY_LEVER_MM: f64 = 1000.0;
 
 /// Reads `text` back (`urdf-rs`) and compares its forward kinematics with `robot`'s at
 /// [`PARITY_CONFIGURATIONS`] configurations spread over the joint limits (±180° without), at the
-/// measured point and every named point: the largest difference, mm.
+/// measured point and every named point: the largest difference, mm (with a 6-DoF probe's
+/// frame, `tool0`'s orientation too, counted at [`PARITY_LEVER_MM`]).
 pub fn urdf_parity(robot: &Robot, text: &str) -> Result<f64, String> {
     let back = urdf_rs::read_from_string(text).map_err(|e| e.to_string())?;
     let mut worst: f64 = 0.0;
@@ -212,7 +228,13 @@ pub fn urdf_parity(robot: &Robot, text: &str) -> Result<f64, String> {
                 lo + (hi - lo) * ((i as f64 + 0.5) * step).fract()
             })
             .collect();
-        worst = worst.max((urdf_point(&back, &q, "tool0")? - robot.point(&q)).norm());
+        let (r, t) = urdf_frame(&back, &q, "tool0")?;
+        worst = worst.max((t - robot.point(&q)).norm());
+        if robot.tool_rpy.is_some() {
+            // A 6-DoF probe's frame: its orientation too.
+            let turn = robocal_robot::rotation_vector(&(r * robot.tool_rotation(&q).transpose()));
+            worst = worst.max(turn.norm() * PARITY_LEVER_MM);
+        }
         for (k, (name, _)) in robot.points.iter().enumerate() {
             let model = robot.for_target(k + 1).point(&q);
             worst = worst.max((urdf_point(&back, &q, &point_link(name))? - model).norm());
@@ -270,7 +292,7 @@ pub fn json_table(
     json!({
         "format": "robocal MDH table",
         "units": {"length": "mm", "angle": "deg"},
-        "convention": "modified DH: RotX(alpha) TransX(a) RotY(beta) RotZ(theta + q) TransZ(d); base: world -> frame {0}, fixed-axis rpy R = Rz(yaw) Ry(pitch) Rx(roll); tool: the measured point in the flange frame",
+        "convention": "modified DH: RotX(alpha) TransX(a) RotY(beta) RotZ(theta + q) TransZ(d); base: world -> frame {0}, fixed-axis rpy R = Rz(yaw) Ry(pitch) Rx(roll); tool: the measured point in the flange frame, and (rpy, when given) the 6-DoF probe's frame in the flange frame",
         "name": robot.name,
         "joints": joints,
         "base": {
@@ -281,6 +303,8 @@ pub fn json_table(
         "tool": {
             "xyz": [robot.tool.x, robot.tool.y, robot.tool.z],
             "std": tool_std,
+            "rpy": robot.tool_rpy.map(|r| [r.x.to_degrees(), r.y.to_degrees(), r.z.to_degrees()]),
+            "rpy_std": robot.tool_rpy.map(|_| ["tool.rx", "tool.ry", "tool.rz"].map(sigma)),
         },
         "points": points,
         "not_carried": not_carried(model),

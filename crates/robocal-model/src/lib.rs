@@ -37,6 +37,7 @@ mod model;
 pub use dir::{COMPLIANCE_FILE, KINEMATICS_FILE, MODEL_FORMAT, NOMINAL_FILE, REPORT_FILE};
 pub use error::{ModelError, Result};
 pub use model::{
-    CalibratedModel, gate_physics_row, rotation_angle, gate_physics_rows, resolve_gate_physics, with_gate_physics,
+    CalibratedModel, gate_physics_row, gate_physics_rows, resolve_gate_physics, rotation_angle,
+    with_gate_physics,
 };
 pub use robocal_robot::JointErrors;

@@ -206,12 +206,16 @@ impl CalibratedModel {
     /// Angle between the measured and the predicted tool frame of every row that has a
     /// measured orientation, deg (rows without one are left out).
     pub fn orientation_errors(&self, rows: &[&Measurement]) -> Vec<f64> {
-        (rows.iter())
-            .filter_map(|m| {
-                let measured = rpy_to_matrix(&m.orientation?.map(f64::to_radians));
-                Some(rotation_angle(&(measured * self.rotation(&m.sample).transpose())).to_degrees())
-            })
+        rows.iter()
+            .filter_map(|m| self.orientation_error(m))
             .collect()
+    }
+
+    /// Angle between the measured and the predicted tool frame of a row, deg; `None` for a row
+    /// without a measured orientation.
+    pub fn orientation_error(&self, m: &Measurement) -> Option<f64> {
+        let measured = rpy_to_matrix(&m.orientation?.map(f64::to_radians));
+        Some(rotation_angle(&(measured * self.rotation(&m.sample).transpose())).to_degrees())
     }
 }
 

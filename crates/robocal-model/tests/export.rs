@@ -80,6 +80,25 @@ fn named_points_export_as_frames_of_their_own() {
     assert_eq!(table["points"]["smr3"]["xyz"][1], 70.0);
 }
 
+/// A 6-DoF probe's frame (`[tool] rpy`) turns `tool0`: the parity check sees its orientation
+/// (a turned frame is detected), and the JSON table gives its angles.
+#[test]
+fn a_probe_frame_exports_as_tool0s_orientation() {
+    let mut robot = robot();
+    robot.tool_rpy = Some(nalgebra::Vector3::new(0.1, -0.2, 0.5));
+    let text = urdf_text(&robot).unwrap();
+    let worst = urdf_parity(&robot, &text).unwrap();
+    assert!(worst < PARITY_TOLERANCE_MM, "{worst} mm");
+    let mut back = urdf_rs::read_from_string(&text).unwrap();
+    let j = back.joints.iter_mut().find(|j| j.name == "tool").unwrap();
+    j.origin.rpy.0[0] += 1e-3;
+    let turned = urdf_rs::write_to_string(&back).unwrap();
+    assert!(urdf_parity(&robot, &turned).unwrap() > 0.5);
+    let table = json_table(&CalibratedModel::kinematic(robot), None);
+    let yaw = table["tool"]["rpy"][2].as_f64().unwrap();
+    assert!((yaw - 0.5f64.to_degrees()).abs() < 1e-9, "{table}");
+}
+
 /// Every bundled arm (6-, 7- and 5-axis, β on parallel joints, heavy and small six-axis), its
 /// table moved as a calibration moves it and its base tilted: the URDF reproduces it within
 /// the tolerance.

@@ -494,10 +494,7 @@ impl JointErrors {
         for (k, (j, phi)) in self.basis(robot, q, load, params).into_iter().enumerate() {
             jac.column_mut(k).copy_from(&(axes.axes[j].0 * phi));
         }
-        (
-            axes.flange_rotation * robot.tool_frame_rotation(),
-            jac,
-        )
+        (axes.flange_rotation * robot.tool_frame_rotation(), jac)
     }
 
     /// The tool frame's orientation for command `q` (rad) under `load` kg, world frame.

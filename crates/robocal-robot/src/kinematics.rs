@@ -42,7 +42,11 @@ pub fn matrix_to_rpy(r: &Matrix3<f64>) -> Vector3<f64> {
 /// The rotation vector (axis × angle, rad; angle in [0, π]) of a rotation matrix: the log map,
 /// precise for small angles (from the skew part) and large ones (angle by `atan2`).
 pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
-    let skew = Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]);
+    let skew = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    );
     let sin = 0.5 * skew.norm();
     let cos = 0.5 * (r.trace() - 1.0);
     let angle = sin.atan2(cos);

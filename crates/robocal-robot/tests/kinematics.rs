@@ -632,8 +632,11 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         up.set_param(param, e.param(param) + h);
         down.set_param(param, e.param(param) - h);
         let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
-        let fd = Vector3::new(d[(2, 1)] - d[(1, 2)], d[(0, 2)] - d[(2, 0)], d[(1, 0)] - d[(0, 1)])
-            / (4.0 * h);
+        let fd = Vector3::new(
+            d[(2, 1)] - d[(1, 2)],
+            d[(0, 2)] - d[(2, 0)],
+            d[(1, 0)] - d[(0, 1)],
+        ) / (4.0 * h);
         assert!(
             (fd - ojac.column(k)).norm() < 1e-4 * fd.norm().max(1e-3),
             "orientation {}: {fd} vs {}",

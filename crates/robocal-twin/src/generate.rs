@@ -7,8 +7,8 @@ use std::path::Path;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use robocal_robot::matrix_to_rpy;
 use robocal_data::{Measurement, MeasurementSet, Sample, write_dir_atomically, write_text_in};
+use robocal_robot::matrix_to_rpy;
 
 use crate::config::{BacklashSide, TwinConfig};
 use crate::design::{PointStatus, PoseDesign};
@@ -116,7 +116,10 @@ impl TwinConfig {
             return (None, None);
         };
         let degrees = |m: &nalgebra::Matrix3<f64>| matrix_to_rpy(m).map(|a| round6(a.to_degrees()));
-        (Some(degrees(&r)), Some(degrees(&self.add_probe_noise(r, rng))))
+        (
+            Some(degrees(&r)),
+            Some(degrees(&self.add_probe_noise(r, rng))),
+        )
     }
 
     /// Measures the given `samples` (readings in degrees, each at its load), as the twin's
