@@ -91,3 +91,9 @@ report-example:
 # configurations calibrated from one reflector and from three, the error left on 48 never measured
 reflectors seeds="10":
     cargo run --release -p robocal-pipeline --example reflectors -- --seeds {{seeds}}
+
+# what a 6-DoF probe's orientations buy (docs/accuracy.md "A 6-DoF probe"): K random
+# configurations calibrated from positions alone and with orientations, the error left on 48
+# never measured (position and orientation, against the twin's truth)
+probe seeds="5":
+    cargo run --release -p robocal-pipeline --example probe -- --seeds {{seeds}}

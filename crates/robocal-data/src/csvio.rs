@@ -52,6 +52,38 @@ pub const ROLL_YAW_LIMIT: f64 = 360.0;
 /// Largest magnitude of a pitch, deg (fixed-axis roll-pitch-yaw puts pitch in [−90, 90]).
 pub const PITCH_LIMIT: f64 = 90.0;
 
+/// A measured orientation (`rx, ry, rz`, deg) checked against its ranges: roll and yaw within
+/// ±[`ROLL_YAW_LIMIT`], pitch within ±[`PITCH_LIMIT`]; non-finite or out of range is an error
+/// naming `path`, `line` and the column.
+pub fn check_orientation(path: &Path, line: u64, angles: [f64; 3]) -> Result<Vector3<f64>> {
+    for (k, &value) in angles.iter().enumerate() {
+        let column = ORIENTATION_COLUMNS[k].to_string();
+        if !value.is_finite() {
+            return Err(DataError::NonFinite {
+                path: path.to_path_buf(),
+                line,
+                column,
+                value: value.to_string(),
+            });
+        }
+        let (limit, range) = if k == 1 {
+            (PITCH_LIMIT, "pitch within ±90")
+        } else {
+            (ROLL_YAW_LIMIT, "within ±360")
+        };
+        if value.abs() > limit {
+            return Err(DataError::AngleOutOfRange {
+                path: path.to_path_buf(),
+                line,
+                column,
+                value,
+                range,
+            });
+        }
+    }
+    Ok(Vector3::from(angles))
+}
+
 /// A validated measurement file: rows in file order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasurementSet {
@@ -330,26 +362,12 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
                         column: ORIENTATION_COLUMNS[k].into(),
                     });
                 } else {
-                    let mut angles = Vector3::zeros();
-                    for (k, &i) in columns.iter().enumerate() {
-                        let (limit, range) = if k == 1 {
-                            (PITCH_LIMIT, "pitch within ±90")
-                        } else {
-                            (ROLL_YAW_LIMIT, "within ±360")
-                        };
-                        let value = number(i)?;
-                        if value.abs() > limit {
-                            return Err(DataError::AngleOutOfRange {
-                                path: path.to_path_buf(),
-                                line,
-                                column: ORIENTATION_COLUMNS[k].into(),
-                                value,
-                                range,
-                            });
-                        }
-                        angles[k] = value;
-                    }
-                    Some(angles)
+                    let angles = [
+                        number(columns[0])?,
+                        number(columns[1])?,
+                        number(columns[2])?,
+                    ];
+                    Some(check_orientation(path, line, angles)?)
                 }
             }
             _ => None,
@@ -433,6 +451,15 @@ impl MeasurementSet {
             }
             Ok(())
         })
+    }
+
+    /// The same rows with a 6-DoF probe's orientations (`rx, ry, rz`, deg, one per row, in
+    /// order), each checked as a file's ([`check_orientation`]; row `i` is its sample's line).
+    pub fn with_orientations(mut self, angles: Vec<[f64; 3]>) -> Result<Self> {
+        for (row, a) in self.rows.iter_mut().zip(angles) {
+            row.orientation = Some(check_orientation(&self.source, row.sample.line, a)?);
+        }
+        Ok(self)
     }
 
     /// Whether any row carries a measured orientation (a 6-DoF probe's).

@@ -20,7 +20,8 @@ pub mod stats;
 pub use atomic::{write_atomically, write_dir_atomically, write_text_in};
 pub use csvio::{
     Measurement, MeasurementSet, ORIENTATION_COLUMNS, Prediction, Sample, SampleSet, Target,
-    check_targets, csv_text, fixed6, read_targets, samples_from_arrays, write_predictions,
+    check_orientation, check_targets, csv_text, fixed6, read_targets, samples_from_arrays,
+    write_predictions,
 };
 pub use error::{DataError, Invalid, Result, one_of};
 pub use observe::{Lines, Observer, Silent};

@@ -165,9 +165,10 @@ impl PyRobot {
     /// A table from arrays: `mdh` rows (a, alpha, d, theta) per joint, base to tip; `beta` one
     /// per joint (NaN: none); `limits` (joints × 2, deg); base `xyz` (mm) and `rpy` (deg,
     /// fixed-axis) in the world frame; `tool` the measured point in the flange frame (mm);
-    /// `points` more reflectors by name (`{"smr2": [x, y, z]}`, flange frame, mm).
+    /// `points` more reflectors by name (`{"smr2": [x, y, z]}`, flange frame, mm); `tool_rpy` a
+    /// 6-DoF probe's frame in the flange frame (fixed-axis roll, pitch, yaw, deg).
     #[new]
-    #[pyo3(signature = (mdh, *, beta=None, limits=None, base_xyz=None, base_rpy=None, tool=None, points=None, name="robot"))]
+    #[pyo3(signature = (mdh, *, beta=None, limits=None, base_xyz=None, base_rpy=None, tool=None, points=None, tool_rpy=None, name="robot"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         mdh: Matrix,
@@ -177,6 +178,7 @@ impl PyRobot {
         base_rpy: Option<Column>,
         tool: Option<Column>,
         points: Option<std::collections::BTreeMap<String, Vec<f64>>>,
+        tool_rpy: Option<Column>,
         name: &str,
     ) -> PyResult<Self> {
         let table = mdh.as_array();
@@ -233,6 +235,9 @@ impl PyRobot {
             triple(rpy.view(), "base_rpy")?,
             triple(tool.view(), "tool")?
         );
+        if let Some(r) = tool_rpy {
+            text += &format!("rpy = {}\n", triple(r.as_array(), "tool_rpy")?);
+        }
         if let Some(points) = points.filter(|p| !p.is_empty()) {
             text += "\n[tool.points]\n";
             for (n, p) in points {
@@ -334,6 +339,28 @@ fn read_report(dir: &Path) -> PyResult<serde_json::Value> {
     Ok(value)
 }
 
+/// `set` with a 6-DoF probe's orientations (rows × 3, deg) when given.
+fn with_rpy(set: MeasurementSet, rpy: Option<Matrix<'_>>) -> PyResult<MeasurementSet> {
+    let Some(rpy) = rpy else {
+        return Ok(set);
+    };
+    let rows = rows_of(
+        rpy.as_array(),
+        "rpy",
+        3,
+        "an orientation (roll, pitch, yaw)",
+    )?;
+    if rows.len() != set.rows.len() {
+        return Err(bad(format!(
+            "rpy: {} rows, q has {}",
+            rows.len(),
+            set.rows.len()
+        )));
+    }
+    set.with_orientations(rows.into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+        .map_err(fail)
+}
+
 fn stats_dict<'py>(py: Python<'py>, s: &ErrorStats) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
     let d = pyo3::types::PyDict::new(py);
     d.set_item("count", s.count)?;
@@ -415,9 +442,30 @@ impl PyModel {
             .into_any())
     }
 
+    /// The predicted orientation of the tool frame (a 6-DoF probe's; world frame, fixed-axis
+    /// roll, pitch, yaw, deg) for each row of `q` (deg) under `load`: rows × 3.
+    fn orientation<'py>(
+        &self,
+        py: Python<'py>,
+        q: Matrix<'py>,
+        load: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows = samples("q", q.as_array(), load, self.inner.dof(), None, None)?;
+        let mut out = Array2::zeros((rows.len(), 3));
+        for (i, s) in rows.iter().enumerate() {
+            let a = self.inner.orientation_deg(s);
+            for k in 0..3 {
+                out[[i, k]] = a[k];
+            }
+        }
+        Ok(out.into_pyarray(py))
+    }
+
     /// Error statistics (mm) against measured points `xyz` (rows × 3): a dict with count, mean,
-    /// std, rms, max, as `robocal evaluate --json` prints. `target` as in `predict`.
-    #[pyo3(signature = (q, load, xyz, *, target=None))]
+    /// std, rms, max, as `robocal evaluate --json` prints. `target` as in `predict`; with `rpy`
+    /// (a 6-DoF probe's measured orientations, rows × 3, deg) also `orientation_deg`, the
+    /// statistics of the angle between measured and predicted tool frames.
+    #[pyo3(signature = (q, load, xyz, *, target=None, rpy=None))]
     fn evaluate<'py>(
         &self,
         py: Python<'py>,
@@ -425,21 +473,30 @@ impl PyModel {
         load: &Bound<'py, PyAny>,
         xyz: Matrix<'py>,
         target: Option<Vec<String>>,
+        rpy: Option<Matrix<'py>>,
     ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-        let set = measurements(
-            "q",
-            q.as_array(),
-            load,
-            xyz.as_array(),
-            self.inner.dof(),
-            None,
-            target,
+        let set = with_rpy(
+            measurements(
+                "q",
+                q.as_array(),
+                load,
+                xyz.as_array(),
+                self.inner.dof(),
+                None,
+                target,
+            )?,
+            rpy,
         )?;
         self.inner
             .check_targets(&set.source, set.rows.iter().map(|m| &m.sample))
             .map_err(fail)?;
         let rows: Vec<_> = set.rows.iter().collect();
-        stats_dict(py, &self.inner.stats(&rows))
+        let d = stats_dict(py, &self.inner.stats(&rows))?;
+        if set.has_orientation() {
+            let angles = ErrorStats::from_errors(&self.inner.orientation_errors(&rows));
+            d.set_item("orientation_deg", stats_dict(py, &angles)?)?;
+        }
+        Ok(d)
     }
 
     /// Joint commands (rows × joints, deg) that put the model's point on each target (rows × 3,
@@ -582,10 +639,11 @@ impl PyModel {
 /// `validate` a `(q, load, xyz)` tuple of held-out rows; `force` makes a model from data that
 /// do not fit the robot file; `keep_outliers` keeps the bad shots. Rows with the same joint
 /// readings are one configuration (or give `pose`, one id per row, as the CSV's `pose` column);
-/// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default).
+/// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default);
+/// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -599,16 +657,20 @@ fn calibrate<'py>(
     keep_outliers: bool,
     pose: Option<Vec<String>>,
     target: Option<Vec<String>>,
+    rpy: Option<Matrix<'py>>,
 ) -> PyResult<PyModel> {
     let dof = robot.inner.dof();
-    let data = measurements(
-        "(arrays)",
-        q.as_array(),
-        load,
-        xyz.as_array(),
-        dof,
-        pose,
-        target,
+    let data = with_rpy(
+        measurements(
+            "(arrays)",
+            q.as_array(),
+            load,
+            xyz.as_array(),
+            dof,
+            pose,
+            target,
+        )?,
+        rpy,
     )?;
     let validation = validate
         .map(|(q, load, xyz)| {

@@ -332,3 +332,50 @@ def test_several_reflectors_equal_the_cli(tmp_path):
     assert np.linalg.norm(reached - goals, axis=1).max() < 2e-3 and (error < 1e-3).all()
     with pytest.raises(robocal.RobocalError, match="target: 1 names for 2 rows"):
         model.predict(q[:2], load[:2], target=[""])
+
+
+def test_a_6dof_probe_equals_the_cli(tmp_path):
+    """A probe twin (its truth's `[tool] rpy`): `rpy=` rows calibrate as the CLI's rx, ry, rz
+    columns do; `Model.orientation` gives predict's rx, ry, rz; `evaluate(rpy=)` the angles."""
+    text = (ROOT / "configs/twin/pmc6va030.toml").read_text()
+    text = text.replace(
+        'nominal = "../robots/pmc6va030.toml"', f'nominal = "{ROBOT}"'
+    ).replace("count = 168", "count = 30")
+    text = text.replace(
+        "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n",
+        "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\nrpy = [0.4, -0.3, 30.2]\n",
+    )
+    twin = tmp_path / "twin.toml"
+    twin.write_text(text)
+    cli("simulate", "--twin", twin, "--out", tmp_path / "data")
+    data = tmp_path / "data/measurements.csv"
+    with open(data, newline="") as f:
+        measured = [r for r in csv.DictReader(f) if float(r["load"]) in (0.0, 20.0)]
+    data = write_csv(tmp_path / "m.csv", measured)
+    robot_file = tmp_path / "robot.toml"
+    robot_file.write_text(ROBOT.read_text().replace("[tool]\n", "[tool]\nrpy = [0.0, 0.0, 30.0]\n"))
+    stage = STAGES / "kinematic-lm.toml"
+    model_dir = tmp_path / "cli-model"
+    cli("calibrate", "--robot", robot_file, "--data", data, "--out", model_dir, "--config", stage)
+    out = tmp_path / "pred.csv"
+    cli("predict", "--model", model_dir, "--data", data, "--out", out)
+    with open(out, newline="") as f:
+        predicted = list(csv.DictReader(f))
+    theirs = np.array([[float(r[a]) for a in ("rx", "ry", "rz")] for r in predicted])
+
+    q, load, xyz, pose = arrays(measured)
+    rpy = np.array([[float(r[a]) for a in ("rx", "ry", "rz")] for r in measured])
+    robot = robocal.Robot.load(robot_file)
+    model = robocal.calibrate(robot, q, load, xyz, config=stage, pose=pose, rpy=rpy)
+    np.testing.assert_allclose(model.orientation(q, load), theirs, atol=2e-6, rtol=0)
+    stats = model.evaluate(q, load, xyz, rpy=rpy)
+    assert 0.005 < stats["orientation_deg"]["mean"] < 0.2, stats
+    # The kinematic stage fits the unloaded rows: one orientation per configuration.
+    assert json.loads(model.report)["kinematic"]["orientation"]["rows"] == len(set(pose))
+    # Built from arrays: the probe's frame turns the tool frame, not the point.
+    built = robocal.Robot([[0.0, 0.0, 0.0, 0.0]], tool=[0.0, 0.0, 5.0], tool_rpy=[0.0, 0.0, 30.0])
+    assert "rpy = [0.0, 0.0, 30.0]" in built.to_toml()
+    bad = rpy.copy()
+    bad[1, 1] = 95.0
+    with pytest.raises(robocal.RobocalError, match=r"line 2, column `ry`: 95 deg is out of range"):
+        robocal.calibrate(robot, q, load, xyz, config=stage, pose=pose, rpy=bad)
