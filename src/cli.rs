@@ -57,6 +57,11 @@ pub enum Command {
         /// `robocal report` does; the fit, not the accuracy on new poses).
         #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
+        /// Weight of a 6-DoF probe's orientation residuals (rows with rx, ry, rz), mm per
+        /// degree; default: a stage config's `[kinematic] angle_weight`, else noise_mm /
+        /// noise_deg (0.02 / 0.01 = 2).
+        #[arg(long, value_name = "MM_PER_DEG")]
+        angle_weight: Option<f64>,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

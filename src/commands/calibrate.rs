@@ -15,7 +15,8 @@ use robocal_robot::Robot;
 use super::terminal::Terminal;
 
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
-/// `pictures` when given).
+/// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations.
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     robot: &Path,
     data: &Path,
@@ -24,7 +25,13 @@ pub fn run(
     config: Option<&Path>,
     checks: Checks,
     pictures: Option<&Path>,
+    angle_weight: Option<f64>,
 ) -> Result<()> {
+    if let Some(w) = angle_weight
+        && !(w.is_finite() && w > 0.0)
+    {
+        anyhow::bail!("--angle-weight: {w} is not a positive number of mm per degree");
+    }
     let stages = config.map(Stages::load).transpose()?;
     let nominal = Robot::load(robot)?;
     let set = MeasurementSet::read(data, nominal.dof())?;
@@ -38,6 +45,7 @@ pub fn run(
         validation: validation.as_ref(),
         stages: stages.as_ref().zip(config),
         checks,
+        angle_weight,
     };
     let Calibration {
         model,

@@ -30,6 +30,7 @@ pub fn run(cli: Cli) -> Result<()> {
             force,
             keep_outliers,
             report,
+            angle_weight,
         } => calibrate::run(
             &robot,
             &data,
@@ -41,6 +42,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 keep_outliers,
             },
             report.as_deref(),
+            angle_weight,
         ),
         Command::Report { model, data, out } => report::run(&model, &data, &out),
         Command::Predict {

@@ -117,6 +117,33 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
         serde_json::from_str(&std::fs::read_to_string(model.join("report.json")).unwrap()).unwrap();
     let orientation = &report["kinematic"]["orientation"];
     assert_eq!(orientation["rows"].as_u64(), Some(60), "{orientation}");
+    // --angle-weight weighs the orientations, over a stage config too.
+    let weighted = dir.path().join("weighted");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&train),
+        "--out",
+        s(&weighted),
+        "--config",
+        "configs/stages/kinematic-lm.toml",
+        "--angle-weight",
+        "0.5",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(weighted.join("report.json")).unwrap())
+            .unwrap();
+    let w = report["kinematic"]["orientation"]["angle_weight"].as_f64();
+    assert!(w.is_some_and(|w| (w - 0.5).abs() < 1e-12), "{w:?}");
+    assert_eq!(
+        orientation["angle_weight"]
+            .as_f64()
+            .map(|w| (w * 1e9).round()),
+        Some(2e9)
+    );
     // Held out: the orientation within twice the probe's noise (0.01° per axis) of the truth,
     // the positions no worse than a calibration from the positions alone.
     let (position, angle) = evaluate(&model, &test);
@@ -164,6 +191,26 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
         .sum::<f64>()
         / 20.0;
     assert!((mean_angle - angle).abs() < 1e-5, "{mean_angle} vs {angle}");
+    // The report states the orientation error beside the position error.
+    let pictures = dir.path().join("report");
+    let o = robocal(&[
+        "report",
+        "--model",
+        s(&model),
+        "--data",
+        s(&test),
+        "--out",
+        s(&pictures),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(pictures.join("statistics.json")).unwrap())
+            .unwrap();
+    let after = stats["orientation"]["after"]["mean"].as_f64().unwrap();
+    assert!((after - angle).abs() < 1e-9, "{after} vs {angle}");
+    assert!(stats["orientation"]["before"]["mean"].as_f64().unwrap() > after);
+    let md = std::fs::read_to_string(pictures.join("report.md")).unwrap();
+    assert!(md.contains("Orientation error (deg)"), "{md}");
     // Predict writes the tool frame's orientation for a file that has the columns.
     let pred = dir.path().join("pred.csv");
     let o = robocal(&[
@@ -248,4 +295,22 @@ fn orientation_columns_partly_given_or_out_of_range_write_nothing() {
         ]);
         assert!(!o.status.success(), "evaluate, case {k}");
     }
+    let out = dir.path().join("model");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/pmc6va030.toml",
+        "--data",
+        "datasets/pmc6va030/measurements.csv",
+        "--out",
+        s(&out),
+        "--angle-weight=-1",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--angle-weight: -1 is not a positive number"),
+        "{err}"
+    );
+    assert!(!out.exists());
 }

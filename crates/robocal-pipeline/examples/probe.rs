@@ -111,6 +111,7 @@ fn run(
                             force: true,
                             keep_outliers: true,
                         },
+                        angle_weight: None,
                     },
                     &Silent,
                 )?;

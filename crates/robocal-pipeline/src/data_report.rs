@@ -103,6 +103,15 @@ pub struct Figure {
     pub caption: String,
 }
 
+/// The orientation statistics of a 6-DoF probe's rows, deg.
+#[derive(Debug, Clone, Serialize)]
+pub struct OrientationStats {
+    /// The registered nominal table.
+    pub before: Option<ErrorStats>,
+    /// The model (its table and joint errors: the residual model corrects positions only).
+    pub after: ErrorStats,
+}
+
 /// `statistics.json`: what `report.md` states.
 #[derive(Debug, Clone, Serialize)]
 pub struct DataReport {
@@ -132,6 +141,10 @@ pub struct DataReport {
     pub by_load: Vec<LoadStats>,
     /// Mean error per reflector (empty unless rows name targets).
     pub by_target: Vec<TargetStats>,
+    /// With a 6-DoF probe's rows: the angle between measured and predicted tool frames, deg,
+    /// of the registered nominal table (when the model carries it) and of the model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<OrientationStats>,
     /// The five worst rows after calibration.
     pub worst: Vec<WorstRow>,
     /// The figures.
@@ -489,6 +502,17 @@ pub fn write_data_report(
             })
             .collect(),
         by_target: by_target(rows, before.as_deref(), &after),
+        orientation: rows
+            .iter()
+            .any(|m| m.orientation.is_some())
+            .then(|| OrientationStats {
+                before: (model.nominal.as_ref()).map(|n| {
+                    ErrorStats::from_errors(
+                        &CalibratedModel::kinematic(n.clone()).orientation_errors(rows),
+                    )
+                }),
+                after: ErrorStats::from_errors(&model.orientation_errors(rows)),
+            }),
         worst: order
             .iter()
             .take(5)
@@ -646,6 +670,32 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
                 .collect(),
         });
     }
+    let mut orientation = Vec::new();
+    if let Some(o) = &r.orientation {
+        let mut rows = Vec::new();
+        if let Some(b) = &o.before {
+            rows.push(("before (nominal, base and tool registered)", b));
+        }
+        rows.push(("after: table + joint errors", &o.after));
+        orientation.push(Table {
+            header: ["", "count", "mean", "std", "RMS", "max"]
+                .map(String::from)
+                .to_vec(),
+            rows: rows
+                .into_iter()
+                .map(|(name, s)| {
+                    vec![
+                        name.to_string(),
+                        s.count.to_string(),
+                        f(s.mean),
+                        f(s.std),
+                        f(s.rms),
+                        f(s.max),
+                    ]
+                })
+                .collect(),
+        });
+    }
     vec![
         ("What was measured".into(), about, Vec::new()),
         (
@@ -657,6 +707,15 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
             "Per axis after calibration (mm, measured − predicted)".into(),
             vec!["A mean far from zero is a bias the model leaves (a frame or unit problem, or a missing effect).".into()],
             vec![axes],
+        ),
+        (
+            "Orientation error (deg)".into(),
+            if orientation.is_empty() {
+                Vec::new()
+            } else {
+                vec!["Angle between the 6-DoF probe's measured tool frame and the predicted one.".into()]
+            },
+            orientation,
         ),
         ("Per load (mm)".into(), Vec::new(), vec![by_load]),
         ("Per reflector (mm)".into(), Vec::new(), by_reflector),

@@ -640,10 +640,11 @@ impl PyModel {
 /// do not fit the robot file; `keep_outliers` keeps the bad shots. Rows with the same joint
 /// readings are one configuration (or give `pose`, one id per row, as the CSV's `pose` column);
 /// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default);
-/// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg).
+/// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg),
+/// weighted by `angle_weight` (mm per deg; default 2).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -658,7 +659,15 @@ fn calibrate<'py>(
     pose: Option<Vec<String>>,
     target: Option<Vec<String>>,
     rpy: Option<Matrix<'py>>,
+    angle_weight: Option<f64>,
 ) -> PyResult<PyModel> {
+    if let Some(w) = angle_weight
+        && !(w.is_finite() && w > 0.0)
+    {
+        return Err(bad(format!(
+            "angle_weight: {w} is not a positive number of mm per degree"
+        )));
+    }
     let dof = robot.inner.dof();
     let data = with_rpy(
         measurements(
@@ -702,6 +711,7 @@ fn calibrate<'py>(
                     force,
                     keep_outliers,
                 },
+                angle_weight,
             };
             run_calibration(&input, &Silent)
         })

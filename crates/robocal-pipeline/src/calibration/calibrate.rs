@@ -80,6 +80,9 @@ pub struct CalibrationInput<'a> {
     pub stages: Option<(&'a Stages, &'a Path)>,
     /// What to check.
     pub checks: Checks,
+    /// Weight of a 6-DoF probe's orientation residuals, mm per deg (over a stage config's
+    /// `[kinematic] angle_weight`); `None`: the settings' own (default `noise_mm / noise_deg`).
+    pub angle_weight: Option<f64>,
 }
 
 /// A calibration's result.
@@ -129,16 +132,21 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
     };
     let built = match input.stages {
         Some((stages, _)) => {
+            let mut stages = stages.clone();
+            if input.angle_weight.is_some() {
+                stages.kinematic.angle_weight = input.angle_weight;
+            }
             let (report, kept) = find_outliers(input.nominal, &rows, &stages.kinematic, &outliers)
                 .map_err(failed)?;
             let mut built =
-                configured(stages, input.nominal, &kept, val, observer).map_err(failed)?;
+                configured(&stages, input.nominal, &kept, val, observer).map_err(failed)?;
             built.outliers = Some(report);
             built
         }
         None => {
             let auto = AutoSettings {
                 outliers: Some(outliers),
+                angle_weight: input.angle_weight,
                 ..AutoSettings::default()
             };
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?

@@ -104,6 +104,9 @@ pub struct AutoSettings {
     pub budget_seconds: f64,
     /// The search for bad shots before everything else (none: every row is used).
     pub outliers: Option<OutlierSettings>,
+    /// Weight of a 6-DoF probe's orientation residuals, mm per deg (`None`: the kinematic
+    /// settings' default, `noise_mm / noise_deg`).
+    pub angle_weight: Option<f64>,
 }
 
 /// Folds of the default cross-validation.
@@ -133,6 +136,7 @@ impl Default for AutoSettings {
             ],
             budget_seconds: DEFAULT_BUDGET_SECONDS,
             outliers: Some(OutlierSettings::default()),
+            angle_weight: None,
         }
     }
 }
@@ -195,8 +199,11 @@ impl Physics {
         format!("{} identified with the geometry", parts.join(" and "))
     }
 
-    fn settings(self) -> KinematicSettings {
+    /// The kinematic settings of this physics, with a 6-DoF probe's `angle_weight` (mm per deg;
+    /// `None`: the default).
+    fn settings(self, angle_weight: Option<f64>) -> KinematicSettings {
         KinematicSettings {
+            angle_weight,
             compliance: self.compliance.then(|| ComplianceSettings {
                 plausible_only: true,
                 ..ComplianceSettings::default()
@@ -234,13 +241,14 @@ struct Scored {
 /// Fits `physics` on every fold and scores it on the fold's held-out rows.
 fn score_physics(
     physics: Physics,
+    angle_weight: Option<f64>,
     nominal: &Robot,
     splits: &[Fold<'_>],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
 ) -> Scored {
     let t = std::time::Instant::now();
-    let kinematic = physics.settings();
+    let kinematic = physics.settings(angle_weight);
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
@@ -427,8 +435,17 @@ fn physics_chain(
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
 ) -> Chain {
-    let mut score =
-        |physics: Physics| score_physics(physics, nominal, &plan.splits, candidates, observer);
+    let angle_weight = settings.angle_weight;
+    let mut score = |physics: Physics| {
+        score_physics(
+            physics,
+            angle_weight,
+            nominal,
+            &plan.splits,
+            candidates,
+            observer,
+        )
+    };
     let mut chain = Chain {
         scored: vec![score(Physics::ALIGNED)],
         steps: Vec::new(),
@@ -833,7 +850,7 @@ pub fn automatic(
     // Fit the winner on every row (with a validation file: on the data file's rows, the
     // validation file early-stopping the networks as it always has).
     let stages = Stages {
-        kinematic: chosen_physics.settings(),
+        kinematic: chosen_physics.settings(settings.angle_weight),
         residual: residual_wins.map(|(r, _)| settings.residuals[r].clone()),
     };
     if plan.refit {
