@@ -484,15 +484,18 @@ fn fit_warnings(
     mean_after: f64,
 ) -> Vec<String> {
     let mut warnings = Vec::new();
-    let mut distinct: Vec<&[f64]> = (0..obs.len()).map(|i| obs.joints(i)).collect();
-    distinct.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
-    distinct.dedup();
-    if 3 * distinct.len() < parameters {
+    let distinct = |rows: &mut dyn Iterator<Item = usize>| {
+        let mut d: Vec<&[f64]> = rows.map(|i| obs.joints(i)).collect();
+        d.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+        d.dedup();
+        d.len()
+    };
+    let configurations = distinct(&mut (0..obs.len()));
+    // A 6-DoF probe's orientation adds three equations per configuration that has one.
+    let equations = 3 * configurations + 3 * distinct(&mut obs.oriented().into_iter());
+    if equations < parameters {
         warnings.push(format!(
-            "only {} distinct joint configurations ({} equations) for {} parameters: most cannot be determined; measure more, and more varied, poses",
-            distinct.len(),
-            3 * distinct.len(),
-            parameters
+            "only {configurations} distinct joint configurations ({equations} equations) for {parameters} parameters: most cannot be determined; measure more, and more varied, poses"
         ));
     }
     if condition_number > ILL_CONDITIONED {
