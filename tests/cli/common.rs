@@ -75,3 +75,29 @@ pub fn calibrate_with(data: &Path, model: &Path, stage: &Path) -> Output {
         s(stage),
     ])
 }
+
+/// The bundled twin's file made runnable from a temporary directory: `count` configurations,
+/// trained at 0 and 20 kg only, `[truth.tool]` followed by `truth_tool` (more keys or tables:
+/// named points, a probe's `rpy`).
+pub fn bundled_twin(count: usize, truth_tool: &str) -> String {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(Path::new(root).join("configs/twin/pmc6va030.toml"))
+        .unwrap()
+        .replace(
+            "nominal = \"../robots/pmc6va030.toml\"",
+            &format!("nominal = \"{root}/configs/robots/pmc6va030.toml\""),
+        )
+        .replace("count = 168", &format!("count = {count}"))
+        .replace(
+            "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n",
+            &format!("[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n{truth_tool}"),
+        );
+    let start = text.find("trained = [").unwrap();
+    let end = start + text[start..].find("\nuntrained").unwrap();
+    let end = end + 1 + text[end + 1..].find('\n').unwrap();
+    format!(
+        "{}trained = [0.0, 20.0]\nuntrained = []{}",
+        &text[..start],
+        &text[end..]
+    )
+}

@@ -4,36 +4,15 @@
 
 use std::path::Path;
 
-use crate::common::{robocal, s, write};
+use crate::common::{bundled_twin, robocal, s, write};
 
 /// The bundled twin with a probe (frame turned about 30° on the flange, off the drawing by a
-/// few tenths of a degree), 40 configurations at 0 and 20 kg.
+/// few tenths of a degree), 40 configurations at 0 and 20 kg. Backlash is no joint error robocal
+/// models: off, so that every effect the twin holds is in the model family.
 fn twin_text() -> String {
-    let root = env!("CARGO_MANIFEST_DIR");
-    let text = std::fs::read_to_string(Path::new(root).join("configs/twin/pmc6va030.toml"))
-        .unwrap()
-        .replace(
-            "nominal = \"../robots/pmc6va030.toml\"",
-            &format!("nominal = \"{root}/configs/robots/pmc6va030.toml\""),
-        )
-        .replace("count = 168", "count = 40")
-        .replace(
-            "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n",
-            "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\nrpy = [0.4, -0.3, 30.2]\n",
-        )
-        // Backlash is no joint error robocal models: off, so that every effect the twin
-        // holds is in the model family.
-        .replace(
-            "[[backlash]]\nenabled = true",
-            "[[backlash]]\nenabled = false",
-        );
-    let start = text.find("trained = [").unwrap();
-    let end = start + text[start..].find("\nuntrained").unwrap();
-    let end = end + 1 + text[end + 1..].find('\n').unwrap();
-    format!(
-        "{}trained = [0.0, 20.0]\nuntrained = []{}",
-        &text[..start],
-        &text[end..]
+    bundled_twin(40, "rpy = [0.4, -0.3, 30.2]\n").replace(
+        "[[backlash]]\nenabled = true",
+        "[[backlash]]\nenabled = false",
     )
 }
 

@@ -3,29 +3,13 @@
 
 use std::path::Path;
 
-use crate::common::{robocal, s, write};
+use crate::common::{bundled_twin, robocal, s, write};
 
 /// The bundled twin with two more reflectors on its truth, 40 configurations at 0 and 20 kg.
 fn twin_text() -> String {
-    let root = env!("CARGO_MANIFEST_DIR");
-    let text = std::fs::read_to_string(Path::new(root).join("configs/twin/pmc6va030.toml"))
-        .unwrap()
-        .replace(
-            "nominal = \"../robots/pmc6va030.toml\"",
-            &format!("nominal = \"{root}/configs/robots/pmc6va030.toml\""),
-        )
-        .replace("count = 168", "count = 40")
-        .replace(
-            "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n",
-            "[truth.tool]\nxyz = [2.14, -1.37, 98.26]\n\n[truth.tool.points]\nsmr2 = [83.1, 1.2, 62.0]\nsmr3 = [-37.0, 71.5, 63.1]\n",
-        );
-    let start = text.find("trained = [").unwrap();
-    let end = start + text[start..].find("\nuntrained").unwrap();
-    let end = end + 1 + text[end + 1..].find('\n').unwrap();
-    format!(
-        "{}trained = [0.0, 20.0]\nuntrained = []{}",
-        &text[..start],
-        &text[end..]
+    bundled_twin(
+        40,
+        "\n[truth.tool.points]\nsmr2 = [83.1, 1.2, 62.0]\nsmr3 = [-37.0, 71.5, 63.1]\n",
     )
 }
 

@@ -562,6 +562,29 @@ fn stats_rows(r: &DataReport) -> Vec<(&'static str, &ErrorStats)> {
     rows
 }
 
+/// A statistics table: per named row count, mean, std, RMS and max (4 decimals).
+fn stats_table(rows: Vec<(&str, &ErrorStats)>) -> Table {
+    let f = |v: f64| format!("{v:.4}");
+    Table {
+        header: ["", "count", "mean", "std", "RMS", "max"]
+            .map(String::from)
+            .to_vec(),
+        rows: rows
+            .into_iter()
+            .map(|(name, s)| {
+                vec![
+                    name.to_string(),
+                    s.count.to_string(),
+                    f(s.mean),
+                    f(s.std),
+                    f(s.rms),
+                    f(s.max),
+                ]
+            })
+            .collect(),
+    }
+}
+
 /// A plain table: header and rows of cells.
 struct Table {
     header: Vec<String>,
@@ -586,24 +609,7 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
         about.push("The model carries no registered nominal table (`nominal.toml`, written by `calibrate` since robocal 0.1): shown after calibration only.".into());
     }
     let f = |v: f64| format!("{v:.4}");
-    let stats = Table {
-        header: ["", "count", "mean", "std", "RMS", "max"]
-            .map(String::from)
-            .to_vec(),
-        rows: stats_rows(r)
-            .into_iter()
-            .map(|(name, s)| {
-                vec![
-                    name.to_string(),
-                    s.count.to_string(),
-                    f(s.mean),
-                    f(s.std),
-                    f(s.rms),
-                    f(s.max),
-                ]
-            })
-            .collect(),
-    };
+    let stats = stats_table(stats_rows(r));
     let axes = Table {
         header: ["axis", "mean signed", "std", "max |error|"]
             .map(String::from)
@@ -677,24 +683,7 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
             rows.push(("before (nominal, base and tool registered)", b));
         }
         rows.push(("after: table + joint errors", &o.after));
-        orientation.push(Table {
-            header: ["", "count", "mean", "std", "RMS", "max"]
-                .map(String::from)
-                .to_vec(),
-            rows: rows
-                .into_iter()
-                .map(|(name, s)| {
-                    vec![
-                        name.to_string(),
-                        s.count.to_string(),
-                        f(s.mean),
-                        f(s.std),
-                        f(s.rms),
-                        f(s.max),
-                    ]
-                })
-                .collect(),
-        });
+        orientation.push(stats_table(rows));
     }
     vec![
         ("What was measured".into(), about, Vec::new()),
