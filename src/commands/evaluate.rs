@@ -20,11 +20,19 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
     let residuals = model.residuals(&set.rows);
     let errors: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let stats = ErrorStats::from_errors(&errors);
-    // A 6-DoF probe's rows: the angle between measured and predicted tool frames, deg.
-    let rows: Vec<&robocal_data::Measurement> = set.rows.iter().collect();
+    // A 6-DoF probe's rows: the angle between measured and predicted tool frames, deg, per row
+    // (none for a row without an orientation), and their statistics.
+    let angles: Vec<Option<f64>> = if set.has_orientation() {
+        set.rows
+            .iter()
+            .map(|m| model.orientation_error(m))
+            .collect()
+    } else {
+        Vec::new()
+    };
     let orientation = set
         .has_orientation()
-        .then(|| ErrorStats::from_errors(&model.orientation_errors(&rows)));
+        .then(|| ErrorStats::from_errors(&angles.iter().flatten().copied().collect::<Vec<_>>()));
     if let Some(path) = per_pose {
         let said = super::replacing(path);
         // A `target` column after `pose` when the rows name reflectors.
@@ -32,13 +40,16 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
         write_atomically(path, |w| {
             let target_header = if targets { ",target" } else { "" };
             // A 6-DoF probe's file: each row's angle between measured and predicted tool frames.
-            let angles = orientation.is_some();
-            let angle_header = if angles { ",angle_deg" } else { "" };
+            let angle_header = if orientation.is_some() {
+                ",angle_deg"
+            } else {
+                ""
+            };
             writeln!(
                 w,
                 "pose{target_header},line,load,dx,dy,dz,error{angle_header}"
             )?;
-            for ((m, r), e) in set.rows.iter().zip(&residuals).zip(&errors) {
+            for (i, ((m, r), e)) in set.rows.iter().zip(&residuals).zip(&errors).enumerate() {
                 let pose = if targets {
                     format!(
                         "{},{}",
@@ -59,9 +70,9 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
                     fixed6(r.z),
                     fixed6(*e)
                 )?;
-                match model.orientation_error(m).filter(|_| angles) {
-                    Some(a) => writeln!(w, ",{}", fixed6(a))?,
-                    None if angles => writeln!(w, ",")?,
+                match angles.get(i) {
+                    Some(Some(a)) => writeln!(w, ",{}", fixed6(*a))?,
+                    Some(None) => writeln!(w, ",")?,
                     None => writeln!(w)?,
                 }
             }

@@ -323,8 +323,7 @@ impl<'a> CalibrationProblem<'a> {
                 None => robot.write_orientation_jacobian(q, &mut full, row),
             };
             // r = log(R Rₘᵀ): a turn δ of R moves it by J⁻¹(r) δ (exact, not only near r = 0).
-            let measured = self.obs.orientation(i).copied().unwrap_or(rot);
-            let phi = rotation_vector(&(rot * measured.transpose()));
+            let phi = self.rotation_residual(i, &rot);
             let jinv = left_jacobian_inverse(&phi) * w;
             let block = jinv * full.view((row, 0), (3, full.ncols()));
             full.view_mut((row, 0), (3, full.ncols())).copy_from(&block);
@@ -333,6 +332,15 @@ impl<'a> CalibrationProblem<'a> {
             r.extend_from_slice((phi * w).as_slice());
         }
         (r, full, cjac)
+    }
+
+    /// The rotation residual of observation `i` for a predicted tool frame: the rotation vector
+    /// `log(R Rₘᵀ)` from the measured frame to the predicted one, rad (zero without a measured
+    /// frame), before any weight.
+    fn rotation_residual(&self, i: usize, predicted: &Matrix3<f64>) -> Vector3<f64> {
+        self.obs.orientation(i).map_or_else(Vector3::zeros, |m| {
+            rotation_vector(&(predicted * m.transpose()))
+        })
     }
 
     /// The root weight of residual row `row` (a position row's point, or a rotation row's).
@@ -490,11 +498,8 @@ impl<'a> CalibrationProblem<'a> {
             let compliance = self.compliance_at(u);
             for &i in &self.oriented {
                 let predicted = self.obs.predict_rotation(&robot, compliance.as_ref(), i);
-                let measured = self.obs.orientation(i).copied().unwrap_or(predicted);
                 let w = self.obs.angle_weight * self.root_weight(i);
-                r.extend_from_slice(
-                    (rotation_vector(&(predicted * measured.transpose())) * w).as_slice(),
-                );
+                r.extend_from_slice((self.rotation_residual(i, &predicted) * w).as_slice());
             }
         }
         r
