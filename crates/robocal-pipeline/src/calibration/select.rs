@@ -424,8 +424,8 @@ impl Chain {
 
 /// The physical models, each scored on every fold: the nominal table, the identified one, with
 /// compliances (two or more loads); then, on the current identified one, transmission
-/// harmonics, then self-weight terms — each kept only if it lowers the held-out errors
-/// significantly.
+/// harmonics and self-weight terms by forward stepwise selection — each kept only if it lowers
+/// the held-out errors significantly.
 fn physics_chain(
     settings: &AutoSettings,
     nominal: &Robot,
@@ -466,18 +466,54 @@ fn physics_chain(
             loads.first().copied().unwrap_or(0.0)
         ));
     }
-    for (harmonics, self_weight) in [(settings.harmonics, false), (0, settings.self_weight)] {
-        if harmonics == 0 && !self_weight {
-            continue;
-        }
-        let base = chain.scored[chain.identified()].physics;
-        let next = Physics {
-            harmonics: base.harmonics.max(harmonics),
-            self_weight: base.self_weight || self_weight,
+    // The joint-error blocks by forward stepwise selection: each block alone on the identified
+    // model, the one with the lower held-out score stepped first (kept if significant); then the
+    // other on top of it when it was kept, or alone when it was not. A flexible block cannot take
+    // the place of the block whose form the effect has only because it was tried first
+    // (harmonics of the joint angles absorb part of a self-weight deflection, and extrapolate
+    // it badly).
+    let base = chain.scored[chain.identified()].physics;
+    let blocks: Vec<Physics> = [
+        (settings.harmonics > 0).then_some(Physics {
+            harmonics: base.harmonics.max(settings.harmonics),
             ..base
-        };
-        chain.step("joint_errors", score(next), groups);
+        }),
+        settings.self_weight.then_some(Physics {
+            self_weight: true,
+            ..base
+        }),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let mut singles: Vec<Scored> = blocks.into_iter().map(&mut score).collect();
+    singles.sort_by(|a, b| match (a.score, b.score) {
+        (Some(x), Some(y)) => x.total_cmp(&y),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => std::cmp::Ordering::Equal,
+    });
+    let mut singles = singles.into_iter();
+    if let Some(first) = singles.next() {
+        let first_physics = first.physics;
+        chain.step("joint_errors", first, groups);
+        if let Some(second) = singles.next() {
+            if chain.scored[chain.current].physics == first_physics {
+                let both = Physics {
+                    harmonics: first_physics.harmonics.max(second.physics.harmonics),
+                    self_weight: first_physics.self_weight || second.physics.self_weight,
+                    ..first_physics
+                };
+                // Scored alone, not stepped: kept in the chain so that its indices stay those
+                // of the candidates.
+                chain.scored.push(second);
+                chain.step("joint_errors", score(both), groups);
+            } else {
+                chain.step("joint_errors", second, groups);
+            }
+        }
     }
+    debug_assert_eq!(chain.scored.len(), candidates.len());
     chain
 }
 
