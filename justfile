@@ -55,10 +55,22 @@ fuzz cases="20000":
 
 # the accuracy suite: default calibrate and each stage on twins of five arms (two seeds, effects
 # all on / modelled only, configuration and extrapolation splits), errors against the twins'
-# noise-free points; the families kept aside (ARM6S, ARM6H) only with ASIDE="--aside"
+# noise-free points; the families kept aside (ARM6S, ARM6H, ARM6C) only with ASIDE="--aside"
 # (docs/accuracy.md)
 accuracy seeds="2" aside="":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}}
+
+# the outside pipeline of issue 15 (scipy LM, then a scikit-learn MLP per axis on sin/cos of the
+# joints and the load; scripts/peer/lm_mlp.py, independent of robocal) against robocal's default
+# calibrate through the files, on the accuracy suite's cases (docs/accuracy.md "Against a scipy +
+# scikit-learn pipeline"); a venv with numpy, scipy and scikit-learn in target/peervenv
+peer seeds="2" aside="":
+    cargo build --release --bin robocal
+    rm -rf target/peer-cases
+    cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}} --export target/peer-cases
+    test -x target/peervenv/bin/python || python3 -m venv target/peervenv
+    target/peervenv/bin/pip install -q numpy scipy scikit-learn
+    target/peervenv/bin/python scripts/peer/lm_mlp.py target/peer-cases --robocal target/release/robocal
 
 # bad shots: clean rows in robust σ, 1-3 shots of 20-50 mm named, the held-out change
 accuracy-outliers seeds="3":

@@ -6,7 +6,7 @@
 //!
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
-//!     [--no-compensation] [--verbose] [--networks]
+//!     [--no-compensation] [--verbose] [--networks] [--export DIR]
 //! ```
 //!
 //! Every twin is a twin's; none of these numbers is a real robot's. The ARM6S, ARM6H and ARM6C
@@ -15,6 +15,9 @@
 //! ARM6C after ARM6H had been reported.
 //! `--networks` prints the residual models side by side on the identified physics instead
 //! (SOMM with the paper's and robocal's settings, robocal's CA-SOMM, the GP).
+//! `--export DIR` writes every case's files instead (`DIR/ARM-sSEED-EFFECTS-SPLIT/`: the nominal
+//! `robot.toml`, `train.csv`, `test.csv`, and `truth.csv` with the test rows' noise-free points),
+//! for the outside pipeline of `scripts/peer/lm_mlp.py`.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,7 +25,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robocal_data::{ErrorStats, Measurement, Observer, Silent};
+use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, Silent};
 use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
 use robocal_pipeline::CalibratedModel;
 use robocal_pipeline::calibration::{
@@ -227,6 +230,37 @@ fn previous_default(
     Ok(built.model())
 }
 
+/// Writes one case for an outside pipeline: `robot.toml` (the nominal table), `train.csv`,
+/// `test.csv` (measured) and `truth.csv` (the test rows' noise-free points) in `dir/case`.
+fn export_case(
+    dir: &Path,
+    case: &str,
+    nominal: &robocal_robot::Robot,
+    train: &[&Measurement],
+    test: &[&Measurement],
+    truth: &std::collections::HashMap<(String, u64), Vector3<f64>>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let out = dir.join(case);
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("robot.toml"), nominal.to_toml_string())?;
+    let set = |rows: Vec<Measurement>| MeasurementSet {
+        source: PathBuf::new(),
+        joint_count: nominal.joints.len(),
+        rows,
+    };
+    set(train.iter().map(|m| (*m).clone()).collect()).write(out.join("train.csv"))?;
+    set(test.iter().map(|m| (*m).clone()).collect()).write(out.join("test.csv"))?;
+    set(test
+        .iter()
+        .map(|m| Measurement {
+            position: truth[&(m.sample.pose.clone(), m.sample.load.to_bits())],
+            ..(*m).clone()
+        })
+        .collect())
+    .write(out.join("truth.csv"))?;
+    Ok(())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value = |flag: &str| {
@@ -240,6 +274,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let verbose = args.iter().any(|a| a == "--verbose");
     // Residual models side by side on the identified physics, instead of the default.
     let networks = args.iter().any(|a| a == "--networks");
+    // Every case's files for an outside pipeline (scripts/peer), instead of the table.
+    let export = value("--export").map(PathBuf::from);
     let mut landings: Vec<(String, u64, Landing)> = Vec::new();
     let arms: Vec<String> = match value("--arms") {
         Some(list) => list.split(',').map(str::to_string).collect(),
@@ -277,6 +313,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
                 for how in [Split::Configurations, Split::Extrapolation] {
                     let (train, test) = split(&rows, how, seed);
+                    if let Some(dir) = &export {
+                        export_case(
+                            dir,
+                            &format!(
+                                "{name}-s{seed}-{}-{}",
+                                match effects {
+                                    Effects::All => "all",
+                                    Effects::Modelled => "modelled",
+                                },
+                                match how {
+                                    Split::Configurations => "configurations",
+                                    Split::Extrapolation => "q1",
+                                }
+                            ),
+                            &twin.nominal,
+                            &train,
+                            &test,
+                            &truth,
+                        )?;
+                        continue;
+                    }
                     let floor = {
                         let e: Vec<f64> = test
                             .iter()
