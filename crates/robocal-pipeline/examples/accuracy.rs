@@ -430,6 +430,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .as_ref()
                         .and_then(|s| s.candidates.iter().find(|c| c.status == "chosen"))
                         .map_or("?".to_string(), |c| c.name.clone());
+                    // The choice's name is what the model holds.
+                    let terms = |kind: &str| {
+                        (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind))
+                    };
+                    assert_eq!(terms(".h"), choice.contains("harmonics"), "{choice}");
+                    assert_eq!(terms(".sw"), choice.contains("self-weight"), "{choice}");
+                    assert_eq!(
+                        built.residual.is_some(),
+                        choice.ends_with("gp") || choice.ends_with("somm"),
+                        "{choice}"
+                    );
                     let model = built.model();
                     let default = versus_truth(&model, &test, &truth).mean;
                     if compensation && effects == Effects::All && how == Split::Configurations {

@@ -335,7 +335,10 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         "{names:?}"
     );
     if physical == 6 {
-        assert!(names[5].ends_with("+ harmonics 2 + self-weight"), "{names:?}");
+        assert!(
+            names[5].ends_with("+ harmonics 2 + self-weight"),
+            "{names:?}"
+        );
     }
     assert!(
         names[physical].ends_with("+ gp") && names[physical + 1].ends_with("+ somm"),
@@ -451,9 +454,8 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     );
     assert_eq!(built.kinematic.report.compliance.is_some(), with_compliance);
     assert_eq!(!built.kinematic.report.joint_errors.is_empty(), with_errors);
-    let terms = |kind: &str| {
-        (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind))
-    };
+    let terms =
+        |kind: &str| (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind));
     assert_eq!(terms(".h"), chosen[0].name.contains("harmonics"));
     assert_eq!(terms(".sw"), chosen[0].name.contains("self-weight"));
     let residual = chosen[0].name.ends_with("gp") || chosen[0].name.ends_with("somm");

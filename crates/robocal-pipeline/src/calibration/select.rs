@@ -403,13 +403,18 @@ impl Chain {
     /// Scores `next`, compares it with the current model and takes it if it is significantly
     /// better.
     fn step(&mut self, stage: &'static str, next: Scored, groups: &[usize]) {
-        let better = match (&self.scored[self.current].errors, &next.errors) {
+        self.scored.push(next);
+        self.take(stage, self.scored.len() - 1, groups);
+    }
+
+    /// Compares the scored candidate `next` (already in the chain) with the current model and
+    /// takes it if it is significantly better.
+    fn take(&mut self, stage: &'static str, next: usize, groups: &[usize]) {
+        let better = match (&self.scored[self.current].errors, &self.scored[next].errors) {
             (Some(c), Some(n)) => improves(c, n, groups),
             (None, Some(_)) => true,
             _ => false,
         };
-        self.scored.push(next);
-        let next = self.scored.len() - 1;
         self.steps.push(Step {
             stage,
             base: self.current,
@@ -486,34 +491,43 @@ fn physics_chain(
     .into_iter()
     .flatten()
     .collect();
-    let mut singles: Vec<Scored> = blocks.into_iter().map(&mut score).collect();
-    singles.sort_by(|a, b| match (a.score, b.score) {
-        (Some(x), Some(y)) => x.total_cmp(&y),
-        (Some(_), None) => std::cmp::Ordering::Less,
-        (None, Some(_)) => std::cmp::Ordering::Greater,
-        (None, None) => std::cmp::Ordering::Equal,
-    });
-    let mut singles = singles.into_iter();
-    if let Some(first) = singles.next() {
-        let first_physics = first.physics;
-        chain.step("joint_errors", first, groups);
-        if let Some(second) = singles.next() {
-            if chain.scored[chain.current].physics == first_physics {
+    // Every scored candidate joins the chain in the order it was scored, so that the chain's
+    // indices stay those of the candidates.
+    let singles: Vec<usize> = (blocks.into_iter())
+        .map(|b| {
+            chain.scored.push(score(b));
+            chain.scored.len() - 1
+        })
+        .collect();
+    let mut order = singles.clone();
+    order.sort_by(
+        |&a, &b| match (chain.scored[a].score, chain.scored[b].score) {
+            (Some(x), Some(y)) => x.total_cmp(&y),
+            (Some(_), None) => std::cmp::Ordering::Less,
+            (None, Some(_)) => std::cmp::Ordering::Greater,
+            (None, None) => std::cmp::Ordering::Equal,
+        },
+    );
+    if let Some(&first) = order.first() {
+        chain.take("joint_errors", first, groups);
+        if let Some(&second) = order.get(1) {
+            if chain.current == first {
+                let (one, other) = (chain.scored[first].physics, chain.scored[second].physics);
                 let both = Physics {
-                    harmonics: first_physics.harmonics.max(second.physics.harmonics),
-                    self_weight: first_physics.self_weight || second.physics.self_weight,
-                    ..first_physics
+                    harmonics: one.harmonics.max(other.harmonics),
+                    self_weight: one.self_weight || other.self_weight,
+                    ..one
                 };
-                // Scored alone, not stepped: kept in the chain so that its indices stay those
-                // of the candidates.
-                chain.scored.push(second);
                 chain.step("joint_errors", score(both), groups);
             } else {
-                chain.step("joint_errors", second, groups);
+                chain.take("joint_errors", second, groups);
             }
         }
     }
-    debug_assert_eq!(chain.scored.len(), candidates.len());
+    debug_assert!(
+        (chain.scored.iter().zip(candidates.iter())).all(|(s, c)| s.physics.name() == c.name)
+            && chain.scored.len() == candidates.len()
+    );
     chain
 }
 
