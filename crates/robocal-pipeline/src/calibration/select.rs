@@ -812,8 +812,9 @@ fn kinematic_only(
 /// the best identified one — is scored by its error on held-out poses: the mean of its mean
 /// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
 /// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
-/// The choice is a chain — identified table, compliance, harmonics, self-weight, the best
-/// residual model — each step taken only if it lowers the held-out errors significantly
+/// The choice is a chain — identified table, compliance, the joint-error blocks by forward
+/// stepwise selection (harmonics and self-weight each alone, the better first, then the other),
+/// the best residual model — each step taken only if it lowers the held-out errors significantly
 /// ([`improves`]); the model it ends on is fitted again on every row. `observer` hears a line
 /// per candidate and per decision, and counts the fits.
 pub fn automatic(
