@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use nalgebra::{Matrix3, Vector3};
 use robocal_compensate::{CompensationOptions, compensate};
-use robocal_data::{csv_text, fixed6, read_targets, write_atomically};
+use robocal_data::{Sample, csv_text, fixed6, read_targets, write_atomically};
 use robocal_model::CalibratedModel;
 use robocal_robot::{TomlFault, rpy_to_matrix};
 use serde::Deserialize;
@@ -82,6 +82,7 @@ pub fn run(
     let options = CompensationOptions::default();
     let mut rows = Vec::with_capacity(targets.len());
     let mut failed = Vec::new();
+    let mut commands: Vec<Sample> = Vec::new();
     let mut worst: f64 = 0.0;
     for t in &targets {
         // A row naming a reflector puts that point on its target.
@@ -94,11 +95,17 @@ pub fn run(
         ) {
             Ok(c) => {
                 worst = worst.max(c.model_error);
+                commands.push(Sample {
+                    joints: c.joints_deg.clone(),
+                    ..t.sample.clone()
+                });
                 rows.push((t.sample.pose.clone(), c.joints_deg));
             }
             Err(why) => failed.push(format!("{} (line {}): {why}", t.sample.pose, t.sample.line)),
         }
     }
+    // The commands are the readings the model is applied at: warn where they leave its domain.
+    super::warn_outside(&model, file, &commands);
     let dof = model.robot.dof();
     let said = super::replacing(out);
     write_atomically(out, |w: &mut dyn Write| {

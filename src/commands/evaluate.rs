@@ -17,6 +17,7 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
     let model = model::load(source)?;
     let set = MeasurementSet::read(data, model.robot.dof())?;
     model.check_targets(data, set.rows.iter().map(|m| &m.sample))?;
+    super::warn_outside(&model, data, set.rows.iter().map(|m| &m.sample));
     let residuals = model.residuals(&set.rows);
     let errors: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let stats = ErrorStats::from_errors(&errors);

@@ -97,6 +97,18 @@ pub fn ensure_parent(out: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Warns (stderr) when rows of `file` lie outside the joint readings and loads `model` was
+/// calibrated on: predictions there are extrapolation.
+pub fn warn_outside<'a>(
+    model: &robocal_model::CalibratedModel,
+    file: &Path,
+    rows: impl IntoIterator<Item = &'a robocal_data::Sample>,
+) {
+    if let Some(w) = (model.domain.as_ref()).and_then(|d| d.warning(file, rows)) {
+        eprintln!("robocal: warning: {w}");
+    }
+}
+
 /// Outputs are replaced atomically when they exist (the documented rule); the replacement is
 /// said on stderr. Call before writing: the returned closure says it after a successful write.
 pub fn replacing(out: &Path) -> impl FnOnce() + '_ {

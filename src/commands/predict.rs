@@ -16,6 +16,7 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
     let model = model::load(source)?;
     let samples = SampleSet::read(data, model.robot.dof())?;
     model.check_targets(data, &samples.rows)?;
+    super::warn_outside(&model, data, &samples.rows);
     let (points, sigmas) = model.predict_with_sigma(&samples.rows, sigma);
     if sigma && sigmas.is_none() {
         bail!(

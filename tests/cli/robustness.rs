@@ -241,3 +241,88 @@ fn few_poses_are_warned_about_not_refused_as_wrong_units() {
     let (ok, err) = lm(&metres, &dir.path().join("m2"));
     assert!(!ok && err.contains("metres"), "{err}");
 }
+
+/// The model keeps the joint readings and loads it was calibrated on (`domain.toml`, recomputed
+/// here from the training file): `predict`, `evaluate` and `compensate` warn, naming the file,
+/// the rows outside and joint 1's farthest reading, when rows or commands lie beyond joint 1's
+/// calibrated range — and say nothing on the training rows; the outputs are written either way.
+#[test]
+fn rows_beyond_the_calibrated_joint_readings_are_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = twin_rows();
+    let q1 = |line: &str| -> f64 { line.split(',').nth(1).unwrap().parse().unwrap() };
+    let mut values: Vec<f64> = rows.lines().skip(1).map(q1).collect();
+    values.sort_by(f64::total_cmp);
+    let cut = values[values.len() * 2 / 3];
+    let pick = |inside: bool| -> String {
+        let mut lines = rows.lines();
+        let mut out = format!("{}\n", lines.next().unwrap());
+        for l in lines.filter(|l| (q1(l) <= cut) == inside && l.split(',').nth(7) == Some("0")) {
+            out += l;
+            out += "\n";
+        }
+        out
+    };
+    let train = write(dir.path(), "train.csv", &pick(true));
+    let beyond = write(dir.path(), "beyond.csv", &pick(false));
+    let model = dir.path().join("model");
+    let (ok, said) = calibrate_with_stage(&train, &model, "configs/stages/kinematic-lm.toml", &[]);
+    assert!(ok, "{said}");
+    let domain = std::fs::read_to_string(model.join("domain.toml")).unwrap();
+    let trained_max = (pick(true).lines().skip(1).map(q1)).fold(f64::NEG_INFINITY, f64::max);
+    assert!(domain.contains(&format!("{trained_max}]")), "{domain}");
+    let far = (pick(false).lines().skip(1).map(q1)).fold(f64::NEG_INFINITY, f64::max);
+    let outside = pick(false).lines().count() - 1;
+    let warned = |stderr: &[u8], file: &Path| {
+        let e = String::from_utf8_lossy(stderr).into_owned();
+        let expected = format!(
+            "robocal: warning: {}: {outside} of {outside} rows lie outside",
+            file.display()
+        );
+        (
+            e.contains(&expected) && e.contains(&format!("q1 on {outside} (up to {far}°")),
+            e,
+        )
+    };
+    let out = dir.path().join("pred.csv");
+    let o = robocal(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--data",
+        s(&beyond),
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success() && out.exists());
+    let (ok, e) = warned(&o.stderr, &beyond);
+    assert!(ok, "{e}");
+    let o = robocal(&["evaluate", "--model", s(&model), "--data", s(&beyond)]);
+    let (ok, e) = warned(&o.stderr, &beyond);
+    assert!(o.status.success() && ok, "{e}");
+    // The targets: each beyond-row's measured point, the row's reading as the seed.
+    let targets = pick(false).replacen("pose,", "id,", 1);
+    let targets = write(dir.path(), "targets.csv", &targets);
+    let commands = dir.path().join("commands.csv");
+    let o = robocal(&[
+        "compensate",
+        "--model",
+        s(&model),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success() && commands.exists(), "{e}");
+    assert!(
+        e.contains(&format!("robocal: warning: {}: ", targets.display()))
+            && e.contains("rows lie outside")
+            && e.contains("q1 on "),
+        "{e}"
+    );
+    // The training rows: no warning.
+    let o = robocal(&["evaluate", "--model", s(&model), "--data", s(&train)]);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success() && !e.contains("warning"), "{e}");
+}

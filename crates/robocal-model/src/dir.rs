@@ -7,6 +7,8 @@
 //!   residual.json     the residual model's manifest, and its network files, when learned
 //!   nominal.toml      the nominal table with base and tool registered in the tracker frame
 //!                     (the arm before calibration), when the calibration gives one
+//!   domain.toml       the joint readings and loads the model was calibrated on (rows outside
+//!                     are extrapolation, warned of), when the calibration gives one
 //!   report.json       model_format, robocal_version, then what the calibration reports
 //! ```
 
@@ -17,6 +19,7 @@ use robocal_residual::{MANIFEST, ResidualModel};
 use robocal_robot::{JointErrors, Robot};
 use serde::{Deserialize, Serialize};
 
+use crate::domain::{DOMAIN_FILE, Domain};
 use crate::error::{ModelError, Result};
 use crate::model::CalibratedModel;
 
@@ -73,6 +76,9 @@ impl CalibratedModel {
             }
             if let Some(nominal) = &self.nominal {
                 write_text_in(dir, out, NOMINAL_FILE, &nominal.to_toml_string())?;
+            }
+            if let Some(domain) = &self.domain {
+                write_text_in(dir, out, DOMAIN_FILE, &domain.to_toml_string())?;
             }
             write_text_in(dir, out, REPORT_FILE, &json)?;
             Ok(())
@@ -141,8 +147,13 @@ impl CalibratedModel {
         } else {
             None
         };
+        let domain_file = dir.join(DOMAIN_FILE);
+        let domain = (domain_file.exists())
+            .then(|| Domain::load(&domain_file, robot.dof()))
+            .transpose()?;
         Ok(Self {
             nominal,
+            domain,
             ..Self::new(robot, joint_errors, residual)
         })
     }

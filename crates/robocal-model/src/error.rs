@@ -68,6 +68,24 @@ pub enum ModelError {
         /// Joints of the identified table.
         joints: usize,
     },
+    /// `domain.toml` holds a bad value.
+    #[error("{file}: key `{key}`: {message}")]
+    Domain {
+        /// `domain.toml`.
+        file: PathBuf,
+        /// The key at fault.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// `domain.toml` is not TOML of its form.
+    #[error("{file}: {message}")]
+    DomainToml {
+        /// `domain.toml`.
+        file: PathBuf,
+        /// The parser's message (with its line and column).
+        message: String,
+    },
     /// The report could not be serialised.
     #[error("{file}: cannot write the report: {source}")]
     Report {

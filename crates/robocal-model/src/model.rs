@@ -22,6 +22,10 @@ pub struct CalibratedModel {
     /// training data): the arm before calibration, against which `robocal report` compares.
     /// Not used to predict.
     pub nominal: Option<Robot>,
+    /// The joint readings and loads the model was calibrated on (`domain.toml`): rows outside
+    /// are extrapolation, which `predict`, `evaluate` and `compensate` warn of. `None` for a
+    /// table alone or a model directory written before it.
+    pub domain: Option<crate::Domain>,
 }
 
 impl CalibratedModel {
@@ -36,6 +40,7 @@ impl CalibratedModel {
             joint_errors,
             residual,
             nominal: None,
+            domain: None,
         }
     }
 

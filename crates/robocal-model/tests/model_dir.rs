@@ -171,3 +171,75 @@ fn another_layout_version_and_misfitting_parts_are_refused() {
         ModelError::NotFound { .. }
     ));
 }
+
+/// The domain (the joint readings and loads calibrated on): computed from the rows, kept by the
+/// directory's round trip, absent from a directory written without it; the warning counts the
+/// rows outside, names each joint with its farthest reading and how far beyond (recomputed
+/// here), the load, and the first row; none for rows inside; a bad `domain.toml` is refused with
+/// its file and key.
+#[test]
+fn the_calibrated_domain_round_trips_and_warns_of_rows_outside() {
+    use robocal_model::{DOMAIN_FILE, Domain};
+    let rows = samples(40, 7);
+    let domain = Domain::of(&rows).unwrap();
+    for j in 0..6 {
+        let lo = rows
+            .iter()
+            .map(|s| s.joints[j])
+            .fold(f64::INFINITY, f64::min);
+        let hi = (rows.iter().map(|s| s.joints[j])).fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(domain.joints[j], [lo, hi]);
+    }
+    assert!(Domain::of(&[] as &[Sample]).is_none());
+    let (_tmp, out) = dir();
+    let mut model = CalibratedModel::kinematic(robot());
+    model.domain = Some(domain.clone());
+    model.save(&out, &serde_json::json!({})).unwrap();
+    assert_eq!(
+        CalibratedModel::load(&out).unwrap().domain,
+        Some(domain.clone())
+    );
+    // Inside: no warning.
+    let file = Path::new("held.csv");
+    assert_eq!(domain.warning(file, &rows), None);
+    // Two rows beyond joint 2's range, one of them also beyond the loads.
+    let [lo2, hi2] = domain.joints[1];
+    let mut outside = rows[..5].to_vec();
+    outside[1].joints[1] = hi2 + 12.5;
+    outside[1].line = 17;
+    outside[1].pose = "far".into();
+    outside[3].joints[1] = lo2 - 3.0;
+    outside[3].load = domain.load[1] + 2.0;
+    let w = domain.warning(file, &outside).unwrap();
+    assert!(w.starts_with("held.csv: 2 of 5 rows lie outside"), "{w}");
+    assert!(
+        w.contains(&format!("q2 on 2 (up to {}°, 12.5° beyond", hi2 + 12.5)),
+        "{w}"
+    );
+    assert!(
+        w.contains("load on 1") && w.contains("2.000 kg beyond"),
+        "{w}"
+    );
+    assert!(
+        w.contains("first: line 17, pose `far`") && !w.contains("q1 on"),
+        "{w}"
+    );
+    // A directory without the file loads with no domain; a reversed range is refused.
+    std::fs::remove_file(out.join(DOMAIN_FILE)).unwrap();
+    assert_eq!(CalibratedModel::load(&out).unwrap().domain, None);
+    let mut bad = domain.clone();
+    bad.joints[3] = [10.0, -10.0];
+    std::fs::write(out.join(DOMAIN_FILE), bad.to_toml_string()).unwrap();
+    let err = CalibratedModel::load(&out).unwrap_err().to_string();
+    assert!(
+        err.contains(DOMAIN_FILE) && err.contains("joints[4]"),
+        "{err}"
+    );
+    bad.joints.pop();
+    std::fs::write(out.join(DOMAIN_FILE), bad.to_toml_string()).unwrap();
+    let err = CalibratedModel::load(&out).unwrap_err().to_string();
+    assert!(err.contains("5 ranges for a robot with 6 joints"), "{err}");
+    std::fs::write(out.join(DOMAIN_FILE), "joints = 3\n").unwrap();
+    let err = CalibratedModel::load(&out).unwrap_err().to_string();
+    assert!(err.contains(DOMAIN_FILE) && err.contains("line 1"), "{err}");
+}

@@ -153,6 +153,8 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         }
     };
     let mut model = built.model();
+    // What it was calibrated on (the data file's rows: the bad shots left out lie among them).
+    model.domain = robocal_model::Domain::of(rows.iter().map(|m| &m.sample));
     let validation = input.validation.map(|v| {
         let rows: Vec<&Measurement> = v.rows.iter().collect();
         Validation {
