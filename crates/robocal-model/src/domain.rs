@@ -112,17 +112,21 @@ impl Domain {
         let mut parts = Vec::new();
         for (j, &(n, reading, beyond)) in joints.iter().enumerate() {
             if n > 0 {
-                let [lo, hi] = self.joints[j];
+                let [lo, hi] = self.joints[j].map(r4);
                 parts.push(format!(
-                    "q{} on {n} (up to {reading}°, {beyond:.1}° beyond the calibrated {lo}..{hi}°)",
-                    j + 1
+                    "q{} on {n} (up to {}°, {beyond:.1}° beyond the calibrated {lo}..{hi}°)",
+                    j + 1,
+                    r4(reading)
                 ));
             }
         }
         if loads > 0 {
             parts.push(format!(
                 "load on {loads} (up to {} kg, {:.3} kg beyond the calibrated {}..{} kg)",
-                load_far.0, load_far.1, self.load[0], self.load[1]
+                r4(load_far.0),
+                load_far.1,
+                r4(self.load[0]),
+                r4(self.load[1])
             ));
         }
         let mut text = format!(
@@ -184,4 +188,9 @@ impl Domain {
         }
         Ok(domain)
     }
+}
+
+/// `x` to four decimals, printed shortest (46.1194, 12.5): the files' precision.
+fn r4(x: f64) -> f64 {
+    (x * 1e4).round() / 1e4
 }

@@ -213,7 +213,10 @@ fn the_calibrated_domain_round_trips_and_warns_of_rows_outside() {
     let w = domain.warning(file, &outside).unwrap();
     assert!(w.starts_with("held.csv: 2 of 5 rows lie outside"), "{w}");
     assert!(
-        w.contains(&format!("q2 on 2 (up to {}°, 12.5° beyond", hi2 + 12.5)),
+        w.contains(&format!(
+            "q2 on 2 (up to {}°, 12.5° beyond",
+            ((hi2 + 12.5) * 1e4).round() / 1e4
+        )),
         "{w}"
     );
     assert!(

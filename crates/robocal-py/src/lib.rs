@@ -371,6 +371,21 @@ fn stats_dict<'py>(py: Python<'py>, s: &ErrorStats) -> PyResult<Bound<'py, pyo3:
     Ok(d)
 }
 
+/// A Python warning when rows (`what`: the argument's name) lie outside the joint readings and
+/// loads `model` was calibrated on: predictions there are extrapolation.
+fn warn_outside<'a>(
+    py: Python<'_>,
+    model: &CalibratedModel,
+    what: &str,
+    rows: impl IntoIterator<Item = &'a Sample>,
+) -> PyResult<()> {
+    if let Some(w) = (model.domain.as_ref()).and_then(|d| d.warning(Path::new(what), rows)) {
+        let text = std::ffi::CString::new(w).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyWarning>(), &text, 1)?;
+    }
+    Ok(())
+}
+
 #[pymethods]
 impl PyModel {
     /// Reads a model directory written by `robocal calibrate` or `Model.save`.
@@ -400,6 +415,14 @@ impl PyModel {
         }
     }
 
+    /// The joint readings and loads the model was calibrated on: `(joints, load)`, `joints` one
+    /// `[low, high]` per joint (deg), `load` `[lightest, heaviest]` (kg); `None` for a model
+    /// directory written without it. `predict`, `evaluate` and `compensate` warn of rows outside.
+    #[getter]
+    fn domain(&self) -> Option<(Vec<[f64; 2]>, [f64; 2])> {
+        (self.inner.domain.as_ref()).map(|d| (d.joints.clone(), d.load))
+    }
+
     /// `report.json` as text (JSON): what ran, the statistics, every parameter with σ.
     #[getter]
     fn report(&self) -> String {
@@ -423,6 +446,7 @@ impl PyModel {
         self.inner
             .check_targets(Path::new("q"), &rows)
             .map_err(fail)?;
+        warn_outside(py, &self.inner, "q", &rows)?;
         let (points, sigmas) = py.detach(|| self.inner.predict_with_sigma(&rows, sigma));
         let mut out = Array2::zeros((points.len(), 3));
         for (i, p) in points.iter().enumerate() {
@@ -490,6 +514,7 @@ impl PyModel {
         self.inner
             .check_targets(&set.source, set.rows.iter().map(|m| &m.sample))
             .map_err(fail)?;
+        warn_outside(py, &self.inner, "q", set.rows.iter().map(|m| &m.sample))?;
         let rows: Vec<_> = set.rows.iter().collect();
         let d = stats_dict(py, &self.inner.stats(&rows))?;
         if set.has_orientation() {
@@ -561,6 +586,7 @@ impl PyModel {
         let mut commands = Array2::from_elem((rows.len(), dof), f64::NAN);
         let mut errors = Array1::from_elem(rows.len(), f64::NAN);
         let mut failed = Vec::new();
+        let mut reached = Vec::new();
         for (i, r) in results.into_iter().enumerate() {
             match r {
                 Ok(c) => {
@@ -568,10 +594,16 @@ impl PyModel {
                         commands[[i, j]] = *v;
                     }
                     errors[i] = c.model_error;
+                    reached.push(Sample {
+                        joints: c.joints_deg,
+                        ..rows[i].clone()
+                    });
                 }
                 Err(why) => failed.push(format!("row {}: {why}", i + 1)),
             }
         }
+        // The commands are the readings the model is applied at.
+        warn_outside(py, &self.inner, "commands", &reached)?;
         if !failed.is_empty() {
             let text = std::ffi::CString::new(format!(
                 "{} target(s) could not be compensated (NaN): {}",

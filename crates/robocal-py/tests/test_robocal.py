@@ -379,3 +379,43 @@ def test_a_6dof_probe_equals_the_cli(tmp_path):
     bad[1, 1] = 95.0
     with pytest.raises(robocal.RobocalError, match=r"line 2, column `ry`: 95 deg is out of range"):
         robocal.calibrate(robot, q, load, xyz, config=stage, pose=pose, rpy=bad)
+
+
+def test_rows_outside_the_calibrated_domain_are_warned_of(tmp_path):
+    import warnings
+
+    q, load, xyz, _ = arrays(TRAIN)
+    model = robocal.calibrate(
+        robocal.Robot.load(ROBOT), q, load, xyz, config=STAGES / "kinematic-lm.toml"
+    )
+    joints, loads = model.domain
+    np.testing.assert_array_equal(np.array(joints), np.stack([q.min(0), q.max(0)], axis=1))
+    assert list(loads) == [load.min(), load.max()]
+    # The saved directory keeps it; the CLI's calibrate on the same rows writes the same.
+    model.save(tmp_path / "py")
+    assert robocal.Model.load(tmp_path / "py").domain == model.domain
+    cli(
+        "calibrate", "--robot", ROBOT, "--data", write_csv(tmp_path / "train.csv", TRAIN),
+        "--out", tmp_path / "cli", "--config", STAGES / "kinematic-lm.toml",
+    )
+    assert robocal.Model.load(tmp_path / "cli").domain == model.domain
+    # Inside: no warning from predict, evaluate or compensate.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(q, load)
+        model.evaluate(q, load, xyz)
+        model.compensate(model.predict(q[:3], load[:3]), q[:3], load[:3])
+    # Joint 1 beyond its range on two rows: each call names them and the joint.
+    far = q[:5].copy()
+    far[1, 0] = joints[0][1] + 15.0
+    far[3, 0] = joints[0][0] - 4.0
+    for call in (
+        lambda: model.predict(far, 0.0),
+        lambda: model.evaluate(far, 0.0, model.predict(far, 0.0)),
+    ):
+        with pytest.warns(Warning, match=r"2 of 5 rows lie outside .* q1 on 2 \(up to"):
+            call()
+    with pytest.warns(Warning, match=r"commands: \d+ of 5 rows lie outside .* q1 on"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", category=DeprecationWarning)
+            model.compensate(model.predict(far, 0.0), far, 0.0)
