@@ -4,7 +4,9 @@
 use faer::Mat;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, robust_std};
-use robocal_robot::{Compliance, DEG_PER_KNM, ErrorParam, JointErrors, ParamId, Robot, Unit};
+use robocal_robot::{
+    Compliance, DEG_PER_KNM, ErrorParam, Harmonic, JointErrors, ParamId, Robot, Unit,
+};
 use serde::Serialize;
 
 use crate::bfgs::run_bfgs;
@@ -640,11 +642,13 @@ fn joint_error_reports(
 }
 
 /// The joint-error model identification starts from — the compliance choice's, with the
-/// harmonics and self-weight terms `settings` ask for at zero — and its unknowns.
+/// harmonics and self-weight terms `settings` ask for at zero, each harmonic reaching as far as
+/// its joint's readings in `obs` allow ([`Harmonic::reach_of`]) — and its unknowns.
 fn joint_error_start(
     settings: &KinematicSettings,
     aligned: &Robot,
     choice: Option<&ComplianceChoice>,
+    obs: &Observations,
 ) -> Result<(Option<JointErrors>, Vec<ErrorParam>)> {
     let mut start: Option<JointErrors> = choice.map(|c| c.start.clone());
     let mut params: Vec<ErrorParam> = choice.map_or_else(Vec::new, |c| {
@@ -671,6 +675,15 @@ fn joint_error_start(
         }
         model = model.with_harmonics(&joints, je.harmonics);
         for i in first_harmonic..model.harmonics.len() {
+            let joint = model.harmonics[i].joint;
+            let (lo, hi) = (0..obs.len())
+                .map(|k| obs.joints(k)[joint])
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q), hi.max(q))
+                });
+            if lo <= hi {
+                model.harmonics[i].reach = Some(Harmonic::reach_of(lo, hi));
+            }
             params.push(ErrorParam::HarmonicSin(i));
             params.push(ErrorParam::HarmonicCos(i));
         }
@@ -861,7 +874,7 @@ pub fn calibrate_kinematics(
     let ids = aligned.param_ids();
     let mut problem = CalibrationProblem::new(&aligned, selected.clone(), obs);
     let mut columns: Vec<Column> = selected.iter().map(|&i| ids[i].into()).collect();
-    let (start, params) = joint_error_start(settings, &aligned, choice.as_ref())?;
+    let (start, params) = joint_error_start(settings, &aligned, choice.as_ref(), obs)?;
     if let Some(model) = &start {
         columns.extend(params.iter().map(|&p| Column::of_error(model, p)));
         problem = problem.with_joint_errors(model.clone(), params.clone());

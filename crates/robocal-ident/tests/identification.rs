@@ -661,7 +661,25 @@ fn elasto_geometric_lm_recovers_injected_harmonics_and_self_weight() {
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
     assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
     let found = cal.compliance.as_ref().unwrap();
-    let held = observe_loaded(&truth, &errors, &configs[90..], &[12.0]);
+    // Held-out configurations whose joints lie within every harmonic's reach are predicted to
+    // round-off; beyond it the model holds the harmonics (the truth's go on periodically).
+    let within = |q: &[f64]| {
+        (found.harmonics.iter()).all(|h| {
+            h.reach
+                .is_some_and(|[lo, hi]| (lo..=hi).contains(&q[h.joint]))
+        })
+    };
+    let inside: Vec<Vec<f64>> = configs[90..]
+        .iter()
+        .filter(|q| within(q))
+        .cloned()
+        .collect();
+    assert!(
+        inside.len() * 4 >= (configs.len() - 90) * 3,
+        "{} inside",
+        inside.len()
+    );
+    let held = observe_loaded(&truth, &errors, &inside, &[12.0]);
     let left = held.errors_with(&cal.robot, Some(found));
     assert!(
         left.iter().all(|e| *e < 1e-4),
@@ -700,6 +718,18 @@ fn elasto_geometric_lm_recovers_injected_harmonics_and_self_weight() {
         names.contains(&"j5.h2.cos") && names.contains(&"j3.sw4.mass"),
         "{names:?}"
     );
+    // Every harmonic reaches over its joint's readings, widened by HARMONIC_REACH of their span.
+    for h in &found.harmonics {
+        let readings: Vec<f64> = obs.q.iter().skip(h.joint).step_by(6).copied().collect();
+        let lo = readings.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = readings.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let margin = robocal_robot::HARMONIC_REACH * (hi - lo);
+        let [a, b] = h.reach.expect("identified harmonics have a reach");
+        assert!(
+            (a - (lo - margin)).abs() < 1e-12 && (b - (hi + margin)).abs() < 1e-12,
+            "{h:?}"
+        );
+    }
 }
 
 /// A joint swept over a limited range, with backlash whose flank changes inside it (the twin's

@@ -69,7 +69,8 @@ pub struct JointErrors {
 /// The former name of [`JointErrors`], when it held payload compliances only.
 pub type Compliance = JointErrors;
 
-/// One transmission harmonic of one joint: `Δq = sin · sin(k q) + cos · cos(k q)`, rad.
+/// One transmission harmonic of one joint: `Δq = sin · sin(k q) + cos · cos(k q)`, rad, with
+/// `q` the joint angle held within [`Self::reach`] when it has one.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Harmonic {
     /// 0-based joint.
@@ -80,6 +81,45 @@ pub struct Harmonic {
     pub sin: f64,
     /// Cosine coefficient, rad.
     pub cos: f64,
+    /// The joint angles (rad, `[lo, hi]`) over which the harmonic is continued periodically;
+    /// beyond them it keeps its value at the nearer end. `None`: every angle. Identification
+    /// sets it to the joint's readings widened by [`HARMONIC_REACH`] of their span at each end:
+    /// over a narrow window a harmonic may be fitting an effect it does not model (backlash,
+    /// a deflection), and continued far beyond the readings it would miss by millimetres.
+    pub reach: Option<[f64; 2]>,
+}
+
+/// How far beyond a joint's readings its identified harmonics are continued periodically, as a
+/// fraction of the readings' span (at each end); farther out they are held at the value they
+/// reach there. A quarter is as far as the default calibration's blocks of joint 1 test
+/// extrapolation: five blocks over the readings, each end block predicted from the other four,
+/// a quarter of their span beyond them.
+pub const HARMONIC_REACH: f64 = 0.25;
+
+impl Harmonic {
+    /// The angle (rad) the harmonic is evaluated at for joint angle `q`: `q` held within
+    /// [`Self::reach`].
+    pub fn angle(&self, q: f64) -> f64 {
+        self.reach.map_or(q, |[lo, hi]| q.clamp(lo, hi))
+    }
+
+    /// `(sin(k q'), cos(k q'))` at the held angle `q'` ([`Self::angle`]).
+    pub fn basis(&self, q: f64) -> (f64, f64) {
+        (f64::from(self.order) * self.angle(q)).sin_cos()
+    }
+
+    /// Its joint error at joint angle `q`, rad.
+    pub fn value(&self, q: f64) -> f64 {
+        let (s, c) = self.basis(q);
+        self.sin * s + self.cos * c
+    }
+
+    /// The reach for readings from `lo` to `hi` (rad): widened by [`HARMONIC_REACH`] of the
+    /// span at each end.
+    pub fn reach_of(lo: f64, hi: f64) -> [f64; 2] {
+        let margin = HARMONIC_REACH * (hi - lo).max(0.0);
+        [lo - margin, hi + margin]
+    }
 }
 
 /// Which unit quantity of a link a self-weight term weighs.
@@ -213,6 +253,10 @@ pub struct RawHarmonic {
     pub sin: f64,
     /// Cosine coefficient, deg.
     pub cos: f64,
+    /// `[lo, hi]`, deg: the joint angles over which the harmonic is continued periodically
+    /// (beyond them, held at its value at the nearer end); absent: every angle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reach: Option<[f64; 2]>,
 }
 
 /// `[[self_weight]]` as written.
@@ -314,6 +358,7 @@ impl JointErrors {
                     order,
                     sin: 0.0,
                     cos: 0.0,
+                    reach: None,
                 });
             }
         }
@@ -397,11 +442,11 @@ impl JointErrors {
                 ErrorParam::Compliance(j) => (j, torques[j]),
                 ErrorParam::HarmonicSin(i) => {
                     let h = &self.harmonics[i];
-                    (h.joint, (f64::from(h.order) * q[h.joint]).sin())
+                    (h.joint, h.basis(q[h.joint]).0)
                 }
                 ErrorParam::HarmonicCos(i) => {
                     let h = &self.harmonics[i];
-                    (h.joint, (f64::from(h.order) * q[h.joint]).cos())
+                    (h.joint, h.basis(q[h.joint]).1)
                 }
                 ErrorParam::SelfWeight(i) => (self.self_weight[i].joint, sw[i]),
             })
@@ -435,8 +480,7 @@ impl JointErrors {
         let t = self.torques(robot, q, load);
         let mut d: Vec<f64> = self.values.iter().zip(&t).map(|(c, t)| c * t).collect();
         for h in &self.harmonics {
-            let (s, c) = (f64::from(h.order) * q[h.joint]).sin_cos();
-            d[h.joint] += h.sin * s + h.cos * c;
+            d[h.joint] += h.value(q[h.joint]);
         }
         for (t, phi) in self
             .self_weight
@@ -563,11 +607,22 @@ impl JointErrors {
             if !(h.sin.is_finite() && h.cos.is_finite()) {
                 return Err(invalid(&key, "sin and cos must be finite numbers".into()));
             }
+            if let Some([lo, hi]) = h.reach {
+                if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                    return Err(invalid(
+                        &format!("{key}.reach"),
+                        format!(
+                            "[{lo}, {hi}]: two finite angles (deg), the first not above the second"
+                        ),
+                    ));
+                }
+            }
             harmonics.push(Harmonic {
                 joint: h.joint - 1,
                 order: h.order,
                 sin: h.sin.to_radians(),
                 cos: h.cos.to_radians(),
+                reach: h.reach.map(|r| r.map(f64::to_radians)),
             });
         }
         let mut self_weight = Vec::with_capacity(raw.self_weight.len());
@@ -623,6 +678,7 @@ impl JointErrors {
                     order: h.order,
                     sin: h.sin.to_degrees(),
                     cos: h.cos.to_degrees(),
+                    reach: h.reach.map(|r| r.map(f64::to_degrees)),
                 })
                 .collect(),
             self_weight: (self.self_weight.iter())
@@ -636,7 +692,9 @@ impl JointErrors {
         };
         let body = toml::to_string(&raw).unwrap_or_default();
         let more = if self.has_configuration_terms() {
-            "# harmonic: transmission error of a joint, sin · sin(order q) + cos · cos(order q), deg.\n\
+            "# harmonic: transmission error of a joint, sin · sin(order q) + cos · cos(order q), deg;\n\
+             # reach = [lo, hi] (deg): beyond it, q is held at the nearer end (the readings it was\n\
+             # identified on, widened by a quarter of their span at each end).\n\
              # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
              # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n"
         } else {

@@ -664,6 +664,122 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     );
 }
 
+/// A harmonic's reach: inside it the joint error is the Fourier term of the joint angle itself,
+/// beyond it the term's value at the nearer end (computed here from the coefficients); the
+/// deflected angles and the coefficient Jacobian follow it; the file round trip keeps it; a
+/// reach that is not two ordered finite angles is refused with its key.
+#[test]
+fn harmonic_reach_holds_the_term_beyond_the_readings() {
+    use robocal_robot::{ErrorParam, HARMONIC_REACH, Harmonic, JointErrors};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let robot = Robot::load(root.join("configs/robots/pmc6va030.toml")).unwrap();
+    // Readings of joint 2 from -60° to -20°, widened at each end.
+    let [lo, hi] = Harmonic::reach_of((-60.0f64).to_radians(), (-20.0f64).to_radians());
+    let margin = 40.0 * HARMONIC_REACH;
+    assert!(
+        (lo.to_degrees() - (-60.0 - margin)).abs() < 1e-12,
+        "{}",
+        lo.to_degrees()
+    );
+    assert!(
+        (hi.to_degrees() - (-20.0 + margin)).abs() < 1e-12,
+        "{}",
+        hi.to_degrees()
+    );
+    let mut e = JointErrors::new(vec![0.0; 6], Vector3::new(0.0, 0.0, -9.8), Vector3::zeros())
+        .with_harmonics(&[1], 2);
+    for (h, (s, c)) in e
+        .harmonics
+        .iter_mut()
+        .zip([(0.03f64, -0.02f64), (0.01, 0.015)])
+    {
+        h.sin = s.to_radians();
+        h.cos = c.to_radians();
+        h.reach = Some([lo, hi]);
+    }
+    let term = |order: f64, s: f64, c: f64, q: f64| {
+        s.to_radians() * (order * q).sin() + c.to_radians() * (order * q).cos()
+    };
+    let expected = |q: f64| {
+        let held = q.clamp(lo, hi);
+        term(1.0, 0.03, -0.02, held) + term(2.0, 0.01, 0.015, held)
+    };
+    let (lo_d, hi_d) = (lo.to_degrees(), hi.to_degrees());
+    for deg in [
+        lo_d - 90.0,
+        lo_d - 1.0,
+        lo_d,
+        -45.0,
+        hi_d - 1.0,
+        hi_d,
+        hi_d + 35.0,
+        hi_d + 120.0,
+    ] {
+        let mut q = vec![0.2, 0.0, 0.3, -0.1, 0.4, 0.0];
+        q[1] = deg.to_radians();
+        let d = e.deflected(&robot, &q, 0.0);
+        let want = expected(q[1]);
+        assert!(
+            (d[1] - q[1] - want).abs() < 1e-15,
+            "{deg}°: {} vs {want}",
+            d[1] - q[1]
+        );
+        if !(lo_d..=hi_d).contains(&deg) {
+            // Beyond the reach: the value at the nearer end.
+            let end = if deg < lo_d { lo } else { hi };
+            assert!((d[1] - q[1] - expected(end)).abs() < 1e-15, "{deg}°");
+        }
+        // The coefficient columns against central differences, inside and beyond the reach.
+        let params = e.params();
+        let (_, jac) = e.param_jacobian(&robot, &q, 3.0, &params);
+        for (k, &p) in params.iter().enumerate() {
+            if matches!(p, ErrorParam::Compliance(_)) {
+                continue;
+            }
+            let (mut up, mut down) = (e.clone(), e.clone());
+            up.set_param(p, e.param(p) + 1e-7);
+            down.set_param(p, e.param(p) - 1e-7);
+            let fd = (up.point(&robot, &q, 3.0) - down.point(&robot, &q, 3.0)) / 2e-7;
+            assert!(
+                (fd - jac.column(k)).norm() < 1e-4 * fd.norm().max(1.0),
+                "{deg}° {p:?}"
+            );
+        }
+    }
+    // Without a reach the term is periodic everywhere.
+    let mut free = e.clone();
+    free.harmonics.iter_mut().for_each(|h| h.reach = None);
+    let q = [0.0, 2.5, 0.0, 0.0, 0.0, 0.0];
+    let d = free.deflected(&robot, &q, 0.0)[1] - 2.5;
+    assert!((d - term(1.0, 0.03, -0.02, 2.5) - term(2.0, 0.01, 0.015, 2.5)).abs() < 1e-15);
+    // File round trip, and bad reaches named by key.
+    let text = e.to_toml_string();
+    assert!(text.contains("reach = ["), "{text}");
+    let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
+    for (a, b) in back.harmonics.iter().zip(&e.harmonics) {
+        let (ra, rb) = (a.reach.unwrap(), b.reach.unwrap());
+        assert!((ra[0] - rb[0]).abs() < 1e-14 && (ra[1] - rb[1]).abs() < 1e-14);
+    }
+    assert!(
+        JointErrors::from_toml_str(&free.to_toml_string(), "c.toml", 6)
+            .unwrap()
+            .harmonics
+            .iter()
+            .all(|h| h.reach.is_none())
+    );
+    let written = format!("reach = [{:?}, {:?}]", lo.to_degrees(), hi.to_degrees());
+    assert!(text.contains(&written), "{text}");
+    for bad in ["reach = [10.0, -10.0]", "reach = [nan, 1.0]"] {
+        let err = JointErrors::from_toml_str(&text.replacen(&written, bad, 1), "m/c.toml", 6)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("m/c.toml") && err.contains("harmonic[1].reach"),
+            "{err}"
+        );
+    }
+}
+
 /// `[tool.points]`: named points read, written back, looked up by name; bad ones name their key
 /// (a point given twice is a TOML error naming its line).
 #[test]
