@@ -607,15 +607,15 @@ impl JointErrors {
             if !(h.sin.is_finite() && h.cos.is_finite()) {
                 return Err(invalid(&key, "sin and cos must be finite numbers".into()));
             }
-            if let Some([lo, hi]) = h.reach {
-                if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-                    return Err(invalid(
-                        &format!("{key}.reach"),
-                        format!(
-                            "[{lo}, {hi}]: two finite angles (deg), the first not above the second"
-                        ),
-                    ));
-                }
+            if let Some([lo, hi]) = h.reach
+                && !(lo.is_finite() && hi.is_finite() && lo <= hi)
+            {
+                return Err(invalid(
+                    &format!("{key}.reach"),
+                    format!(
+                        "[{lo}, {hi}]: two finite angles (deg), the first not above the second"
+                    ),
+                ));
             }
             harmonics.push(Harmonic {
                 joint: h.joint - 1,
