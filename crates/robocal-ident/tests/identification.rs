@@ -772,6 +772,92 @@ fn harmonics_beyond_a_gears_bound_are_held_at_zero() {
     assert!(identified >= 8, "{:?}", cal.report.joint_errors);
 }
 
+/// The default's gate on self-weight: with `plausible_only`, a coefficient within
+/// `SELF_WEIGHT_SIGNIFICANCE` standard deviations of zero is held at zero (said why) and the
+/// rest solved again until every one left clears it — recomputed here from the final fit's σ;
+/// the two large injected terms stay, near their injected values; without the gate every
+/// identifiable coefficient stays, the insignificant ones too.
+#[test]
+fn insignificant_self_weight_terms_are_held_at_zero_when_asked() {
+    use robocal_ident::{JointErrorSettings, SELF_WEIGHT_SIGNIFICANCE};
+    use robocal_robot::{ErrorParam, MomentPart};
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 17);
+    // Joints 2 and 3 deflecting under link 3's first moment along its x axis (30 kg·m): a large
+    // effect (about 0.03°); nothing else.
+    let mut errors = injected_compliance().with_self_weight(&[1, 2], 6);
+    for t in &mut errors.self_weight {
+        if t.body == 2 && t.part == MomentPart::X {
+            t.value = 0.1 * DEG_PER_KNM * 30.0;
+        }
+    }
+    let mut obs = observe_loaded(&truth, &errors, &configs[..100], &[0.0, 10.0, 20.0]);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let normal = Normal::new(0.0, 0.02).unwrap();
+    for p in &mut obs.points {
+        *p += Vector3::from_fn(|_, _| normal.sample(&mut rng));
+    }
+    let settings = |gate: bool| KinematicSettings {
+        compliance: Some(ComplianceSettings {
+            joints: Some(vec![1, 2, 3, 4, 5]),
+            payload_com: Some(errors.payload_com),
+            plausible_only: gate,
+            ..ComplianceSettings::default()
+        }),
+        joint_errors: Some(JointErrorSettings {
+            harmonics: 0,
+            self_weight: true,
+            ..JointErrorSettings::default()
+        }),
+        ..KinematicSettings::default()
+    };
+    let gated = calibrate_kinematics(&nominal, &obs, &settings(true)).unwrap();
+    let free = calibrate_kinematics(&nominal, &obs, &settings(false)).unwrap();
+    let sw = |cal: &robocal_ident::KinematicCalibration| -> Vec<(String, f64, f64)> {
+        (cal.report.joint_errors.iter())
+            .filter(|t| t.identified && t.name.contains(".sw"))
+            .map(|t| (t.name.clone(), t.value, t.std.unwrap()))
+            .collect()
+    };
+    let (kept, all) = (sw(&gated), sw(&free));
+    assert!(kept.len() < all.len(), "{} of {}", kept.len(), all.len());
+    assert!(
+        all.iter()
+            .any(|(_, v, s)| v.abs() < SELF_WEIGHT_SIGNIFICANCE * s),
+        "{all:?}"
+    );
+    for (name, v, s) in &kept {
+        assert!(v.abs() >= SELF_WEIGHT_SIGNIFICANCE * s, "{name}: {v} ± {s}");
+    }
+    let held: Vec<&str> = (gated.report.fixed.iter())
+        .filter(|f| f.name.contains(".sw") && f.reason.contains("standard deviations of zero"))
+        .map(|f| f.name.as_str())
+        .collect();
+    assert_eq!(held.len() + kept.len(), all.len(), "{held:?}");
+    // The injected terms stay, near their values.
+    let found = gated.compliance.as_ref().unwrap();
+    for (i, t) in errors.self_weight.iter().enumerate() {
+        if t.value == 0.0 {
+            continue;
+        }
+        let name = errors.param_name(ErrorParam::SelfWeight(i));
+        assert!(
+            kept.iter().any(|(n, _, _)| *n == name),
+            "{name} held: {held:?}"
+        );
+        let k = (found.self_weight.iter())
+            .position(|f| (f.joint, f.body, f.part) == (t.joint, t.body, t.part))
+            .unwrap();
+        let got = found.self_weight[k].value;
+        assert!(
+            (got - t.value).abs() < 0.1 * t.value.abs(),
+            "{name}: {got} vs {}",
+            t.value
+        );
+    }
+}
+
 /// The default's gate: a compliance that comes out negative (here the data hold one: an
 /// effect no joint can have) is kept by a stage config, with its sign in the report, and held
 /// rigid by `plausible_only`, the rest solved again until every joint left is plausible.
