@@ -170,10 +170,8 @@ pub struct ComplianceSettings {
     /// The payload's centre of mass in the flange frame, mm; `None`: the measured point.
     pub payload_com: Option<Vector3<f64>>,
     /// Hold a joint rigid, and solve again, when its compliance comes out impossible: negative,
-    /// beyond [`COMPLIANCE_BOUND`], or less than its own standard deviation; and hold at zero a
-    /// self-weight coefficient within [`SELF_WEIGHT_SIGNIFICANCE`] standard deviations of zero
-    /// (the default calibration sets it; stage files and experiments keep every value, with a
-    /// warning for the compliances).
+    /// beyond [`COMPLIANCE_BOUND`], or less than its own standard deviation (the default
+    /// calibration sets it; stage files and experiments keep every value, with a warning).
     pub plausible_only: bool,
 }
 
@@ -350,11 +348,6 @@ pub struct KinematicReport {
 /// Largest amplitude (deg) a transmission harmonic may take: gear reducers' kinematic errors
 /// are hundredths of a degree; a harmonic identified beyond this is held at zero.
 pub const HARMONIC_BOUND_DEG: f64 = 0.2;
-
-/// How many of its own standard deviations a self-weight coefficient must lie from zero to stay
-/// in a model fitted with `plausible_only` (the default calibration's): fewer, it is held at
-/// zero and the rest solved again.
-pub const SELF_WEIGHT_SIGNIFICANCE: f64 = 2.0;
 
 /// Condition number of the scaled Jacobian above which the report warns.
 pub const ILL_CONDITIONED: f64 = 1e5;
@@ -772,22 +765,9 @@ fn solve_gated(
                 })
             }
         };
-        // A self-weight coefficient within twice its own uncertainty, when the settings ask:
-        // the poses barely determine it, and continued to joint angles the poses did not reach
-        // it would swing the prediction by as much as it likes.
-        let insignificant = |p: usize| -> Option<(f64, f64)> {
-            if !gate || !matches!(kept[p], Column::SelfWeight { .. }) {
-                return None;
-            }
-            let std = std_u.as_ref()?[p];
-            let scale = problem.scale()[p].to_degrees();
-            (solved.0[p].abs() < SELF_WEIGHT_SIGNIFICANCE * std)
-                .then(|| (solved.0[p] * scale, std * scale.abs()))
-        };
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
                 && implausible(p).is_none()
-                && insignificant(p).is_none()
         });
         if drop.is_empty() {
             break solved;
@@ -798,12 +778,6 @@ fn solve_gated(
                     "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
                     amplitude(joint, order)
                 ),
-                Column::SelfWeight { .. } => {
-                    let (value, std) = insignificant(p).unwrap_or_default();
-                    format!(
-                        "held at zero: it came out at {value:.3e} ± {std:.1e} deg per basis unit, within {SELF_WEIGHT_SIGNIFICANCE} standard deviations of zero (the poses barely determine it, and it would not extrapolate)"
-                    )
-                }
                 _ => format!(
                     "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), held rigid",
                     implausible(p).unwrap_or_default()

@@ -25,8 +25,8 @@ pub use calibrate::{
     COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport, FAR_FROM_NOMINAL,
     FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance,
     JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings, Loss,
-    OrientationReport, POOR_FIT, ParameterReport, SELF_WEIGHT_SIGNIFICANCE, SolverKind,
-    TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints, far_from_nominal,
+    OrientationReport, POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align,
+    calibrate_kinematics, default_compliance_joints, far_from_nominal,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};
