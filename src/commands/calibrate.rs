@@ -115,6 +115,11 @@ pub fn run(
             );
         }
     }
+    if let Some(errors) = &built.kinematic.compliance {
+        for line in harmonic_lines(errors) {
+            eprintln!("robocal: {line}");
+        }
+    }
     if !r.identified_by_reflectors.is_empty() {
         eprintln!(
             "robocal: identified thanks to the extra reflectors (the default one alone would hold them fixed): {}",
@@ -204,4 +209,36 @@ pub fn run(
     };
     eprintln!("robocal: model written to {}; {held_out}", out.display());
     Ok(())
+}
+
+/// One line per joint with identified transmission harmonics: each order's amplitude and how far
+/// the harmonics are continued (their reach) before they are held.
+fn harmonic_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+    let mut joints: Vec<usize> = (errors.harmonics.iter())
+        .filter(|h| h.sin != 0.0 || h.cos != 0.0)
+        .map(|h| h.joint)
+        .collect();
+    joints.dedup();
+    joints
+        .into_iter()
+        .map(|joint| {
+            let terms: Vec<&robocal_robot::Harmonic> = (errors.harmonics.iter())
+                .filter(|h| h.joint == joint && (h.sin != 0.0 || h.cos != 0.0))
+                .collect();
+            let orders: Vec<String> = (terms.iter())
+                .map(|h| format!("order {} {:.4}°", h.order, h.sin.hypot(h.cos).to_degrees()))
+                .collect();
+            let reach = terms.first().and_then(|h| h.reach).map_or_else(
+                || "continued at every angle".to_string(),
+                |[lo, hi]| {
+                    format!(
+                        "continued over {:.1}..{:.1}° (the readings widened by a quarter of their span), held beyond",
+                        lo.to_degrees(),
+                        hi.to_degrees()
+                    )
+                },
+            );
+            format!("joint {} transmission harmonics: {}; {reach}", joint + 1, orders.join(", "))
+        })
+        .collect()
 }

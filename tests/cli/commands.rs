@@ -1092,3 +1092,59 @@ fn predict_sigma_comes_from_a_gp_model_and_is_refused_without_one() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--sigma"));
     assert!(!out.exists());
 }
+
+/// calibrate with harmonics says, per joint, each order's amplitude and the reach over which the
+/// harmonics are continued; the reach in compliance.toml is the data file's readings of the
+/// joint widened by a quarter of their span at each end (recomputed here from the CSV), and
+/// the printed one equals it.
+#[test]
+fn calibrate_prints_and_saves_the_harmonics_reach() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = select_rows(&twin_rows(), |c, load| c < 60 && load == 0.0);
+    let data = write(dir.path(), "data.csv", &text);
+    let stage = write(
+        dir.path(),
+        "h.toml",
+        "[kinematic]\nsolver = \"lm\"\n[joint_errors]\nharmonics = 2\n",
+    );
+    let model = dir.path().join("model");
+    let o = calibrate_with(&data, &model, &stage);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let c = robocal_robot::Compliance::load(model.join("compliance.toml"), 6).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let mut printed = 0;
+    for joint in 0..6 {
+        let col = header
+            .iter()
+            .position(|h| *h == format!("q{}", joint + 1))
+            .unwrap();
+        let q: Vec<f64> = rows.iter().map(|r| r[col].parse().unwrap()).collect();
+        let lo = q.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = q.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (a, b) = (lo - 0.25 * (hi - lo), hi + 0.25 * (hi - lo));
+        let terms: Vec<_> = c.harmonics.iter().filter(|h| h.joint == joint).collect();
+        for h in &terms {
+            let [ra, rb] = h.reach.unwrap();
+            assert!((ra.to_degrees() - a).abs() < 1e-9 && (rb.to_degrees() - b).abs() < 1e-9);
+        }
+        if terms.iter().any(|h| h.sin != 0.0 || h.cos != 0.0) {
+            let line = format!(
+                "robocal: joint {} transmission harmonics: order ",
+                joint + 1
+            );
+            let said = stderr
+                .lines()
+                .find(|l| l.starts_with(&line))
+                .unwrap_or_else(|| panic!("no line for joint {}: {stderr}", joint + 1));
+            assert!(
+                said.contains(&format!("continued over {a:.1}..{b:.1}°")),
+                "{said}"
+            );
+            printed += 1;
+        }
+    }
+    assert!(printed >= 3, "{stderr}");
+}
