@@ -214,21 +214,17 @@ pub fn run(
 /// One line per joint with identified transmission harmonics: each order's amplitude and how far
 /// the harmonics are continued (their reach) before they are held.
 fn harmonic_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
-    let mut joints: Vec<usize> = (errors.harmonics.iter())
+    // A joint's harmonics are consecutive (orders 1..H), and share its reach.
+    let identified: Vec<&robocal_robot::Harmonic> = (errors.harmonics.iter())
         .filter(|h| h.sin != 0.0 || h.cos != 0.0)
-        .map(|h| h.joint)
         .collect();
-    joints.dedup();
-    joints
-        .into_iter()
-        .map(|joint| {
-            let terms: Vec<&robocal_robot::Harmonic> = (errors.harmonics.iter())
-                .filter(|h| h.joint == joint && (h.sin != 0.0 || h.cos != 0.0))
-                .collect();
+    identified
+        .chunk_by(|a, b| a.joint == b.joint)
+        .map(|terms| {
             let orders: Vec<String> = (terms.iter())
                 .map(|h| format!("order {} {:.4}°", h.order, h.sin.hypot(h.cos).to_degrees()))
                 .collect();
-            let reach = terms.first().and_then(|h| h.reach).map_or_else(
+            let reach = terms[0].reach.map_or_else(
                 || "continued at every angle".to_string(),
                 |[lo, hi]| {
                     format!(
@@ -238,7 +234,11 @@ fn harmonic_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                     )
                 },
             );
-            format!("joint {} transmission harmonics: {}; {reach}", joint + 1, orders.join(", "))
+            format!(
+                "joint {} transmission harmonics: {}; {reach}",
+                terms[0].joint + 1,
+                orders.join(", ")
+            )
         })
         .collect()
 }

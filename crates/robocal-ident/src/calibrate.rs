@@ -674,16 +674,12 @@ fn joint_error_start(
             )));
         }
         model = model.with_harmonics(&joints, je.harmonics);
+        let ranges = obs.joint_ranges();
         for i in first_harmonic..model.harmonics.len() {
             let joint = model.harmonics[i].joint;
-            let (lo, hi) = (0..obs.len())
-                .map(|k| obs.joints(k)[joint])
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
-                    (lo.min(q), hi.max(q))
-                });
-            if lo <= hi {
-                model.harmonics[i].reach = Some(Harmonic::reach_of(lo, hi));
-            }
+            model.harmonics[i].reach = (ranges.as_ref())
+                .map(|r| r[joint])
+                .map(|[lo, hi]| Harmonic::reach_of(lo, hi));
             params.push(ErrorParam::HarmonicSin(i));
             params.push(ErrorParam::HarmonicCos(i));
         }

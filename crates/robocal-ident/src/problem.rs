@@ -164,6 +164,19 @@ impl Observations {
         &self.q[i * self.dof..(i + 1) * self.dof]
     }
 
+    /// The lowest and highest reading of every joint, rad (`None` without observations).
+    pub fn joint_ranges(&self) -> Option<Vec<[f64; 2]>> {
+        let mut ranges: Option<Vec<[f64; 2]>> = None;
+        for i in 0..self.len() {
+            let q = self.joints(i);
+            let r = ranges.get_or_insert_with(|| q.iter().map(|&v| [v, v]).collect());
+            for (r, &v) in r.iter_mut().zip(q) {
+                *r = [r[0].min(v), r[1].max(v)];
+            }
+        }
+        ranges
+    }
+
     /// The distinct loads, ascending, kg.
     pub fn distinct_loads(&self) -> Vec<f64> {
         let mut loads = self.loads.clone();
