@@ -239,12 +239,14 @@ proptest! {
     ) {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("round.csv");
-        // Give every row its own pose id so the one-reading-per-pose rule holds.
+        // Give every row its own pose id so the one-reading-per-pose rule holds: the row's
+        // number and a dot (not in the ids' alphabet) before it, so that `z1` of row 3 and `z` of
+        // row 13 stay apart.
         let rows: Vec<Measurement> = rows
             .into_iter()
             .enumerate()
             .map(|(i, (pose, joints, load, p))| Measurement {
-                sample: Sample { pose: format!("{}{i}", pose.trim()), joints, load, line: i as u64 + 2, target: String::new() },
+                sample: Sample { pose: format!("{i}.{}", pose.trim()), joints, load, line: i as u64 + 2, target: String::new() },
                 position: Vector3::from(p),
                 orientation: None,
             })

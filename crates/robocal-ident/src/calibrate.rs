@@ -111,6 +111,9 @@ pub struct JointErrorSettings {
     pub harmonic_joints: Option<Vec<usize>>,
     /// Self-weight terms (every joint; those the poses cannot separate are held at zero).
     pub self_weight: bool,
+    /// Backlash on the flank of the approach from home (reading 0), every joint (a joint
+    /// whose readings do not straddle home is held at zero).
+    pub backlash: bool,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
     pub gravity: Vector3<f64>,
@@ -122,6 +125,7 @@ impl Default for JointErrorSettings {
             harmonics: 2,
             harmonic_joints: None,
             self_weight: false,
+            backlash: false,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
     }
@@ -642,7 +646,7 @@ fn joint_error_reports(
 }
 
 /// The joint-error model identification starts from — the compliance choice's, with the
-/// harmonics and self-weight terms `settings` ask for at zero, each harmonic reaching as far as
+/// harmonics, self-weight and backlash terms `settings` ask for at zero, each harmonic reaching as far as
 /// its joint's readings in `obs` allow ([`Harmonic::reach_of`]) — and its unknowns.
 fn joint_error_start(
     settings: &KinematicSettings,
@@ -687,6 +691,11 @@ fn joint_error_start(
             let first = model.self_weight.len();
             model = model.with_self_weight(&(0..dof).collect::<Vec<_>>(), dof);
             params.extend((first..model.self_weight.len()).map(ErrorParam::SelfWeight));
+        }
+        if je.backlash {
+            let first = model.backlash.len();
+            model = model.with_backlash(&(0..dof).collect::<Vec<_>>());
+            params.extend((first..model.backlash.len()).map(ErrorParam::Backlash));
         }
         start = Some(model);
     }

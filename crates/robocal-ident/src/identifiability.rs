@@ -5,8 +5,8 @@
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use robocal_robot::{
-    ErrorParam, JointErrors, JointField, MomentPart, ParamId, compliance_name, harmonic_name,
-    self_weight_name,
+    ErrorParam, JointErrors, JointField, MomentPart, ParamId, backlash_name, compliance_name,
+    harmonic_name, self_weight_name,
 };
 
 /// Result of [`analyse`].
@@ -48,6 +48,8 @@ pub enum Column {
         /// Which unit quantity.
         part: MomentPart,
     },
+    /// The half play of a joint's backlash (0-based).
+    Backlash(usize),
 }
 
 impl Column {
@@ -65,6 +67,7 @@ impl Column {
                 body: errors.self_weight[i].body,
                 part: errors.self_weight[i].part,
             },
+            ErrorParam::Backlash(i) => Self::Backlash(errors.backlash[i].joint),
         }
     }
 }
@@ -86,6 +89,7 @@ impl std::fmt::Display for Column {
             Self::SelfWeight { joint, body, part } => {
                 f.write_str(&self_weight_name(*joint, *body, *part))
             }
+            Self::Backlash(j) => f.write_str(&backlash_name(*j)),
         }
     }
 }
@@ -103,6 +107,7 @@ fn priority(column: Column) -> (usize, usize, usize) {
         Column::SelfWeight { joint, body, part } => {
             return (5, joint, 4 * body + part as usize);
         }
+        Column::Backlash(j) => return (6, j, 0),
     };
     match id {
         ParamId::Base(a) => (0, 0, a),

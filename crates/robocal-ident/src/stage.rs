@@ -169,8 +169,8 @@ impl RawComplianceStage {
     }
 }
 
-/// `[joint_errors]` as written: transmission harmonics and self-weight terms identified with the
-/// geometry (the kinematic stage's solver and rows).
+/// `[joint_errors]` as written: transmission harmonics, self-weight and backlash terms
+/// identified with the geometry (the kinematic stage's solver and rows).
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawJointErrorStage {
@@ -180,6 +180,9 @@ pub struct RawJointErrorStage {
     pub joints: Option<Vec<usize>>,
     /// Self-weight terms (default false).
     pub self_weight: Option<bool>,
+    /// Backlash on the flank of the approach from home (reading 0) of every joint (default
+    /// false).
+    pub backlash: Option<bool>,
 }
 
 /// Highest harmonic order a stage may ask for.
@@ -202,6 +205,7 @@ impl RawJointErrorStage {
             s.harmonic_joints = Some(joint_list("joint_errors.joints", joints)?);
         }
         s.self_weight = self.self_weight.unwrap_or(false);
+        s.backlash = self.backlash.unwrap_or(false);
         Ok(s)
     }
 
@@ -211,6 +215,7 @@ impl RawJointErrorStage {
             harmonics: Some(settings.harmonics),
             joints: (settings.harmonic_joints.as_ref()).map(|j| j.iter().map(|j| j + 1).collect()),
             self_weight: Some(settings.self_weight),
+            backlash: Some(settings.backlash),
         }
     }
 }

@@ -324,21 +324,23 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         .iter()
         .map(|c| c.name.as_str())
         .collect();
-    // Nominal, kinematic, compliance; each joint-error block alone, then both when the better
-    // one was kept; the two residual models.
+    // Nominal, kinematic, compliance; each joint-error block alone, then (once one was kept)
+    // each remaining one added to the kept ones, for as long as one is kept: at most 2 + 1;
+    // the two residual models.
     let physical = names.len() - 2;
-    assert!(physical == 5 || physical == 6, "{names:?}");
+    assert!((6..=9).contains(&physical), "{names:?}");
     assert_eq!(names[1], "kinematic");
-    assert!(names[3].ends_with("+ harmonics 2"), "{names:?}");
-    assert!(
-        names[4].ends_with("+ self-weight") && !names[4].contains("harmonics"),
-        "{names:?}"
-    );
-    if physical == 6 {
-        assert!(
-            names[5].ends_with("+ harmonics 2 + self-weight"),
-            "{names:?}"
-        );
+    let blocks = |name: &str| {
+        [" + harmonics 2", " + self-weight", " + backlash"]
+            .iter()
+            .filter(|b| name.contains(*b))
+            .count()
+    };
+    assert!(names[3].ends_with("compliance + harmonics 2"), "{names:?}");
+    assert!(names[4].ends_with("compliance + self-weight"), "{names:?}");
+    assert!(names[5].ends_with("compliance + backlash"), "{names:?}");
+    for name in &names[6..physical] {
+        assert!(blocks(name) >= 2, "{names:?}");
     }
     assert!(
         names[physical].ends_with("+ gp") && names[physical + 1].ends_with("+ somm"),
@@ -446,8 +448,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     }
     // What was chosen is what the model holds, fitted on every row.
     let with_compliance = chosen[0].name.contains("compliance");
-    let with_errors =
-        chosen[0].name.contains("harmonics") || chosen[0].name.contains("self-weight");
+    let with_errors = blocks(&chosen[0].name) > 0;
     assert_eq!(
         built.kinematic.compliance.is_some(),
         with_compliance || with_errors
@@ -458,6 +459,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         |kind: &str| (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind));
     assert_eq!(terms(".h"), chosen[0].name.contains("harmonics"));
     assert_eq!(terms(".sw"), chosen[0].name.contains("self-weight"));
+    assert_eq!(terms(".backlash"), chosen[0].name.contains("backlash"));
     let residual = chosen[0].name.ends_with("gp") || chosen[0].name.ends_with("somm");
     assert_eq!(built.residual.is_some(), residual);
     let kept = |stage: &str| {

@@ -126,7 +126,9 @@ impl Pool {
                         Unit::Rad => ("deg", 180.0 / std::f64::consts::PI),
                     },
                     Column::Compliance(_) => ("deg/kN·m", 180.0 / std::f64::consts::PI * 1000.0),
-                    Column::Harmonic { .. } => ("deg", 180.0 / std::f64::consts::PI),
+                    Column::Harmonic { .. } | Column::Backlash(_) => {
+                        ("deg", 180.0 / std::f64::consts::PI)
+                    }
                     Column::SelfWeight { .. } => ("deg/unit", 180.0 / std::f64::consts::PI),
                 })
                 .collect(),

@@ -10,7 +10,10 @@
 //!   coefficients of the torques that a unit mass at each link frame's origin, and a unit first
 //!   moment along each of its axes, would put on the joint ([`SelfWeight`]); which of these the
 //!   poses can separate (from each other and from the geometry) the identifiability analysis
-//!   decides. It needs no payload: one load is enough.
+//!   decides. It needs no payload: one load is enough;
+//! - **backlash on the flank of the approach from home**: a joint with play, moved out from its
+//!   home reading to each pose, rests on the flank its motion pressed: `Δq_i = +b_i` at or above
+//!   home, `−b_i` below ([`Backlash`]; `b_i` is half the play).
 //!
 //! A joint whose gear and bearings give under torque turns by `compliance × torque`. The torque
 //! that changes with the payload is gravity's on the payload's centre of mass,
@@ -64,6 +67,8 @@ pub struct JointErrors {
     pub harmonics: Vec<Harmonic>,
     /// Self-weight terms.
     pub self_weight: Vec<SelfWeight>,
+    /// Backlash terms.
+    pub backlash: Vec<Backlash>,
 }
 
 /// The former name of [`JointErrors`], when it held payload compliances only.
@@ -119,6 +124,33 @@ impl Harmonic {
     pub fn reach_of(lo: f64, hi: f64) -> [f64; 2] {
         let margin = HARMONIC_REACH * (hi - lo).max(0.0);
         [lo - margin, hi + margin]
+    }
+}
+
+/// Backlash of one joint on the flank of its approach from home: the joint was moved out from
+/// `home` to each pose, so it rests on the flank its motion pressed, `Δq = +value` at a reading
+/// at or above `home` and `−value` below (`value`: half the play, signed by which flank leads).
+/// A joint whose readings all lie on one side of home shows only a constant offset, which the
+/// geometry takes: the identifiability analysis holds the term at zero then.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Backlash {
+    /// 0-based joint.
+    pub joint: usize,
+    /// The reading the joint moves out from, rad.
+    pub home: f64,
+    /// Half the play, rad (the joint error at or above home).
+    pub value: f64,
+}
+
+impl Backlash {
+    /// `+1` at or above home, `−1` below: the basis of the term at joint reading `q`.
+    pub fn flank(&self, q: f64) -> f64 {
+        if q >= self.home { 1.0 } else { -1.0 }
+    }
+
+    /// Its joint error at reading `q`, rad.
+    pub fn at(&self, q: f64) -> f64 {
+        self.value * self.flank(q)
     }
 }
 
@@ -178,6 +210,11 @@ pub fn self_weight_name(joint: usize, body: usize, part: MomentPart) -> String {
     format!("j{}.sw{}.{}", joint + 1, body + 1, part.name())
 }
 
+/// The name of a joint's backlash (half its play): `j1.backlash`.
+pub fn backlash_name(joint: usize) -> String {
+    format!("j{}.backlash", joint + 1)
+}
+
 /// One coefficient of a [`JointErrors`] model, as an unknown of an identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ErrorParam {
@@ -189,6 +226,8 @@ pub enum ErrorParam {
     HarmonicCos(usize),
     /// The coefficient of `self_weight[i]`.
     SelfWeight(usize),
+    /// The half play of `backlash[i]`.
+    Backlash(usize),
 }
 
 impl Robot {
@@ -239,6 +278,21 @@ pub struct RawCompliance {
     /// Self-weight terms.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub self_weight: Vec<RawSelfWeight>,
+    /// Backlash terms.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub backlash: Vec<RawBacklash>,
+}
+
+/// `[[backlash]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBacklash {
+    /// Joint, counted from 1.
+    pub joint: usize,
+    /// The reading the joint moves out from, deg.
+    pub home: f64,
+    /// Half the play, deg: the joint error at or above home (its negative below).
+    pub value: f64,
 }
 
 /// `[[harmonic]]` as written.
@@ -285,12 +339,13 @@ impl JointErrors {
             payload_com,
             harmonics: Vec::new(),
             self_weight: Vec::new(),
+            backlash: Vec::new(),
         }
     }
 
     /// Whether there is any term besides the payload compliances.
     pub fn has_configuration_terms(&self) -> bool {
-        !self.harmonics.is_empty() || !self.self_weight.is_empty()
+        !self.harmonics.is_empty() || !self.self_weight.is_empty() || !self.backlash.is_empty()
     }
 
     /// The value of one coefficient (internal units).
@@ -300,6 +355,7 @@ impl JointErrors {
             ErrorParam::HarmonicSin(i) => self.harmonics[i].sin,
             ErrorParam::HarmonicCos(i) => self.harmonics[i].cos,
             ErrorParam::SelfWeight(i) => self.self_weight[i].value,
+            ErrorParam::Backlash(i) => self.backlash[i].value,
         }
     }
 
@@ -310,6 +366,7 @@ impl JointErrors {
             ErrorParam::HarmonicSin(i) => self.harmonics[i].sin = v,
             ErrorParam::HarmonicCos(i) => self.harmonics[i].cos = v,
             ErrorParam::SelfWeight(i) => self.self_weight[i].value = v,
+            ErrorParam::Backlash(i) => self.backlash[i].value = v,
         }
     }
 
@@ -319,10 +376,12 @@ impl JointErrors {
             ErrorParam::Compliance(j) => j,
             ErrorParam::HarmonicSin(i) | ErrorParam::HarmonicCos(i) => self.harmonics[i].joint,
             ErrorParam::SelfWeight(i) => self.self_weight[i].joint,
+            ErrorParam::Backlash(i) => self.backlash[i].joint,
         }
     }
 
-    /// A stable name for a coefficient: `j2.compliance`, `j3.h2.sin`, `j2.sw4.mass`.
+    /// A stable name for a coefficient: `j2.compliance`, `j3.h2.sin`, `j2.sw4.mass`,
+    /// `j1.backlash`.
     pub fn param_name(&self, p: ErrorParam) -> String {
         match p {
             ErrorParam::Compliance(j) => compliance_name(j),
@@ -334,11 +393,12 @@ impl JointErrors {
                 let t = &self.self_weight[i];
                 self_weight_name(t.joint, t.body, t.part)
             }
+            ErrorParam::Backlash(i) => backlash_name(self.backlash[i].joint),
         }
     }
 
     /// Every coefficient of the model, in order: compliances of every joint, then each
-    /// harmonic's sine and cosine, then the self-weight terms.
+    /// harmonic's sine and cosine, then the self-weight terms, then the backlash terms.
     pub fn params(&self) -> Vec<ErrorParam> {
         let mut out: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
         for i in 0..self.harmonics.len() {
@@ -346,7 +406,20 @@ impl JointErrors {
             out.push(ErrorParam::HarmonicCos(i));
         }
         out.extend((0..self.self_weight.len()).map(ErrorParam::SelfWeight));
+        out.extend((0..self.backlash.len()).map(ErrorParam::Backlash));
         out
+    }
+
+    /// Adds backlash terms (half play 0) for `joints`, each moved out from home reading 0.
+    pub fn with_backlash(mut self, joints: &[usize]) -> Self {
+        for &joint in joints {
+            self.backlash.push(Backlash {
+                joint,
+                home: 0.0,
+                value: 0.0,
+            });
+        }
+        self
     }
 
     /// Adds harmonics of orders `1..=orders` (coefficients 0) for `joints`.
@@ -449,6 +522,10 @@ impl JointErrors {
                     (h.joint, h.basis(q[h.joint]).1)
                 }
                 ErrorParam::SelfWeight(i) => (self.self_weight[i].joint, sw[i]),
+                ErrorParam::Backlash(i) => {
+                    let b = &self.backlash[i];
+                    (b.joint, b.flank(q[b.joint]))
+                }
             })
             .collect()
     }
@@ -475,7 +552,7 @@ impl JointErrors {
     }
 
     /// How far each joint turns from command `q` (rad) under `load` kg, rad: compliance ×
-    /// payload torque, plus the harmonics and the self-weight terms.
+    /// payload torque, plus the harmonics, the self-weight terms and the backlash.
     pub fn deflection(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
         let t = self.torques(robot, q, load);
         let mut d: Vec<f64> = self.values.iter().zip(&t).map(|(c, t)| c * t).collect();
@@ -488,6 +565,9 @@ impl JointErrors {
             .zip(self.self_weight_basis(robot, q))
         {
             d[t.joint] += t.value * phi;
+        }
+        for b in &self.backlash {
+            d[b.joint] += b.at(q[b.joint]);
         }
         d
     }
@@ -647,12 +727,40 @@ impl JointErrors {
                 value: t.value.to_radians(),
             });
         }
+        let mut backlash: Vec<Backlash> = Vec::with_capacity(raw.backlash.len());
+        for (i, b) in raw.backlash.iter().enumerate() {
+            let key = format!("backlash[{}]", i + 1);
+            if !(1..=dof).contains(&b.joint) {
+                return Err(invalid(
+                    &key,
+                    format!("joint {} of a robot with {dof} joints", b.joint),
+                ));
+            }
+            if backlash.iter().any(|other| other.joint == b.joint - 1) {
+                return Err(invalid(
+                    &key,
+                    format!("joint {} has a backlash term already", b.joint),
+                ));
+            }
+            if !(b.home.is_finite() && b.value.is_finite()) {
+                return Err(invalid(
+                    &key,
+                    "home and value must be finite numbers".into(),
+                ));
+            }
+            backlash.push(Backlash {
+                joint: b.joint - 1,
+                home: b.home.to_radians(),
+                value: b.value.to_radians(),
+            });
+        }
         Ok(Self {
             values: raw.compliance.iter().map(|c| c * DEG_PER_KNM).collect(),
             gravity: Vector3::from(raw.gravity),
             payload_com: Vector3::from(raw.payload_com),
             harmonics,
             self_weight,
+            backlash,
         })
     }
 
@@ -689,6 +797,13 @@ impl JointErrors {
                     value: t.value.to_degrees(),
                 })
                 .collect(),
+            backlash: (self.backlash.iter())
+                .map(|b| RawBacklash {
+                    joint: b.joint + 1,
+                    home: b.home.to_degrees(),
+                    value: b.value.to_degrees(),
+                })
+                .collect(),
         };
         let body = toml::to_string(&raw).unwrap_or_default();
         let more = if self.has_configuration_terms() {
@@ -696,7 +811,9 @@ impl JointErrors {
              # reach = [lo, hi] (deg): beyond it, q is held at the nearer end (the readings it was\n\
              # identified on, widened by a quarter of their span at each end).\n\
              # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
-             # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n"
+             # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n\
+             # backlash: the joint moved out from `home` (deg) to each pose; its error is +value\n\
+             # (deg, half the play) at or above home, -value below.\n"
         } else {
             ""
         };

@@ -35,8 +35,9 @@ pub mod params;
 pub mod table;
 
 pub use compliance::{
-    Compliance, DEG_PER_KNM, ErrorParam, HARMONIC_REACH, Harmonic, JointErrors, MomentPart,
-    RawCompliance, SelfWeight, compliance_name, harmonic_name, self_weight_name,
+    Backlash, Compliance, DEG_PER_KNM, ErrorParam, HARMONIC_REACH, Harmonic, JointErrors,
+    MomentPart, RawCompliance, SelfWeight, backlash_name, compliance_name, harmonic_name,
+    self_weight_name,
 };
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};

@@ -556,7 +556,8 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         Vector3::new(100.0, -20.0, 60.0),
     )
     .with_harmonics(&[0, 1, 3], 2)
-    .with_self_weight(&[1, 2], 6);
+    .with_self_weight(&[1, 2], 6)
+    .with_backlash(&[0, 3]);
     for (k, p) in e.params().into_iter().enumerate() {
         let v = e.param(p) + 1e-4 * ((k % 7) as f64 - 3.0);
         e.set_param(p, v);
@@ -645,7 +646,11 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         );
     }
     let text = e.to_toml_string();
-    assert!(text.contains("[[harmonic]]") && text.contains("[[self_weight]]"));
+    assert!(
+        text.contains("[[harmonic]]")
+            && text.contains("[[self_weight]]")
+            && text.contains("[[backlash]]")
+    );
     let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
     assert_eq!(back.params(), e.params());
     for p in e.params() {
@@ -662,6 +667,71 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         err.contains("m/compliance.toml") && err.contains("harmonic[5]"),
         "{err}"
     );
+}
+
+/// Backlash on the flank of the approach from home: `+value` at or above home, `−value` below,
+/// whatever the load; the coefficient's column is the joint's column times that sign; the file
+/// round trip keeps home and value; bad entries are refused with their key.
+#[test]
+fn backlash_rests_on_the_flank_of_the_approach_from_home() {
+    use robocal_robot::{ErrorParam, JointErrors};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let robot = Robot::load(root.join("configs/robots/pmc6va030.toml")).unwrap();
+    let mut e = JointErrors::new(vec![0.0; 6], Vector3::new(0.0, 0.0, -9.8), Vector3::zeros())
+        .with_backlash(&[0, 4]);
+    assert_eq!(
+        e.params()[6..],
+        [ErrorParam::Backlash(0), ErrorParam::Backlash(1)]
+    );
+    assert_eq!(e.param_name(ErrorParam::Backlash(1)), "j5.backlash");
+    e.backlash[0].value = 0.02f64.to_radians();
+    e.backlash[1].value = (-0.05f64).to_radians();
+    e.backlash[1].home = 10f64.to_radians();
+    for (q1, q5) in [
+        (-30.0f64, 40.0f64),
+        (0.0, 10.0),
+        (-1e-9, 9.999),
+        (75.0, -80.0),
+    ] {
+        let mut q = vec![0.0, -0.5, 0.3, 0.2, 0.0, 0.1];
+        (q[0], q[4]) = (q1.to_radians(), q5.to_radians());
+        for load in [0.0, 12.0] {
+            let d = e.deflected(&robot, &q, load);
+            let want1 = if q1 >= 0.0 { 0.02 } else { -0.02 };
+            let want5 = if q5 >= 10.0 { -0.05 } else { 0.05 };
+            assert!(((d[0] - q[0]).to_degrees() - want1).abs() < 1e-12, "{q1}");
+            assert!(((d[4] - q[4]).to_degrees() - want5).abs() < 1e-12, "{q5}");
+            assert_eq!([d[1], d[2], d[3], d[5]], [q[1], q[2], q[3], q[5]]);
+            let params = [ErrorParam::Backlash(0), ErrorParam::Backlash(1)];
+            let (_, jac) = e.param_jacobian(&robot, &q, load, &params);
+            let joint = robot.joint_jacobian(&d);
+            let sign = |x: bool| if x { 1.0 } else { -1.0 };
+            assert!((jac.column(0) - joint.column(0) * sign(q1 >= 0.0)).norm() < 1e-12);
+            assert!((jac.column(1) - joint.column(4) * sign(q5 >= 10.0)).norm() < 1e-12);
+        }
+    }
+    let text = e.to_toml_string();
+    assert!(text.contains("[[backlash]]"), "{text}");
+    let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
+    for (a, b) in back.backlash.iter().zip(&e.backlash) {
+        assert_eq!(a.joint, b.joint);
+        assert!((a.home - b.home).abs() < 1e-15 && (a.value - b.value).abs() < 1e-17);
+    }
+    assert_eq!(back.backlash.len(), 2);
+    for (from, to) in [
+        ("joint = 5", "joint = 7"),
+        ("joint = 5", "joint = 1"),
+        ("home = 10.0", "home = nan"),
+    ] {
+        assert!(text.contains(from), "{text}");
+        let err = JointErrors::from_toml_str(&text.replacen(from, to, 1), "m/c.toml", 6)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("m/c.toml") && err.contains("backlash[2]"),
+            "{err}"
+        );
+    }
 }
 
 /// A harmonic's reach: inside it the joint error is the Fourier term of the joint angle itself,

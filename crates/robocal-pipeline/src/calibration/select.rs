@@ -96,6 +96,8 @@ pub struct AutoSettings {
     pub harmonics: u32,
     /// Self-weight terms tried with the geometry.
     pub self_weight: bool,
+    /// Backlash on the flank of the approach from home tried with the geometry.
+    pub backlash: bool,
     /// The residual models tried, each on top of the best physical model.
     pub residuals: Vec<ResidualStage>,
     /// Seconds the selection may take: a candidate whose folds would run past it (projected
@@ -124,6 +126,7 @@ impl Default for AutoSettings {
             min_residual_configurations: 40,
             harmonics: 2,
             self_weight: true,
+            backlash: true,
             residuals: vec![
                 ResidualStage {
                     settings: ResidualSettings::gp(seed),
@@ -152,6 +155,8 @@ struct Physics {
     harmonics: u32,
     /// Self-weight terms.
     self_weight: bool,
+    /// Backlash on the flank of the approach from home.
+    backlash: bool,
 }
 
 impl Physics {
@@ -160,6 +165,7 @@ impl Physics {
         compliance: false,
         harmonics: 0,
         self_weight: false,
+        backlash: false,
     };
     const RIGID: Self = Self {
         aligned: false,
@@ -180,7 +186,25 @@ impl Physics {
         if self.self_weight {
             name += " + self-weight";
         }
+        if self.backlash {
+            name += " + backlash";
+        }
         name
+    }
+
+    /// Whether it holds any joint-error block.
+    fn has_joint_errors(self) -> bool {
+        self.harmonics > 0 || self.self_weight || self.backlash
+    }
+
+    /// Every block of `self` and of `other`.
+    fn union(self, other: Self) -> Self {
+        Self {
+            harmonics: self.harmonics.max(other.harmonics),
+            self_weight: self.self_weight || other.self_weight,
+            backlash: self.backlash || other.backlash,
+            ..self
+        }
     }
 
     /// Its joint-error terms in words, e.g. `transmission harmonics (orders 1 to 2) identified
@@ -196,7 +220,14 @@ impl Physics {
         if self.self_weight {
             parts.push("self-weight terms".to_string());
         }
-        format!("{} identified with the geometry", parts.join(" and "))
+        if self.backlash {
+            parts.push("backlash on the flank of the approach from home".to_string());
+        }
+        let parts = match parts.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => parts.concat(),
+        };
+        format!("{parts} identified with the geometry")
     }
 
     /// The kinematic settings of this physics, with a 6-DoF probe's `angle_weight` (mm per deg;
@@ -208,9 +239,10 @@ impl Physics {
                 plausible_only: true,
                 ..ComplianceSettings::default()
             }),
-            joint_errors: (self.harmonics > 0 || self.self_weight).then(|| JointErrorSettings {
+            joint_errors: self.has_joint_errors().then(|| JointErrorSettings {
                 harmonics: self.harmonics,
                 self_weight: self.self_weight,
+                backlash: self.backlash,
                 ..JointErrorSettings::default()
             }),
             ..KinematicSettings::default()
@@ -472,20 +504,31 @@ fn physics_chain(
         ));
     }
     // The joint-error blocks by forward stepwise selection: each block alone on the identified
-    // model, the one with the lower held-out score stepped first (kept if significant); then the
-    // other on top of it when it was kept, or alone when it was not. A flexible block cannot take
-    // the place of the block whose form the effect has only because it was tried first
-    // (harmonics of the joint angles absorb part of a self-weight deflection, and extrapolate
-    // it badly).
+    // model, in the order of their held-out scores, until one is kept (significantly better);
+    // then each remaining block added to the kept ones, the best of them taken if it is
+    // significantly better, until none is or none remains. A flexible block cannot take the place
+    // of the block whose form the effect has only because it was tried first (harmonics of the
+    // joint angles absorb part of a self-weight deflection or of a backlash step, and extrapolate
+    // them badly).
     let base = chain.scored[chain.identified()].physics;
+    let none = Physics {
+        harmonics: 0,
+        self_weight: false,
+        backlash: false,
+        ..base
+    };
     let blocks: Vec<Physics> = [
         (settings.harmonics > 0).then_some(Physics {
-            harmonics: base.harmonics.max(settings.harmonics),
-            ..base
+            harmonics: settings.harmonics,
+            ..none
         }),
         settings.self_weight.then_some(Physics {
             self_weight: true,
-            ..base
+            ..none
+        }),
+        settings.backlash.then_some(Physics {
+            backlash: true,
+            ..none
         }),
     ]
     .into_iter()
@@ -493,36 +536,48 @@ fn physics_chain(
     .collect();
     // Every scored candidate joins the chain in the order it was scored, so that the chain's
     // indices stay those of the candidates.
-    let singles: Vec<usize> = (blocks.into_iter())
-        .map(|b| {
-            chain.scored.push(score(b));
+    let singles: Vec<usize> = (blocks.iter())
+        .map(|&b| {
+            chain.scored.push(score(base.union(b)));
             chain.scored.len() - 1
         })
         .collect();
-    let mut order = singles.clone();
-    order.sort_by(
-        |&a, &b| match (chain.scored[a].score, chain.scored[b].score) {
-            (Some(x), Some(y)) => x.total_cmp(&y),
-            (Some(_), None) => std::cmp::Ordering::Less,
-            (None, Some(_)) => std::cmp::Ordering::Greater,
-            (None, None) => std::cmp::Ordering::Equal,
-        },
-    );
-    if let Some(&first) = order.first() {
-        chain.take("joint_errors", first, groups);
-        if let Some(&second) = order.get(1) {
-            if chain.current == first {
-                let (one, other) = (chain.scored[first].physics, chain.scored[second].physics);
-                let both = Physics {
-                    harmonics: one.harmonics.max(other.harmonics),
-                    self_weight: one.self_weight || other.self_weight,
-                    ..one
-                };
-                chain.step("joint_errors", score(both), groups);
-            } else {
-                chain.take("joint_errors", second, groups);
-            }
+    let by_score = |chain: &Chain, a: &usize, b: &usize| match (
+        chain.scored[*a].score,
+        chain.scored[*b].score,
+    ) {
+        (Some(x), Some(y)) => x.total_cmp(&y),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => std::cmp::Ordering::Equal,
+    };
+    let mut order: Vec<usize> = (0..blocks.len()).collect();
+    order.sort_by(|a, b| by_score(&chain, &singles[*a], &singles[*b]));
+    let mut remaining: Vec<usize> = Vec::new();
+    let mut kept = None;
+    for (k, &b) in order.iter().enumerate() {
+        chain.take("joint_errors", singles[b], groups);
+        if chain.current == singles[b] {
+            kept = Some(chain.scored[singles[b]].physics);
+            remaining = order[k + 1..].to_vec();
+            break;
         }
+    }
+    while let Some(current) = kept
+        && !remaining.is_empty()
+    {
+        let tried: Vec<usize> = (remaining.iter())
+            .map(|&b| {
+                chain.scored.push(score(current.union(blocks[b])));
+                chain.scored.len() - 1
+            })
+            .collect();
+        let best = (0..tried.len())
+            .min_by(|a, b| by_score(&chain, &tried[*a], &tried[*b]))
+            .expect("a block remains");
+        chain.take("joint_errors", tried[best], groups);
+        kept = (chain.current == tried[best]).then(|| chain.scored[tried[best]].physics);
+        remaining.remove(best);
     }
     debug_assert!(
         (chain.scored.iter().zip(candidates.iter())).all(|(s, c)| s.physics.name() == c.name)
@@ -725,7 +780,7 @@ fn decisions(
                 })
         })
         .copied();
-    let has_errors = chosen.harmonics > 0 || chosen.self_weight;
+    let has_errors = chosen.has_joint_errors();
     out.push(match (joint_errors.first(), with) {
         (Some(first), Some(step)) => decision(
             "joint_errors",
@@ -745,7 +800,7 @@ fn decisions(
             false,
             None,
             None,
-            "not tried (no harmonics or self-weight in the settings), or every fit failed",
+            "not tried (no harmonics, self-weight or backlash in the settings), or every fit failed",
         ),
     });
     let physics_mean = score(chain.current).unwrap_or(f64::INFINITY);
@@ -839,10 +894,16 @@ pub fn automatic(
         return Ok(built);
     };
     let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
-    // The progress bar counts fits: every candidate on every fold, and the final one.
+    // The progress bar counts fits: every candidate on every fold, and the final one. Physical
+    // candidates: nominal, identified, compliance, and at most n + (n − 1) + … + 1 of the n
+    // joint-error blocks' stepwise selection.
+    let blocks = usize::from(settings.harmonics > 0)
+        + usize::from(settings.self_weight)
+        + usize::from(settings.backlash);
+    let physical = 3 + blocks * (blocks + 1) / 2;
     observer.start(
         "candidates × folds fitted",
-        (plan.splits.len() * (5 + settings.residuals.len()) + 1) as u64,
+        (plan.splits.len() * (physical + settings.residuals.len()) + 1) as u64,
     );
     let groups = plan.groups();
     let mut candidates: Vec<Candidate> = Vec::new();
