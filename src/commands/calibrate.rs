@@ -116,7 +116,10 @@ pub fn run(
         }
     }
     if let Some(errors) = &built.kinematic.compliance {
-        for line in harmonic_lines(errors) {
+        for line in harmonic_lines(errors)
+            .into_iter()
+            .chain(backlash_lines(errors))
+        {
             eprintln!("robocal: {line}");
         }
     }
@@ -209,6 +212,23 @@ pub fn run(
     };
     eprintln!("robocal: model written to {}; {held_out}", out.display());
     Ok(())
+}
+
+/// One line per joint with identified backlash: half its play, and the home it is reckoned from.
+fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+    (errors.backlash.iter())
+        .filter(|b| b.value != 0.0)
+        .map(|b| {
+            format!(
+                "joint {} backlash: {:+.4}° at or above {:.1}° (the home it was moved out from), {:+.4}° below: a play of {:.4}°",
+                b.joint + 1,
+                b.value.to_degrees(),
+                b.home.to_degrees(),
+                -b.value.to_degrees(),
+                2.0 * b.value.abs().to_degrees()
+            )
+        })
+        .collect()
 }
 
 /// One line per joint with identified transmission harmonics: each order's amplitude and how far

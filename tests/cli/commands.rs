@@ -1093,6 +1093,63 @@ fn predict_sigma_comes_from_a_gp_model_and_is_refused_without_one() {
     assert!(!out.exists());
 }
 
+/// calibrate with backlash (a stage config giving the home readings) says, per joint, the
+/// identified half play and its home, as compliance.toml saves them; a home list that does not
+/// match the robot's joints is refused naming the key, and no model is written.
+#[test]
+fn calibrate_prints_and_saves_the_backlash() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = select_rows(&twin_rows(), |c, load| c < 60 && load == 0.0);
+    let data = write(dir.path(), "data.csv", &text);
+    let stage = write(
+        dir.path(),
+        "b.toml",
+        "[kinematic]\nsolver = \"lm\"\n[joint_errors]\nharmonics = 0\nbacklash = true\nbacklash_home = [0.0, 0.0, 0.0, 5.0, 0.0, 0.0]\n",
+    );
+    let model = dir.path().join("model");
+    let o = calibrate_with(&data, &model, &stage);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let c = robocal_robot::Compliance::load(model.join("compliance.toml"), 6).unwrap();
+    assert_eq!(c.backlash.len(), 6);
+    assert!((c.backlash[3].home.to_degrees() - 5.0).abs() < 1e-12);
+    // The twin's joint 1 rests on the flank of its approach from 0.
+    let j1 = c.backlash[0].value.to_degrees();
+    assert!(j1.abs() > 0.005, "{j1}");
+    let line = format!("robocal: joint 1 backlash: {:+.4}° at or above 0.0°", j1);
+    assert!(stderr.contains(&line), "{line} not in {stderr}");
+    for b in c.backlash.iter().filter(|b| b.value == 0.0) {
+        assert!(!stderr.contains(&format!("joint {} backlash", b.joint + 1)));
+    }
+    let bad = write(
+        dir.path(),
+        "bad.toml",
+        "[joint_errors]\nbacklash = true\nbacklash_home = [0.0, 0.0]\n",
+    );
+    let other = dir.path().join("other");
+    let o = calibrate_with(&data, &other, &bad);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && stderr.contains("backlash_home"),
+        "{stderr}"
+    );
+    assert!(!other.exists());
+    let unasked = write(
+        dir.path(),
+        "unasked.toml",
+        "[joint_errors]\nbacklash_home = [0.0]\n",
+    );
+    let o = calibrate_with(&data, &other, &unasked);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && stderr.contains("joint_errors.backlash_home")
+            && stderr.contains("unasked.toml"),
+        "{stderr}"
+    );
+    assert!(!other.exists());
+}
+
 /// calibrate with harmonics says, per joint, each order's amplitude and the reach over which the
 /// harmonics are continued; the reach in compliance.toml is the data file's readings of the
 /// joint widened by a quarter of their span at each end (recomputed here from the CSV), and

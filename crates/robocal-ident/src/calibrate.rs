@@ -111,9 +111,11 @@ pub struct JointErrorSettings {
     pub harmonic_joints: Option<Vec<usize>>,
     /// Self-weight terms (every joint; those the poses cannot separate are held at zero).
     pub self_weight: bool,
-    /// Backlash on the flank of the approach from home (reading 0), every joint (a joint
-    /// whose readings do not straddle home is held at zero).
+    /// Backlash on the flank of the approach from home, every joint (a joint whose readings do
+    /// not straddle home is held at zero).
     pub backlash: bool,
+    /// The home readings, rad, one per joint (`None`: 0 for every joint).
+    pub backlash_home: Option<Vec<f64>>,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
     pub gravity: Vector3<f64>,
@@ -126,6 +128,7 @@ impl Default for JointErrorSettings {
             harmonic_joints: None,
             self_weight: false,
             backlash: false,
+            backlash_home: None,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
     }
@@ -695,6 +698,17 @@ fn joint_error_start(
         if je.backlash {
             let first = model.backlash.len();
             model = model.with_backlash(&(0..dof).collect::<Vec<_>>());
+            if let Some(home) = &je.backlash_home {
+                if home.len() != dof {
+                    return Err(IdentError::Compliance(format!(
+                        "backlash_home: {} readings for a robot with {dof} joints",
+                        home.len()
+                    )));
+                }
+                for b in &mut model.backlash[first..] {
+                    b.home = home[b.joint];
+                }
+            }
             params.extend((first..model.backlash.len()).map(ErrorParam::Backlash));
         }
         start = Some(model);

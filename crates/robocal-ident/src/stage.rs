@@ -180,9 +180,11 @@ pub struct RawJointErrorStage {
     pub joints: Option<Vec<usize>>,
     /// Self-weight terms (default false).
     pub self_weight: Option<bool>,
-    /// Backlash on the flank of the approach from home (reading 0) of every joint (default
-    /// false).
+    /// Backlash on the flank of the approach from home of every joint (default false).
     pub backlash: Option<bool>,
+    /// The readings (deg, one per joint) the measurement program moved the joints out from to
+    /// every pose; absent: 0 for every joint. Only with `backlash = true`.
+    pub backlash_home: Option<Vec<f64>>,
 }
 
 /// Highest harmonic order a stage may ask for.
@@ -206,6 +208,21 @@ impl RawJointErrorStage {
         }
         s.self_weight = self.self_weight.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
+        if let Some(home) = &self.backlash_home {
+            if !s.backlash {
+                return Err(Invalid::new(
+                    "joint_errors.backlash_home",
+                    "is given, but backlash is not identified: add backlash = true",
+                ));
+            }
+            if home.is_empty() || home.iter().any(|h| !h.is_finite()) {
+                return Err(Invalid::new(
+                    "joint_errors.backlash_home",
+                    "must list one finite reading (deg) per joint",
+                ));
+            }
+            s.backlash_home = Some(home.iter().map(|h| h.to_radians()).collect());
+        }
         Ok(s)
     }
 
@@ -216,6 +233,8 @@ impl RawJointErrorStage {
             joints: (settings.harmonic_joints.as_ref()).map(|j| j.iter().map(|j| j + 1).collect()),
             self_weight: Some(settings.self_weight),
             backlash: Some(settings.backlash),
+            backlash_home: (settings.backlash_home.as_ref())
+                .map(|h| h.iter().map(|h| h.to_degrees()).collect()),
         }
     }
 }

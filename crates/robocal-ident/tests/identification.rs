@@ -816,6 +816,40 @@ fn elasto_geometric_lm_recovers_injected_backlash() {
         "{:?}",
         without.report.after
     );
+    // Joints moved out from another home: with that home given the term comes back as injected;
+    // taken at 0, the step sits in the wrong place and the fit leaves hundredths of a millimetre.
+    let home = [
+        15f64.to_radians(),
+        0.0,
+        0.0,
+        (-30f64).to_radians(),
+        0.0,
+        0.0,
+    ];
+    for b in &mut errors.backlash {
+        b.home = home[b.joint];
+    }
+    let obs = observe_loaded(&truth, &errors, &configs[..90], &[0.0, 10.0, 20.0]);
+    let mut homed = settings.clone();
+    homed.joint_errors.as_mut().unwrap().backlash_home = Some(home.to_vec());
+    let cal = calibrate_kinematics(&nominal, &obs, &homed).unwrap();
+    assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
+    let found = cal.compliance.as_ref().unwrap();
+    assert!((found.backlash.iter()).all(|b| b.home == home[b.joint]));
+    let at_zero = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
+    assert!(
+        at_zero.report.after.mean > 0.005,
+        "{:?}",
+        at_zero.report.after
+    );
+    homed.joint_errors.as_mut().unwrap().backlash_home = Some(vec![0.0; 5]);
+    let err = calibrate_kinematics(&nominal, &obs, &homed)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("backlash_home") && err.contains("5 readings"),
+        "{err}"
+    );
 }
 
 /// A joint swept over a limited range, with backlash whose flank changes inside it (the twin's
