@@ -214,19 +214,26 @@ pub fn run(
     Ok(())
 }
 
-/// One line per joint with identified backlash: half its play, and the home it is reckoned from.
+/// One line per joint with identified backlash: half its play, and the flank it rests on.
 fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
     (errors.backlash.iter())
         .filter(|b| b.value != 0.0)
         .map(|b| {
-            format!(
-                "joint {} backlash: {:+.4}° at or above {:.1}° (the home it was moved out from), {:+.4}° below: a play of {:.4}°",
-                b.joint + 1,
-                b.value.to_degrees(),
-                b.home.to_degrees(),
-                -b.value.to_degrees(),
-                2.0 * b.value.abs().to_degrees()
-            )
+            let (value, play) = (b.value.to_degrees(), 2.0 * b.value.abs().to_degrees());
+            match &b.flank {
+                robocal_robot::Flank::Approach { home } => format!(
+                    "joint {} backlash: {value:+.4}° at or above {:.1}° (the home it was moved out from), {:+.4}° below: a play of {play:.4}°",
+                    b.joint + 1,
+                    home.to_degrees(),
+                    -value
+                ),
+                robocal_robot::Flank::Torque { weights } => format!(
+                    "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses; preload {:.2} in the payload's units): a play of {play:.4}°",
+                    b.joint + 1,
+                    -value,
+                    weights.last().copied().unwrap_or(0.0)
+                ),
+            }
         })
         .collect()
 }

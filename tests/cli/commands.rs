@@ -1104,7 +1104,7 @@ fn calibrate_prints_and_saves_the_backlash() {
     let stage = write(
         dir.path(),
         "b.toml",
-        "[kinematic]\nsolver = \"lm\"\n[joint_errors]\nharmonics = 0\nbacklash = true\nbacklash_home = [0.0, 0.0, 0.0, 5.0, 0.0, 0.0]\n",
+        "[kinematic]\nsolver = \"lm\"\n[joint_errors]\nharmonics = 0\nbacklash = true\nbacklash_torque = false\nbacklash_home = [0.0, 0.0, 0.0, 5.0, 0.0, 0.0]\n",
     );
     let model = dir.path().join("model");
     let o = calibrate_with(&data, &model, &stage);
@@ -1112,7 +1112,7 @@ fn calibrate_prints_and_saves_the_backlash() {
     assert!(o.status.success(), "{stderr}");
     let c = robocal_robot::Compliance::load(model.join("compliance.toml"), 6).unwrap();
     assert_eq!(c.backlash.len(), 6);
-    assert!((c.backlash[3].home.to_degrees() - 5.0).abs() < 1e-12);
+    assert_eq!(c.backlash[3].home(), Some(5f64.to_radians()));
     // The twin's joint 1 rests on the flank of its approach from 0.
     let j1 = c.backlash[0].value.to_degrees();
     assert!(j1.abs() > 0.005, "{j1}");

@@ -5,7 +5,7 @@ use faer::Mat;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, robust_std};
 use robocal_robot::{
-    Compliance, DEG_PER_KNM, ErrorParam, Harmonic, JointErrors, ParamId, Robot, Unit,
+    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, ParamId, Robot, Unit,
 };
 use serde::Serialize;
 
@@ -111,11 +111,18 @@ pub struct JointErrorSettings {
     pub harmonic_joints: Option<Vec<usize>>,
     /// Self-weight terms (every joint; those the poses cannot separate are held at zero).
     pub self_weight: bool,
-    /// Backlash on the flank of the approach from home, every joint (a joint whose readings do
-    /// not straddle home is held at zero).
+    /// Backlash of every joint (a joint whose flanks the poses do not separate from its offset
+    /// is held at zero), each on the flank of its approach from home, or (with
+    /// `backlash_torque`) on the flank its gravity torque presses where that explains more.
     pub backlash: bool,
     /// The home readings, rad, one per joint (`None`: 0 for every joint).
     pub backlash_home: Option<Vec<f64>>,
+    /// Whether a joint's backlash may rest on the flank its torque presses: the identification
+    /// is run twice, first with the approach flanks, then with each joint's flank chosen from
+    /// what the first left ([`crate::flank`]).
+    pub backlash_torque: bool,
+    /// Each joint's flank, when already chosen (the second run).
+    pub flanks: Option<Vec<Flank>>,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
     pub gravity: Vector3<f64>,
@@ -129,6 +136,8 @@ impl Default for JointErrorSettings {
             self_weight: false,
             backlash: false,
             backlash_home: None,
+            backlash_torque: true,
+            flanks: None,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
     }
@@ -355,6 +364,14 @@ pub struct KinematicReport {
 /// Largest amplitude (deg) a transmission harmonic may take: gear reducers' kinematic errors
 /// are hundredths of a degree; a harmonic identified beyond this is held at zero.
 pub const HARMONIC_BOUND_DEG: f64 = 0.2;
+
+/// Largest half play (deg) a backlash term may take: reducers' backlash is arc-minutes (0.017°
+/// each), a worn or cheap gear's a few tenths of a degree of play; a term identified beyond this
+/// is held at zero (it fits something else, or the poses barely move the point with the joint).
+pub const BACKLASH_BOUND_DEG: f64 = 0.2;
+
+/// Most choices of the backlash flanks in one identification (each followed by a fit).
+pub const FLANK_ROUNDS: usize = 2;
 
 /// Condition number of the scaled Jacobian above which the report warns.
 pub const ILL_CONDITIONED: f64 = 1e5;
@@ -706,7 +723,16 @@ fn joint_error_start(
                     )));
                 }
                 for b in &mut model.backlash[first..] {
-                    b.home = home[b.joint];
+                    b.flank = Flank::Approach {
+                        home: home[b.joint],
+                    };
+                }
+            }
+            if let Some(flanks) = &je.flanks {
+                for b in &mut model.backlash[first..] {
+                    if let Some(f) = flanks.get(b.joint) {
+                        b.flank = f.clone();
+                    }
                 }
             }
             params.extend((first..model.backlash.len()).map(ErrorParam::Backlash));
@@ -746,6 +772,12 @@ fn solve_gated(
                 .map_or(0.0, |h| h.sin.hypot(h.cos).to_degrees())
         };
         let too_large = |joint: usize, order: u32| amplitude(joint, order) > HARMONIC_BOUND_DEG;
+        // A joint's backlash, half its play, deg.
+        let half_play = |joint: usize| {
+            (model.backlash.iter())
+                .find(|b| b.joint == joint)
+                .map_or(0.0, |b| b.value.abs().to_degrees())
+        };
         // Why a joint's compliance is impossible, when the settings ask (deg per kN·m).
         let gate = settings
             .compliance
@@ -786,6 +818,7 @@ fn solve_gated(
         };
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
+                && !matches!(kept[p], Column::Backlash(j) if half_play(j) > BACKLASH_BOUND_DEG)
                 && implausible(p).is_none()
         });
         if drop.is_empty() {
@@ -796,6 +829,10 @@ fn solve_gated(
                 Column::Harmonic { joint, order, .. } => format!(
                     "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
                     amplitude(joint, order)
+                ),
+                Column::Backlash(j) => format!(
+                    "held at zero: its backlash came out at {:.3}° half play, beyond the {BACKLASH_BOUND_DEG}° a reducer's can have (an effect it does not model, or poses that barely move the point with the joint)",
+                    half_play(j)
                 ),
                 _ => format!(
                     "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), held rigid",
@@ -873,6 +910,56 @@ pub fn calibrate_kinematics(
         };
         &probe
     };
+    // Backlash that may rest on the flank its torque presses: a first identification on the
+    // flanks of the approach from home, each joint's flank chosen from what it leaves, then the
+    // identification on those flanks; the choice made again from that fit (a flank chosen from
+    // a fit that lacked it is blurred where the first fit absorbed the step), until the rows'
+    // flanks stay as they were or FLANK_ROUNDS choices have been made.
+    if let Some(je) = &settings.joint_errors
+        && je.backlash
+        && je.backlash_torque
+        && je.flanks.is_none()
+    {
+        let mut round = settings.clone();
+        let start = round.joint_errors.as_mut().expect("joint errors");
+        start.backlash_torque = false;
+        let home = (start.backlash_home.clone()).unwrap_or_else(|| vec![0.0; nominal.dof()]);
+        let mut fit = calibrate_kinematics(nominal, obs, &round)?;
+        let mut best: Option<KinematicCalibration> = None;
+        let mut signs: Option<Vec<f64>> = None;
+        for _ in 0..FLANK_ROUNDS {
+            let Some(errors) = fit.compliance.as_ref() else {
+                break;
+            };
+            let flanks = crate::flank::choose_flanks(&fit.robot, errors, obs, &home);
+            if signs.is_none() && flanks.iter().all(|f| matches!(f, Flank::Approach { .. })) {
+                break;
+            }
+            round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
+            let next = calibrate_kinematics(nominal, obs, &round)?;
+            let now = next
+                .compliance
+                .as_ref()
+                .map(|e| crate::flank::flank_signs(&next.robot, e, obs));
+            let settled = now.is_some() && now == signs;
+            signs = now;
+            // The fit kept: the lowest sum of squares (the identification's own objective).
+            if best
+                .as_ref()
+                .is_none_or(|b| next.report.after.rms < b.report.after.rms)
+            {
+                best = Some(next.clone());
+            }
+            fit = next;
+            if settled {
+                break;
+            }
+        }
+        return Ok(match best {
+            Some(b) if b.report.after.rms < fit.report.after.rms => b,
+            _ => fit,
+        });
+    }
     let selected = select(nominal, settings.parameters.as_deref())?;
     if 3 * obs.len() < selected.len().min(9) || obs.len() < 3 {
         return Err(IdentError::TooFewMeasurements {

@@ -15,6 +15,7 @@
 pub mod bfgs;
 pub mod calibrate;
 pub mod error;
+mod flank;
 pub mod identifiability;
 pub mod lm;
 pub mod problem;
@@ -22,10 +23,10 @@ pub mod registration;
 pub mod stage;
 
 pub use calibrate::{
-    COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport, FAR_FROM_NOMINAL,
-    FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance,
-    JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings, Loss,
-    OrientationReport, POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align,
+    BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport,
+    FAR_FROM_NOMINAL, FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS,
+    JointCompliance, JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings,
+    Loss, OrientationReport, POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align,
     calibrate_kinematics, default_compliance_joints, far_from_nominal,
 };
 pub use error::{IdentError, Result};

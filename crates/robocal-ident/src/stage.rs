@@ -180,8 +180,12 @@ pub struct RawJointErrorStage {
     pub joints: Option<Vec<usize>>,
     /// Self-weight terms (default false).
     pub self_weight: Option<bool>,
-    /// Backlash on the flank of the approach from home of every joint (default false).
+    /// Backlash of every joint (default false): on the flank of the approach from home, or on
+    /// the flank the torque presses where that explains more (see `backlash_torque`).
     pub backlash: Option<bool>,
+    /// Whether a joint's backlash may rest on the flank its torque presses (default true; only
+    /// with `backlash = true`).
+    pub backlash_torque: Option<bool>,
     /// The readings (deg, one per joint) the measurement program moved the joints out from to
     /// every pose; absent: 0 for every joint. Only with `backlash = true`.
     pub backlash_home: Option<Vec<f64>>,
@@ -208,6 +212,15 @@ impl RawJointErrorStage {
         }
         s.self_weight = self.self_weight.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
+        if let Some(torque) = self.backlash_torque {
+            if !s.backlash {
+                return Err(Invalid::new(
+                    "joint_errors.backlash_torque",
+                    "is given, but backlash is not identified: add backlash = true",
+                ));
+            }
+            s.backlash_torque = torque;
+        }
         if let Some(home) = &self.backlash_home {
             if !s.backlash {
                 return Err(Invalid::new(
@@ -233,6 +246,7 @@ impl RawJointErrorStage {
             joints: (settings.harmonic_joints.as_ref()).map(|j| j.iter().map(|j| j + 1).collect()),
             self_weight: Some(settings.self_weight),
             backlash: Some(settings.backlash),
+            backlash_torque: Some(settings.backlash_torque),
             backlash_home: (settings.backlash_home.as_ref())
                 .map(|h| h.iter().map(|h| h.to_degrees()).collect()),
         }

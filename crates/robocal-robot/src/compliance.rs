@@ -11,9 +11,11 @@
 //!   moment along each of its axes, would put on the joint ([`SelfWeight`]); which of these the
 //!   poses can separate (from each other and from the geometry) the identifiability analysis
 //!   decides. It needs no payload: one load is enough;
-//! - **backlash on the flank of the approach from home**: a joint with play, moved out from its
-//!   home reading to each pose, rests on the flank its motion pressed: `Δq_i = +b_i` at or above
-//!   home, `−b_i` below ([`Backlash`]; `b_i` is half the play).
+//! - **backlash**: a joint with play rests on one flank, `Δq_i = ±b_i` (`b_i` half the play,
+//!   [`Backlash`]): on the flank of its approach from home (`+b_i` at or above the home reading,
+//!   `−b_i` below), or on the flank its gravity torque presses (the sign of a linear function of
+//!   the joint's gravity-torque features: the link weights', the payload's and a constant
+//!   preload, [`Flank::Torque`]).
 //!
 //! A joint whose gear and bearings give under torque turns by `compliance × torque`. The torque
 //! that changes with the payload is gravity's on the payload's centre of mass,
@@ -127,30 +129,48 @@ impl Harmonic {
     }
 }
 
-/// Backlash of one joint on the flank of its approach from home: the joint was moved out from
-/// `home` to each pose, so it rests on the flank its motion pressed, `Δq = +value` at a reading
-/// at or above `home` and `−value` below (`value`: half the play, signed by which flank leads).
-/// A joint whose readings all lie on one side of home shows only a constant offset, which the
-/// geometry takes: the identifiability analysis holds the term at zero then.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Which flank of its play a joint with backlash rests on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Flank {
+    /// The flank of its approach from `home` (rad): the joint was moved out from home to each
+    /// pose, so it rests on the flank its motion pressed, `+1` at a reading at or above home and
+    /// `−1` below. A joint whose readings all lie on one side of home shows only a constant
+    /// offset, which the geometry takes: the identifiability analysis holds the term at zero.
+    Approach {
+        /// The reading the joint moves out from, rad.
+        home: f64,
+    },
+    /// The flank its torque presses: `+1` where `weights · f ≥ 0`, `−1` elsewhere, with `f` the
+    /// joint's gravity-torque features ([`JointErrors::torque_features`]: the torques of a unit
+    /// mass and unit first moments of every link from the joint's outwards, of the flange frame
+    /// times the load, and 1). With the load's unit-mass weight 1, the others are the links'
+    /// masses (kg) and first moments (kg·m), the payload's centre of mass (m) and a preload
+    /// (N·m): the sign is that of the joint's torque.
+    Torque {
+        /// One per feature.
+        weights: Vec<f64>,
+    },
+}
+
+/// Backlash of one joint: `Δq = value × flank`, `value` half the play (signed by which flank
+/// leads), the flank `±1` as [`Flank`] says.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Backlash {
     /// 0-based joint.
     pub joint: usize,
-    /// The reading the joint moves out from, rad.
-    pub home: f64,
-    /// Half the play, rad (the joint error at or above home).
+    /// Which flank it rests on.
+    pub flank: Flank,
+    /// Half the play, rad (the joint error on the `+1` flank).
     pub value: f64,
 }
 
 impl Backlash {
-    /// `+1` at or above home, `−1` below: the basis of the term at joint reading `q`.
-    pub fn flank(&self, q: f64) -> f64 {
-        if q >= self.home { 1.0 } else { -1.0 }
-    }
-
-    /// Its joint error at reading `q`, rad.
-    pub fn at(&self, q: f64) -> f64 {
-        self.value * self.flank(q)
+    /// The home reading of an approach flank (`None` for a torque flank).
+    pub fn home(&self) -> Option<f64> {
+        match self.flank {
+            Flank::Approach { home } => Some(home),
+            Flank::Torque { .. } => None,
+        }
     }
 }
 
@@ -192,6 +212,22 @@ pub struct SelfWeight {
     pub part: MomentPart,
     /// Coefficient, rad per basis unit (compliance × the link's mass or moment).
     pub value: f64,
+}
+
+/// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
+/// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²).
+fn unit_torque(
+    (w, a): &(Vector3<f64>, Vector3<f64>),
+    (r, o): &(Matrix3<f64>, Vector3<f64>),
+    g: &Vector3<f64>,
+    part: MomentPart,
+) -> f64 {
+    match part {
+        MomentPart::Mass => w.dot(&(o - a).cross(g)) * 1e-3,
+        MomentPart::X => w.dot(&r.column(0).cross(g)),
+        MomentPart::Y => w.dot(&r.column(1).cross(g)),
+        MomentPart::Z => w.dot(&r.column(2).cross(g)),
+    }
 }
 
 /// The name of joint `joint`'s (0-based) payload compliance: `j2.compliance`.
@@ -283,15 +319,21 @@ pub struct RawCompliance {
     pub backlash: Vec<RawBacklash>,
 }
 
-/// `[[backlash]]` as written.
+/// `[[backlash]]` as written: `home` (the flank of the approach from home) or `torque` (the flank
+/// the torque presses), not both.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawBacklash {
     /// Joint, counted from 1.
     pub joint: usize,
     /// The reading the joint moves out from, deg.
-    pub home: f64,
-    /// Half the play, deg: the joint error at or above home (its negative below).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub home: Option<f64>,
+    /// The weights of the joint's gravity-torque features ([`Flank::Torque`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque: Option<Vec<f64>>,
+    /// Half the play, deg: the joint error on the `+1` flank (at or above home; where the
+    /// weighted torque is at least 0), its negative on the other.
     pub value: f64,
 }
 
@@ -326,6 +368,10 @@ pub struct RawSelfWeight {
     /// Coefficient, deg per basis unit (N·m per kg for `mass`, per kg·m for the moments).
     pub value: f64,
 }
+
+/// Gravity-torque features per link (and for the payload): a unit mass and three unit first
+/// moments.
+pub const TORQUE_FEATURES_PER_LINK: usize = 4;
 
 /// Highest harmonic order a file may give.
 pub const MAX_HARMONIC_ORDER: u32 = 64;
@@ -410,16 +456,65 @@ impl JointErrors {
         out
     }
 
-    /// Adds backlash terms (half play 0) for `joints`, each moved out from home reading 0.
+    /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
+    /// home reading 0.
     pub fn with_backlash(mut self, joints: &[usize]) -> Self {
         for &joint in joints {
             self.backlash.push(Backlash {
                 joint,
-                home: 0.0,
+                flank: Flank::Approach { home: 0.0 },
                 value: 0.0,
             });
         }
         self
+    }
+
+    /// The gravity-torque features of `joint` at command `q` (rad) under `load` kg: for every
+    /// link from the joint's outwards, the torque about its axis of a unit mass at the link
+    /// frame's origin (N·m per kg) and of a unit first moment along each frame axis (N·m per
+    /// kg·m) — the self-weight basis —; then the same four of the flange frame times the load
+    /// (the payload's torque is the first plus its centre of mass, m, times the other three,
+    /// wherever that centre lies); then 1. [`TORQUE_FEATURES_PER_LINK`] per link and as many
+    /// for the payload, plus one.
+    pub fn torque_features(&self, robot: &Robot, q: &[f64], load: f64, joint: usize) -> Vec<f64> {
+        let dof = q.len();
+        let axes = robot.joint_axes(q);
+        let frames = robot.link_frames(q);
+        let g = self.gravity_world(robot);
+        let parts = [
+            MomentPart::Mass,
+            MomentPart::X,
+            MomentPart::Y,
+            MomentPart::Z,
+        ];
+        let mut f = Vec::with_capacity(TORQUE_FEATURES_PER_LINK * (dof - joint + 1) + 1);
+        for frame in &frames[joint..dof] {
+            for part in parts {
+                f.push(unit_torque(&axes.axes[joint], frame, &g, part));
+            }
+        }
+        for part in parts {
+            f.push(load * unit_torque(&axes.axes[joint], &frames[dof - 1], &g, part));
+        }
+        f.push(1.0);
+        f
+    }
+
+    /// How many gravity-torque features joint `joint` (0-based) of a `dof`-joint arm has.
+    pub fn torque_feature_count(dof: usize, joint: usize) -> usize {
+        TORQUE_FEATURES_PER_LINK * (dof - joint + 1) + 1
+    }
+
+    /// The flank (`±1`) backlash `b` rests on at command `q` (rad) under `load` kg.
+    pub fn flank(&self, b: &Backlash, robot: &Robot, q: &[f64], load: f64) -> f64 {
+        let positive = match &b.flank {
+            Flank::Approach { home } => q[b.joint] >= *home,
+            Flank::Torque { weights } => {
+                let f = self.torque_features(robot, q, load, b.joint);
+                weights.iter().zip(&f).map(|(w, f)| w * f).sum::<f64>() >= 0.0
+            }
+        };
+        if positive { 1.0 } else { -1.0 }
     }
 
     /// Adds harmonics of orders `1..=orders` (coefficients 0) for `joints`.
@@ -471,16 +566,7 @@ impl JointErrors {
         let g = self.gravity_world(robot);
         self.self_weight
             .iter()
-            .map(|t| {
-                let (w, a) = &axes.axes[t.joint];
-                let (r, o) = &frames[t.body];
-                match t.part {
-                    MomentPart::Mass => w.dot(&(o - a).cross(&g)) * 1e-3,
-                    MomentPart::X => w.dot(&r.column(0).cross(&g)),
-                    MomentPart::Y => w.dot(&r.column(1).cross(&g)),
-                    MomentPart::Z => w.dot(&r.column(2).cross(&g)),
-                }
-            })
+            .map(|t| unit_torque(&axes.axes[t.joint], &frames[t.body], &g, t.part))
             .collect()
     }
 
@@ -524,7 +610,7 @@ impl JointErrors {
                 ErrorParam::SelfWeight(i) => (self.self_weight[i].joint, sw[i]),
                 ErrorParam::Backlash(i) => {
                     let b = &self.backlash[i];
-                    (b.joint, b.flank(q[b.joint]))
+                    (b.joint, self.flank(b, robot, q, load))
                 }
             })
             .collect()
@@ -567,7 +653,7 @@ impl JointErrors {
             d[t.joint] += t.value * phi;
         }
         for b in &self.backlash {
-            d[b.joint] += b.at(q[b.joint]);
+            d[b.joint] += b.value * self.flank(b, robot, q, load);
         }
         d
     }
@@ -742,15 +828,40 @@ impl JointErrors {
                     format!("joint {} has a backlash term already", b.joint),
                 ));
             }
-            if !(b.home.is_finite() && b.value.is_finite()) {
-                return Err(invalid(
-                    &key,
-                    "home and value must be finite numbers".into(),
-                ));
+            if !b.value.is_finite() {
+                return Err(invalid(&key, "value must be a finite number".into()));
             }
+            let features = Self::torque_feature_count(dof, b.joint - 1);
+            let flank = match (b.home, &b.torque) {
+                (Some(home), None) if home.is_finite() => Flank::Approach {
+                    home: home.to_radians(),
+                },
+                (None, Some(w)) if w.len() == features && w.iter().all(|w| w.is_finite()) => {
+                    Flank::Torque { weights: w.clone() }
+                }
+                (Some(_), None) => {
+                    return Err(invalid(&key, "home must be a finite number (deg)".into()));
+                }
+                (None, Some(w)) => {
+                    return Err(invalid(
+                        &key,
+                        format!(
+                            "torque lists {} weights: joint {} of a robot with {dof} joints has {features} finite ones (4 per link from the joint's outwards, 4 for the payload, the preload's)",
+                            w.len(),
+                            b.joint
+                        ),
+                    ));
+                }
+                _ => {
+                    return Err(invalid(
+                        &key,
+                        "give home (the flank of the approach from home) or torque (the flank the torque presses), one of them".into(),
+                    ));
+                }
+            };
             backlash.push(Backlash {
                 joint: b.joint - 1,
-                home: b.home.to_radians(),
+                flank,
                 value: b.value.to_radians(),
             });
         }
@@ -800,7 +911,11 @@ impl JointErrors {
             backlash: (self.backlash.iter())
                 .map(|b| RawBacklash {
                     joint: b.joint + 1,
-                    home: b.home.to_degrees(),
+                    home: b.home().map(f64::to_degrees),
+                    torque: match &b.flank {
+                        Flank::Torque { weights } => Some(weights.clone()),
+                        Flank::Approach { .. } => None,
+                    },
                     value: b.value.to_degrees(),
                 })
                 .collect(),
@@ -812,8 +927,12 @@ impl JointErrors {
              # identified on, widened by a quarter of their span at each end).\n\
              # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
              # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n\
-             # backlash: the joint moved out from `home` (deg) to each pose; its error is +value\n\
-             # (deg, half the play) at or above home, -value below.\n"
+             # backlash: the joint rests on one flank of its play, error +value (deg, half the\n\
+             # play) on one, -value on the other: with `home` (deg), the flank of its approach\n\
+             # from home (+ at or above it); with `torque`, the flank its torque presses (+ where\n\
+             # the weights times the features are at least 0: for each link from the joint's\n\
+             # outwards the gravity torques of a unit mass at its frame's origin and of unit first\n\
+             # moments along x, y, z, then the same of the flange frame times the load, then 1).\n"
         } else {
             ""
         };

@@ -35,9 +35,9 @@ pub mod params;
 pub mod table;
 
 pub use compliance::{
-    Backlash, Compliance, DEG_PER_KNM, ErrorParam, HARMONIC_REACH, Harmonic, JointErrors,
-    MomentPart, RawCompliance, SelfWeight, backlash_name, compliance_name, harmonic_name,
-    self_weight_name,
+    Backlash, Compliance, DEG_PER_KNM, ErrorParam, Flank, HARMONIC_REACH, Harmonic, JointErrors,
+    MomentPart, RawCompliance, SelfWeight, TORQUE_FEATURES_PER_LINK, backlash_name,
+    compliance_name, harmonic_name, self_weight_name,
 };
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};

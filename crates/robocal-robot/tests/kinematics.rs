@@ -686,7 +686,9 @@ fn backlash_rests_on_the_flank_of_the_approach_from_home() {
     assert_eq!(e.param_name(ErrorParam::Backlash(1)), "j5.backlash");
     e.backlash[0].value = 0.02f64.to_radians();
     e.backlash[1].value = (-0.05f64).to_radians();
-    e.backlash[1].home = 10f64.to_radians();
+    e.backlash[1].flank = robocal_robot::Flank::Approach {
+        home: 10f64.to_radians(),
+    };
     for (q1, q5) in [
         (-30.0f64, 40.0f64),
         (0.0, 10.0),
@@ -715,7 +717,8 @@ fn backlash_rests_on_the_flank_of_the_approach_from_home() {
     let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
     for (a, b) in back.backlash.iter().zip(&e.backlash) {
         assert_eq!(a.joint, b.joint);
-        assert!((a.home - b.home).abs() < 1e-15 && (a.value - b.value).abs() < 1e-17);
+        let (ha, hb) = (a.home().unwrap(), b.home().unwrap());
+        assert!((ha - hb).abs() < 1e-15 && (a.value - b.value).abs() < 1e-17);
     }
     assert_eq!(back.backlash.len(), 2);
     for (from, to) in [
@@ -729,6 +732,96 @@ fn backlash_rests_on_the_flank_of_the_approach_from_home() {
             .to_string();
         assert!(
             err.contains("m/c.toml") && err.contains("backlash[2]"),
+            "{err}"
+        );
+    }
+}
+
+/// Backlash on the flank the torque presses: the flank is the sign of the joint's gravity torque
+/// of the weights' links, payload and preload, computed here independently (gravity's work on
+/// each mass point per unit turn of the joint, by central differences); the coefficient's
+/// column is the joint's column times the flank; the file keeps the weights, and a wrong
+/// number of them, or both a home and weights, is refused with the key.
+#[test]
+fn backlash_rests_on_the_flank_the_torque_presses() {
+    use robocal_robot::{ErrorParam, Flank, JointErrors};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let robot = Robot::load(root.join("configs/robots/pmc6va030.toml")).unwrap();
+    let gravity = Vector3::new(0.0, 0.0, -9.80665);
+    let mut e = JointErrors::new(vec![0.0; 6], gravity, Vector3::zeros()).with_backlash(&[1]);
+    // Joint 2: links 2..6 (4 features each), the payload's 4, the preload.
+    let mut weights = vec![0.0; JointErrors::torque_feature_count(6, 1)];
+    assert_eq!(weights.len(), 25);
+    weights[4] = 10.0; // 10 kg at link 3's frame origin
+    weights[4 * 3 + 2] = 0.5; // link 5: 0.5 kg·m along its frame's y axis
+    let com = Vector3::new(0.1, -0.05, 0.2); // payload centre of mass, m, flange frame
+    weights[20..24].copy_from_slice(&[1.0, com.x, com.y, com.z]);
+    weights[24] = 30.0; // preload, N·m
+    e.backlash[0].flank = Flank::Torque {
+        weights: weights.clone(),
+    };
+    e.backlash[0].value = 0.04f64.to_radians();
+    let g = robot.base_rotation() * gravity;
+    let torque = |q: &[f64], load: f64| {
+        // Gravity's work per unit turn of joint 2 on every mass point (positions in m).
+        let points = |q: &[f64]| {
+            let frames = robot.link_frames(q);
+            let (r4, _) = frames[4];
+            let (r6, o6) = frames[5];
+            [
+                (10.0, frames[2].1 * 1e-3),
+                (1.0, r4.column(1) * 0.5),
+                (load, o6 * 1e-3 + r6 * com),
+            ]
+        };
+        let h = 1e-6;
+        let (mut up, mut down) = (q.to_vec(), q.to_vec());
+        up[1] += h;
+        down[1] -= h;
+        let work: f64 = (points(&up).iter().zip(points(&down)))
+            .map(|((m, a), (_, b))| m * g.dot(&((a - b) / (2.0 * h))))
+            .sum();
+        work + 30.0
+    };
+    let mut seen = [0, 0];
+    for k in 0..60 {
+        let q: Vec<f64> = (0..6)
+            .map(|j| ((k * 7 + j * 13) % 23) as f64 / 23.0 * 3.0 - 1.5)
+            .collect();
+        for load in [0.0, 8.0, 20.0] {
+            let t = torque(&q, load);
+            if t.abs() < 0.05 {
+                continue;
+            }
+            let want = if t >= 0.0 { 1.0 } else { -1.0 };
+            seen[usize::from(t >= 0.0)] += 1;
+            assert_eq!(
+                e.flank(&e.backlash[0], &robot, &q, load),
+                want,
+                "{q:?} {load}: {t}"
+            );
+            let d = e.deflected(&robot, &q, load);
+            assert!(((d[1] - q[1]) - want * 0.04f64.to_radians()).abs() < 1e-15);
+            let (_, jac) = e.param_jacobian(&robot, &q, load, &[ErrorParam::Backlash(0)]);
+            assert!((jac.column(0) - robot.joint_jacobian(&d).column(1) * want).norm() < 1e-12);
+        }
+    }
+    assert!(seen[0] > 10 && seen[1] > 10, "{seen:?}");
+    let text = e.to_toml_string();
+    let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
+    assert_eq!(back.backlash[0].flank, Flank::Torque { weights });
+    assert!(!text.lines().any(|l| l.starts_with("home")), "{text}");
+    let list = text.lines().find(|l| l.starts_with("torque = ")).unwrap();
+    for bad in [
+        "torque = [1.0, 2.0]".to_string(),
+        format!("home = 0.0\n{list}"),
+        String::new(),
+    ] {
+        let err = JointErrors::from_toml_str(&text.replacen(list, &bad, 1), "m/c.toml", 6)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("m/c.toml") && err.contains("backlash[1]"),
             "{err}"
         );
     }

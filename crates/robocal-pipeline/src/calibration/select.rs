@@ -3,6 +3,8 @@
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{
     ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings,
@@ -284,9 +286,18 @@ fn score_physics(
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
-    for fold in splits {
-        observer.advance(1);
-        match fit_kinematic(nominal, &fold.train, &kinematic) {
+    // The folds' fits are independent: on every core at once, taken in fold order (the same
+    // results on any number of cores).
+    let fits: Vec<_> = splits
+        .par_iter()
+        .map(|fold| {
+            let fit = fit_kinematic(nominal, &fold.train, &kinematic);
+            observer.advance(1);
+            fit
+        })
+        .collect();
+    for (fold, fit) in splits.iter().zip(fits) {
+        match fit {
             Ok(fit) => {
                 let model = physics.model(&fit);
                 held.add(fold, model.errors(&fold.test));
@@ -471,9 +482,32 @@ fn physics_chain(
     groups: &[usize],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
+    over_budget: &dyn Fn(f64) -> bool,
 ) -> Chain {
     let angle_weight = settings.angle_weight;
     let mut score = |physics: Physics| {
+        // A joint-error candidate does not start once the budget is spent.
+        if physics.has_joint_errors() && over_budget(0.0) {
+            let c = Candidate {
+                name: physics.name(),
+                held_out: None,
+                held_out_blocks: None,
+                score: None,
+                seconds: 0.0,
+                status: format!(
+                    "skipped: the time budget ({} s) is spent",
+                    settings.budget_seconds
+                ),
+            };
+            report(&c, observer);
+            candidates.push(c);
+            return Scored {
+                physics,
+                score: None,
+                errors: None,
+                fitted: vec![None; plan.splits.len()],
+            };
+        }
         score_physics(
             physics,
             angle_weight,
@@ -915,6 +949,7 @@ pub fn automatic(
         &groups,
         &mut candidates,
         observer,
+        &over_budget,
     );
     let residuals = residual_candidates(
         settings,
