@@ -474,6 +474,7 @@ impl Chain {
 /// compliances (two or more loads); then, on the current identified one, transmission
 /// harmonics and self-weight terms by forward stepwise selection — each kept only if it lowers
 /// the held-out errors significantly.
+#[allow(clippy::too_many_arguments)]
 fn physics_chain(
     settings: &AutoSettings,
     nominal: &Robot,
