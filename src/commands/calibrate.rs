@@ -227,12 +227,18 @@ fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                     home.to_degrees(),
                     -value
                 ),
-                robocal_robot::Flank::Torque { weights } => format!(
-                    "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses; preload {:.2} in the payload's units): a play of {play:.4}°",
-                    b.joint + 1,
-                    -value,
-                    weights.last().copied().unwrap_or(0.0)
-                ),
+                robocal_robot::Flank::Torque { weights } => {
+                    // Scaled to the payload's unit mass, the last weight is the preload, N·m.
+                    let n = weights.len();
+                    let preload = (n >= 5 && weights[n - 5] == 1.0)
+                        .then(|| format!(", preload {:.2} N·m", weights[n - 1]))
+                        .unwrap_or_default();
+                    format!(
+                        "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses{preload}): a play of {play:.4}°",
+                        b.joint + 1,
+                        -value,
+                    )
+                }
             }
         })
         .collect()
