@@ -367,6 +367,23 @@ fn observe_loaded(
     obs
 }
 
+/// Settings identifying the compliances of joints 2–6 (the payload's centre of mass at
+/// `payload_com`) and the joint errors `errors` with the geometry.
+fn with_joint_errors(
+    payload_com: Vector3<f64>,
+    errors: robocal_ident::JointErrorSettings,
+) -> KinematicSettings {
+    KinematicSettings {
+        compliance: Some(ComplianceSettings {
+            joints: Some(vec![1, 2, 3, 4, 5]),
+            payload_com: Some(payload_com),
+            ..ComplianceSettings::default()
+        }),
+        joint_errors: Some(errors),
+        ..KinematicSettings::default()
+    }
+}
+
 /// Compliances of the size the twin's joints have (deg per kN·m), joint 1 rigid, the payload on
 /// a bracket.
 fn injected_compliance() -> Compliance {
@@ -645,19 +662,14 @@ fn elasto_geometric_lm_recovers_injected_harmonics_and_self_weight() {
         }
     }
     let obs = observe_loaded(&truth, &errors, &configs[..90], &[0.0, 10.0, 20.0]);
-    let settings = KinematicSettings {
-        compliance: Some(ComplianceSettings {
-            joints: Some(vec![1, 2, 3, 4, 5]),
-            payload_com: Some(errors.payload_com),
-            ..ComplianceSettings::default()
-        }),
-        joint_errors: Some(JointErrorSettings {
+    let settings = with_joint_errors(
+        errors.payload_com,
+        JointErrorSettings {
             harmonics: 2,
             self_weight: true,
             ..JointErrorSettings::default()
-        }),
-        ..KinematicSettings::default()
-    };
+        },
+    );
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
     assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
     let found = cal.compliance.as_ref().unwrap();
@@ -758,20 +770,15 @@ fn elasto_geometric_lm_recovers_injected_backlash() {
         assert!((10..80).contains(&sides), "joint {}: {sides}", j + 1);
     }
     let obs = observe_loaded(&truth, &errors, &configs[..90], &[0.0, 10.0, 20.0]);
-    let settings = KinematicSettings {
-        compliance: Some(ComplianceSettings {
-            joints: Some(vec![1, 2, 3, 4, 5]),
-            payload_com: Some(errors.payload_com),
-            ..ComplianceSettings::default()
-        }),
-        joint_errors: Some(JointErrorSettings {
+    let settings = with_joint_errors(
+        errors.payload_com,
+        JointErrorSettings {
             harmonics: 0,
             backlash: true,
             backlash_torque: false,
             ..JointErrorSettings::default()
-        }),
-        ..KinematicSettings::default()
-    };
+        },
+    );
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
     assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
     let found = cal.compliance.as_ref().unwrap();
@@ -899,19 +906,14 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
         .filter(|s| **s > 0.0)
         .count();
     assert!(plus > obs.len() / 10 && plus < obs.len() * 9 / 10, "{plus}");
-    let settings = KinematicSettings {
-        compliance: Some(ComplianceSettings {
-            joints: Some(vec![1, 2, 3, 4, 5]),
-            payload_com: Some(errors.payload_com),
-            ..ComplianceSettings::default()
-        }),
-        joint_errors: Some(JointErrorSettings {
+    let settings = with_joint_errors(
+        errors.payload_com,
+        JointErrorSettings {
             harmonics: 0,
             backlash: true,
             ..JointErrorSettings::default()
-        }),
-        ..KinematicSettings::default()
-    };
+        },
+    );
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
     let found = cal.compliance.as_ref().unwrap();
     let b = found.backlash.iter().find(|b| b.joint == 3).unwrap();

@@ -961,10 +961,7 @@ pub fn automatic(
     // The final fit of the chosen physics on every row, kept out of the residual models'
     // budget: about a fold's fit of the slowest physical candidate (its folds ran two at a time)
     // on a quarter more rows, with room to spare.
-    let reserve = FINAL_FIT_SHARE
-        * (candidates.iter())
-            .map(|c| c.seconds)
-            .fold(0.0, f64::max);
+    let reserve = FINAL_FIT_SHARE * (candidates.iter()).map(|c| c.seconds).fold(0.0, f64::max);
     let residual_budget = |spent: f64| over_budget(spent + reserve);
     let residuals = residual_candidates(
         settings,
