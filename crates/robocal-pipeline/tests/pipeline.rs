@@ -476,6 +476,46 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     }
 }
 
+/// A heavy arm's own weight bends it enough that its rigid table, fitted on the unloaded rows,
+/// moves a length the poses barely see by more than the plausibility rule allows (ARM6H's
+/// j5.d by 13 mm): the check then fits the arm's deflection too and accepts the data; the same
+/// data in inches are still refused, with the cause named.
+#[test]
+fn a_heavy_arms_own_weight_is_not_taken_for_wrong_units() {
+    use robocal_pipeline::calibration::check_plausible;
+    let twin = TwinConfig::load(root().join("configs/twin/arm6h.toml")).unwrap();
+    let data = twin.generate().unwrap().measurements;
+    let rows: Vec<&robocal_data::Measurement> = (data.rows.iter())
+        .filter(|r| r.sample.load <= 40.0)
+        .collect();
+    let rigid = robocal_pipeline::calibration::fit_kinematic(
+        &twin.nominal,
+        &rows,
+        &robocal_ident::KinematicSettings::default(),
+    )
+    .unwrap();
+    let far = robocal_ident::far_from_nominal(&rigid.report.parameters, &twin.nominal.param_ids());
+    assert!(!far.is_empty(), "the rigid fit moves no length far");
+    assert_eq!(check_plausible(&twin.nominal, &rows).unwrap(), None);
+    let inches: Vec<robocal_data::Measurement> = (rows.iter())
+        .map(|r| {
+            let mut m = (*r).clone();
+            m.position /= 25.4;
+            m
+        })
+        .collect();
+    let refs: Vec<&robocal_data::Measurement> = inches.iter().collect();
+    let why = check_plausible(&twin.nominal, &refs)
+        .unwrap()
+        .expect("refused");
+    assert!(
+        why.likely_cause
+            .as_deref()
+            .is_some_and(|c| c.contains("inches")),
+        "{why:?}"
+    );
+}
+
 /// The paper's numbers, notes and captions appear only beside the paper's robot: an experiment
 /// on another arm's twin gets tables without a paper column and no note about the paper's
 /// printed values; the paper's own experiment keeps them.

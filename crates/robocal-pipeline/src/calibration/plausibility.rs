@@ -4,10 +4,13 @@
 //! is the hypothesis under which a fit of the same data would be plausible.
 
 use robocal_data::Measurement;
-use robocal_ident::{KinematicCalibration, KinematicSettings, POOR_FIT, far_from_nominal};
+use robocal_ident::{
+    ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings, POOR_FIT,
+    far_from_nominal,
+};
 use robocal_robot::Robot;
 
-use super::fit_kinematic;
+use super::{fit_kinematic, loads};
 use crate::error::Result;
 
 /// Why a calibration is not plausible, and what probably went wrong.
@@ -40,19 +43,39 @@ fn far_lengths(fit: &KinematicCalibration, nominal: &Robot) -> Vec<String> {
         .collect()
 }
 
+/// Whether the rigid fit `rigid` of `rows` is plausible, or else the fit with the arm's
+/// deflection under its own weight and the payload's is.
+fn fits(rigid: &KinematicCalibration, nominal: &Robot, rows: &[&Measurement]) -> bool {
+    if plausible(rigid, nominal) {
+        return true;
+    }
+    let elastic = KinematicSettings {
+        compliance: (loads(rows).len() >= 2).then(ComplianceSettings::default),
+        joint_errors: Some(JointErrorSettings {
+            harmonics: 0,
+            self_weight: true,
+            ..JointErrorSettings::default()
+        }),
+        ..KinematicSettings::default()
+    };
+    fit_kinematic(nominal, rows, &elastic).is_ok_and(|f| plausible(&f, nominal))
+}
+
 /// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average and no
 /// link length moved far from the drawing.
 fn plausible(fit: &KinematicCalibration, nominal: &Robot) -> bool {
     fit.report.after.mean <= POOR_FIT && far_lengths(fit, nominal).is_empty()
 }
 
-/// Checks the rigid kinematic fit of `rows`; when it is not plausible, tries the usual
-/// mistakes — positions in inches or metres, joint angles in radians, two joint columns
-/// swapped — and names the one under which the data fit.
+/// Checks the rigid kinematic fit of `rows`, and when it is not plausible the fit with the
+/// arm's deflection under its own weight and the payload's (a heavy arm's rigid table absorbs
+/// it by moving a length the poses barely see: ARM6H's j5.d by 13 mm); when neither is, tries
+/// the usual mistakes — positions in inches or metres, joint angles in radians, two joint
+/// columns swapped — and names the one under which the data fit.
 pub fn check_plausible(nominal: &Robot, rows: &[&Measurement]) -> Result<Option<Implausible>> {
     let settings = KinematicSettings::default();
     let fit = fit_kinematic(nominal, rows, &settings)?;
-    if plausible(&fit, nominal) {
+    if fits(&fit, nominal, rows) {
         return Ok(None);
     }
     let far = far_lengths(&fit, nominal);
@@ -114,7 +137,7 @@ pub fn check_plausible(nominal: &Robot, rows: &[&Measurement]) -> Result<Option<
             continue;
         };
         let mean = alternative.report.after.mean;
-        if plausible(&alternative, nominal) && best.as_ref().is_none_or(|b| mean < b.1) {
+        if best.as_ref().is_none_or(|b| mean < b.1) && fits(&alternative, nominal, &refs) {
             best = Some((cause, mean));
         }
     }

@@ -227,7 +227,7 @@ impl Physics {
             parts.push("self-weight terms".to_string());
         }
         if self.backlash {
-            parts.push("backlash on the flank of the approach from home".to_string());
+            parts.push("backlash (each joint on the flank of its approach from home or on the one its torque presses)".to_string());
         }
         let parts = match parts.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
