@@ -230,9 +230,11 @@ fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                 robocal_robot::Flank::Torque { weights } => {
                     // Scaled to the payload's unit mass, the last weight is the preload, N·m.
                     let n = weights.len();
-                    let preload = (n >= 5 && weights[n - 5] == 1.0)
-                        .then(|| format!(", preload {:.2} N·m", weights[n - 1]))
-                        .unwrap_or_default();
+                    let preload = if n >= 5 && weights[n - 5] == 1.0 {
+                        format!(", preload {:.2} N·m", weights[n - 1])
+                    } else {
+                        String::new()
+                    };
                     format!(
                         "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses{preload}): a play of {play:.4}°",
                         b.joint + 1,
