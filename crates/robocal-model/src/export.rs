@@ -324,6 +324,11 @@ pub fn not_carried(model: &CalibratedModel) -> Vec<String> {
         if !e.self_weight.is_empty() {
             out.push(format!("{} self-weight terms", e.self_weight.len()));
         }
+        let backlash = e.backlash.iter().filter(|b| b.value != 0.0).count();
+        if backlash > 0 {
+            let joints = if backlash == 1 { "joint" } else { "joints" };
+            out.push(format!("the backlash of {backlash} {joints}"));
+        }
     }
     if let Some(r) = &model.residual {
         out.push(format!("the {} residual model", r.kind().name()));

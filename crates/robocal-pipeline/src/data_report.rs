@@ -165,6 +165,9 @@ fn parts(model: &CalibratedModel) -> Vec<String> {
         if !e.self_weight.is_empty() {
             blocks.push("self-weight compliance");
         }
+        if !e.backlash.is_empty() {
+            blocks.push("backlash");
+        }
         parts.push(format!("joint errors: {}", blocks.join(", ")));
     }
     if let Some(r) = &model.residual {
