@@ -227,14 +227,9 @@ fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                     home.to_degrees(),
                     -value
                 ),
-                robocal_robot::Flank::Torque { weights } => {
-                    // Scaled to the payload's unit mass, the last weight is the preload, N·m.
-                    let n = weights.len();
-                    let preload = if n >= 5 && weights[n - 5] == 1.0 {
-                        format!(", preload {:.2} N·m", weights[n - 1])
-                    } else {
-                        String::new()
-                    };
+                robocal_robot::Flank::Torque { .. } => {
+                    let preload = (b.flank.preload())
+                        .map_or_else(String::new, |p| format!(", preload {p:.2} N·m"));
                     format!(
                         "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses{preload}): a play of {play:.4}°",
                         b.joint + 1,

@@ -943,10 +943,11 @@ pub fn calibrate_kinematics(
                 .map(|e| crate::flank::flank_signs(&next.robot, e, obs));
             let settled = now.is_some() && now == signs;
             signs = now;
-            // The fit kept: the lowest sum of squares (the identification's own objective).
+            // The fit kept: the lowest sum of squares (the identification's own objective; of
+            // equal ones, the later).
             if best
                 .as_ref()
-                .is_none_or(|b| next.report.after.rms < b.report.after.rms)
+                .is_none_or(|b| next.report.after.rms <= b.report.after.rms)
             {
                 best = Some(next.clone());
             }
@@ -955,10 +956,7 @@ pub fn calibrate_kinematics(
                 break;
             }
         }
-        return Ok(match best {
-            Some(b) if b.report.after.rms < fit.report.after.rms => b,
-            _ => fit,
-        });
+        return Ok(best.unwrap_or(fit));
     }
     let selected = select(nominal, settings.parameters.as_deref())?;
     if 3 * obs.len() < selected.len().min(9) || obs.len() < 3 {

@@ -20,7 +20,9 @@
 //! regression with two dozen weights does not win by fitting the noise.
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use robocal_robot::{Flank, JointErrors, Robot, TORQUE_FEATURES_PER_LINK};
+use robocal_robot::{
+    Flank, JointErrors, Robot, TORQUE_FEATURES_PER_LINK, payload_mass_feature, torque_side,
+};
 
 use crate::problem::Observations;
 
@@ -46,7 +48,6 @@ pub(crate) fn choose_flanks(
 ) -> Vec<Flank> {
     let dof = robot.dof();
     let n = obs.len();
-    // Each row's error and joint Jacobian columns at the deflected angles.
     // Two halves of the configurations (every load of a configuration in the same half).
     let mut seen: Vec<&[f64]> = Vec::new();
     let half: Vec<usize> = (0..n)
@@ -59,14 +60,18 @@ pub(crate) fn choose_flanks(
             k % 2
         })
         .collect();
+    // Each row's joint errors, its error and its joint Jacobian columns at the deflected angles.
+    let mut deflection = Vec::with_capacity(n);
     let mut residual = Vec::with_capacity(n);
     let mut columns = Vec::with_capacity(n);
     for i in 0..n {
         let q = obs.joints(i);
         let target = robot.for_target(obs.target(robot, i));
-        let deflected = errors.deflected(robot, q, obs.loads[i]);
+        let d = errors.deflection(robot, q, obs.loads[i]);
+        let deflected: Vec<f64> = q.iter().zip(&d).map(|(q, d)| q + d).collect();
         residual.push(obs.points[i] - target.point(&deflected));
         columns.push(target.joint_jacobian(&deflected));
+        deflection.push(d);
     }
     let features: Vec<Vec<Vec<f64>>> = (0..dof)
         .map(|j| {
@@ -95,18 +100,21 @@ pub(crate) fn choose_flanks(
                 return approach;
             }
             let features = &features[j];
-            // What the fit leaves with the joint's own backlash given back, along its column.
+            // What the fit leaves with every joint-error term of the joint given back, along
+            // its column; and the rows' approach flanks.
             let mut y = Vec::with_capacity(n);
             let mut norm2 = 0.0;
-            let mut flank_now = Vec::with_capacity(n);
+            let mut approach_flank = Vec::with_capacity(n);
             for i in 0..n {
-                let (q, load) = (obs.joints(i), obs.loads[i]);
-                let s = if q[j] >= home[j] { 1.0 } else { -1.0 };
                 let col: Vector3<f64> = columns[i].column(j).into_owned();
-                let e = residual[i] + col * errors.deflection(robot, q, load)[j];
+                let e = residual[i] + col * deflection[i][j];
                 y.push(col.dot(&e));
                 norm2 += col.norm_squared();
-                flank_now.push(s);
+                approach_flank.push(if obs.joints(i)[j] >= home[j] {
+                    1.0
+                } else {
+                    -1.0
+                });
             }
             if norm2 <= 0.0 {
                 return approach;
@@ -114,10 +122,6 @@ pub(crate) fn choose_flanks(
             let gain = |s: &[f64]| {
                 let dot: f64 = s.iter().zip(&y).map(|(s, y)| s * y).sum();
                 dot * dot / norm2
-            };
-            let sign = |w: &[f64], f: &[f64]| {
-                let t: f64 = w.iter().zip(f).map(|(w, f)| w * f).sum();
-                if t >= 0.0 { 1.0 } else { -1.0 }
             };
             // Cross-fitted flanks: each half's from the regression on the other half.
             let mut crossed = vec![0.0; n];
@@ -133,11 +137,11 @@ pub(crate) fn choose_flanks(
                     return approach;
                 };
                 for i in (0..n).filter(|&i| half[i] == h) {
-                    crossed[i] = sign(&w, &features[i]);
+                    crossed[i] = torque_side(&w, &features[i]);
                 }
             }
             // The approach flank has no weights fitted: its gain is honest as it is.
-            if gain(&crossed) <= gain(&flank_now) {
+            if gain(&crossed) <= gain(&approach_flank) {
                 return approach;
             }
             logistic(features, &y).map_or(approach, |weights| Flank::Torque { weights })
@@ -203,7 +207,7 @@ fn logistic(features: &[Vec<f64>], y: &[f64]) -> Option<Vec<f64>> {
         constant -= w[k] * mean[k];
     }
     w[p - 1] = constant;
-    let payload = w[p.saturating_sub(5)];
+    let payload = w[payload_mass_feature(p)];
     let norm = if payload > 1e-12 * w.iter().map(|v| v.abs()).fold(0.0, f64::max) {
         payload
     } else {

@@ -212,22 +212,25 @@ impl RawJointErrorStage {
         }
         s.self_weight = self.self_weight.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
-        if let Some(torque) = self.backlash_torque {
-            if !s.backlash {
+        // The backlash settings mean nothing without backlash.
+        for (key, given) in [
+            (
+                "joint_errors.backlash_torque",
+                self.backlash_torque.is_some(),
+            ),
+            ("joint_errors.backlash_home", self.backlash_home.is_some()),
+        ] {
+            if given && !s.backlash {
                 return Err(Invalid::new(
-                    "joint_errors.backlash_torque",
+                    key,
                     "is given, but backlash is not identified: add backlash = true",
                 ));
             }
+        }
+        if let Some(torque) = self.backlash_torque {
             s.backlash_torque = torque;
         }
         if let Some(home) = &self.backlash_home {
-            if !s.backlash {
-                return Err(Invalid::new(
-                    "joint_errors.backlash_home",
-                    "is given, but backlash is not identified: add backlash = true",
-                ));
-            }
             if home.is_empty() || home.iter().any(|h| !h.is_finite()) {
                 return Err(Invalid::new(
                     "joint_errors.backlash_home",

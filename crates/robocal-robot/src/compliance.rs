@@ -164,6 +164,21 @@ pub struct Backlash {
     pub value: f64,
 }
 
+impl Flank {
+    /// A torque flank's preload, N·m: its last weight, when the weights are scaled to the
+    /// payload's unit mass (data with several loads); `None` otherwise.
+    pub fn preload(&self) -> Option<f64> {
+        match self {
+            Flank::Torque { weights }
+                if weights.get(payload_mass_feature(weights.len())) == Some(&1.0) =>
+            {
+                weights.last().copied()
+            }
+            _ => None,
+        }
+    }
+}
+
 impl Backlash {
     /// The home reading of an approach flank (`None` for a torque flank).
     pub fn home(&self) -> Option<f64> {
@@ -189,6 +204,9 @@ pub enum MomentPart {
 }
 
 impl MomentPart {
+    /// Every part, in the order of the self-weight terms and torque features.
+    pub const ALL: [Self; 4] = [Self::Mass, Self::X, Self::Y, Self::Z];
+
     /// Name in files and reports.
     pub fn name(self) -> &'static str {
         match self {
@@ -228,6 +246,50 @@ fn unit_torque(
         MomentPart::Y => w.dot(&r.column(1).cross(g)),
         MomentPart::Z => w.dot(&r.column(2).cross(g)),
     }
+}
+
+/// The gravity-torque features about the joint axis `axis` (see
+/// [`JointErrors::torque_features`]) of the links whose frames are `frames` (the joint's own
+/// and every one beyond it; the last is the flange's), gravity `g`, under `load` kg.
+fn torque_features_at(
+    axis: &(Vector3<f64>, Vector3<f64>),
+    frames: &[(Matrix3<f64>, Vector3<f64>)],
+    g: &Vector3<f64>,
+    load: f64,
+) -> Vec<f64> {
+    let mut f = Vec::with_capacity(TORQUE_FEATURES_PER_LINK * (frames.len() + 1) + 1);
+    for frame in frames {
+        f.extend(MomentPart::ALL.map(|part| unit_torque(axis, frame, g, part)));
+    }
+    if let Some(flange) = frames.last() {
+        f.extend(MomentPart::ALL.map(|part| load * unit_torque(axis, flange, g, part)));
+    }
+    f.push(1.0);
+    f
+}
+
+/// `+1` for the positive flank, `−1` for the other.
+fn side(positive: bool) -> f64 {
+    if positive { 1.0 } else { -1.0 }
+}
+
+/// The flank (`±1`) a torque flank's `weights` give for the gravity-torque `features`: `+1`
+/// where their product is at least 0.
+pub fn torque_side(weights: &[f64], features: &[f64]) -> f64 {
+    side(
+        weights
+            .iter()
+            .zip(features)
+            .map(|(w, f)| w * f)
+            .sum::<f64>()
+            >= 0.0,
+    )
+}
+
+/// The position, among `count` gravity-torque features, of the payload's unit mass (the
+/// weight a torque flank's weights are scaled to; the preload's is the last).
+pub fn payload_mass_feature(count: usize) -> usize {
+    count.saturating_sub(TORQUE_FEATURES_PER_LINK + 1)
 }
 
 /// The name of joint `joint`'s (0-based) payload compliance: `j2.compliance`.
@@ -477,27 +539,14 @@ impl JointErrors {
     /// wherever that centre lies); then 1. [`TORQUE_FEATURES_PER_LINK`] per link and as many
     /// for the payload, plus one.
     pub fn torque_features(&self, robot: &Robot, q: &[f64], load: f64, joint: usize) -> Vec<f64> {
-        let dof = q.len();
         let axes = robot.joint_axes(q);
         let frames = robot.link_frames(q);
-        let g = self.gravity_world(robot);
-        let parts = [
-            MomentPart::Mass,
-            MomentPart::X,
-            MomentPart::Y,
-            MomentPart::Z,
-        ];
-        let mut f = Vec::with_capacity(TORQUE_FEATURES_PER_LINK * (dof - joint + 1) + 1);
-        for frame in &frames[joint..dof] {
-            for part in parts {
-                f.push(unit_torque(&axes.axes[joint], frame, &g, part));
-            }
-        }
-        for part in parts {
-            f.push(load * unit_torque(&axes.axes[joint], &frames[dof - 1], &g, part));
-        }
-        f.push(1.0);
-        f
+        torque_features_at(
+            &axes.axes[joint],
+            &frames[joint..],
+            &self.gravity_world(robot),
+            load,
+        )
     }
 
     /// How many gravity-torque features joint `joint` (0-based) of a `dof`-joint arm has.
@@ -507,14 +556,34 @@ impl JointErrors {
 
     /// The flank (`±1`) backlash `b` rests on at command `q` (rad) under `load` kg.
     pub fn flank(&self, b: &Backlash, robot: &Robot, q: &[f64], load: f64) -> f64 {
-        let positive = match &b.flank {
-            Flank::Approach { home } => q[b.joint] >= *home,
+        match &b.flank {
+            Flank::Approach { home } => side(q[b.joint] >= *home),
             Flank::Torque { weights } => {
-                let f = self.torque_features(robot, q, load, b.joint);
-                weights.iter().zip(&f).map(|(w, f)| w * f).sum::<f64>() >= 0.0
+                torque_side(weights, &self.torque_features(robot, q, load, b.joint))
             }
-        };
-        if positive { 1.0 } else { -1.0 }
+        }
+    }
+
+    /// The flank (`±1`) of every backlash term at command `q` (rad) under `load` kg, the arm's
+    /// frames computed once for all the torque flanks.
+    fn flanks(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
+        let torque = (self.backlash.iter()).any(|b| matches!(b.flank, Flank::Torque { .. }));
+        let frames = torque.then(|| {
+            let g = self.gravity_world(robot);
+            (robot.joint_axes(q), robot.link_frames(q), g)
+        });
+        (self.backlash.iter())
+            .map(|b| match (&b.flank, &frames) {
+                (Flank::Approach { home }, _) => side(q[b.joint] >= *home),
+                (Flank::Torque { weights }, Some((axes, frames, g))) => {
+                    let f = torque_features_at(&axes.axes[b.joint], &frames[b.joint..], g, load);
+                    torque_side(weights, &f)
+                }
+                (Flank::Torque { .. }, None) => {
+                    unreachable!("frames are computed for torque flanks")
+                }
+            })
+            .collect()
     }
 
     /// Adds harmonics of orders `1..=orders` (coefficients 0) for `joints`.
@@ -538,12 +607,7 @@ impl JointErrors {
     pub fn with_self_weight(mut self, joints: &[usize], dof: usize) -> Self {
         for &joint in joints {
             for body in joint..dof {
-                for part in [
-                    MomentPart::Mass,
-                    MomentPart::X,
-                    MomentPart::Y,
-                    MomentPart::Z,
-                ] {
+                for part in MomentPart::ALL {
                     self.self_weight.push(SelfWeight {
                         joint,
                         body,
@@ -595,6 +659,11 @@ impl JointErrors {
         } else {
             Vec::new()
         };
+        let flanks = if params.iter().any(|p| matches!(p, ErrorParam::Backlash(_))) {
+            self.flanks(robot, q, load)
+        } else {
+            Vec::new()
+        };
         params
             .iter()
             .map(|&p| match p {
@@ -608,10 +677,7 @@ impl JointErrors {
                     (h.joint, h.basis(q[h.joint]).1)
                 }
                 ErrorParam::SelfWeight(i) => (self.self_weight[i].joint, sw[i]),
-                ErrorParam::Backlash(i) => {
-                    let b = &self.backlash[i];
-                    (b.joint, self.flank(b, robot, q, load))
-                }
+                ErrorParam::Backlash(i) => (self.backlash[i].joint, flanks[i]),
             })
             .collect()
     }
@@ -652,8 +718,8 @@ impl JointErrors {
         {
             d[t.joint] += t.value * phi;
         }
-        for b in &self.backlash {
-            d[b.joint] += b.value * self.flank(b, robot, q, load);
+        for (b, s) in self.backlash.iter().zip(self.flanks(robot, q, load)) {
+            d[b.joint] += b.value * s;
         }
         d
     }

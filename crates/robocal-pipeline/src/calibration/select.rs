@@ -98,7 +98,8 @@ pub struct AutoSettings {
     pub harmonics: u32,
     /// Self-weight terms tried with the geometry.
     pub self_weight: bool,
-    /// Backlash on the flank of the approach from home tried with the geometry.
+    /// Backlash tried with the geometry (each joint on the flank of its approach from home or on
+    /// the one its torque presses).
     pub backlash: bool,
     /// The residual models tried, each on top of the best physical model.
     pub residuals: Vec<ResidualStage>,
@@ -161,7 +162,8 @@ struct Physics {
     harmonics: u32,
     /// Self-weight terms.
     self_weight: bool,
-    /// Backlash on the flank of the approach from home.
+    /// Backlash (each joint on the flank of its approach from home or on the one its torque
+    /// presses).
     backlash: bool,
 }
 
