@@ -119,6 +119,7 @@ pub fn run(
         for line in harmonic_lines(errors)
             .into_iter()
             .chain(backlash_lines(errors))
+            .chain(link_weight_lines(errors))
         {
             eprintln!("robocal: {line}");
         }
@@ -212,6 +213,30 @@ pub fn run(
     };
     eprintln!("robocal: model written to {}; {held_out}", out.display());
     Ok(())
+}
+
+/// One line per link with identified shared weights: its mass (kg, at its frame's origin) and
+/// first moments (kg·m), as identified (the poses may separate only some of them: the rest
+/// are held at zero and named with what was not identifiable).
+fn link_weight_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+    (errors.link_weights)
+        .chunk_by(|a, b| a.body == b.body)
+        .filter(|parts| parts.iter().any(|w| w.value != 0.0))
+        .map(|parts| {
+            let values: Vec<String> = (parts.iter())
+                .filter(|w| w.value != 0.0)
+                .map(|w| match w.part {
+                    robocal_robot::MomentPart::Mass => format!("mass {:.3} kg", w.value),
+                    p => format!("moment {} {:.4} kg·m", p.name(), w.value),
+                })
+                .collect();
+            format!(
+                "link {} weight (through the joints' compliances): {}",
+                parts[0].body + 1,
+                values.join(", ")
+            )
+        })
+        .collect()
 }
 
 /// One line per joint with identified backlash: half its play, and the flank it rests on.

@@ -5,7 +5,8 @@ use faer::Mat;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, robust_std};
 use robocal_robot::{
-    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, ParamId, Robot, Unit,
+    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, MomentPart, ParamId, Robot,
+    Unit,
 };
 use serde::Serialize;
 
@@ -111,6 +112,14 @@ pub struct JointErrorSettings {
     pub harmonic_joints: Option<Vec<usize>>,
     /// Self-weight terms (every joint; those the poses cannot separate are held at zero).
     pub self_weight: bool,
+    /// The links' weights shared by the joints they load ([`robocal_robot::LinkWeight`]: each
+    /// joint deflects by its payload compliance times the gravity torque of the payload and of
+    /// the links beyond it). Needs the compliance settings; identified after a first fit
+    /// without them, from that fit's compliances (at zero compliance a weight moves nothing).
+    pub link_weights: bool,
+    /// The compliances (rad/(N·m), one per joint) the identification with link weights starts
+    /// from (the first fit's; set by the identification itself).
+    pub compliance_start: Option<Vec<f64>>,
     /// Backlash of every joint (a joint whose flanks the poses do not separate from its offset
     /// is held at zero), each on the flank of its approach from home, or (with
     /// `backlash_torque`) on the flank its gravity torque presses where that explains more.
@@ -134,6 +143,8 @@ impl Default for JointErrorSettings {
             harmonics: 2,
             harmonic_joints: None,
             self_weight: false,
+            link_weights: false,
+            compliance_start: None,
             backlash: false,
             backlash_home: None,
             backlash_torque: true,
@@ -652,17 +663,29 @@ fn joint_error_reports(
             let column = Column::of_error(model, p);
             ErrorTermReport {
                 name: model.param_name(p),
-                unit: if matches!(p, ErrorParam::SelfWeight(_)) {
-                    "deg per basis unit"
-                } else {
-                    "deg"
+                unit: match p {
+                    ErrorParam::SelfWeight(_) => "deg per basis unit",
+                    ErrorParam::LinkWeight(i) if model.link_weights[i].part == MomentPart::Mass => {
+                        "kg"
+                    }
+                    ErrorParam::LinkWeight(_) => "kg·m",
+                    _ => "deg",
                 },
-                value: model.param(p).to_degrees(),
-                std: std_of(column).map(f64::to_degrees),
+                value: in_file_unit(p, model.param(p)),
+                std: std_of(column).map(|s| in_file_unit(p, s)),
                 identified: kept.contains(&column),
             }
         })
         .collect()
+}
+
+/// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m as
+/// they are, the rest from radians to degrees.
+fn in_file_unit(p: ErrorParam, value: f64) -> f64 {
+    match p {
+        ErrorParam::LinkWeight(_) => value,
+        _ => value.to_degrees(),
+    }
 }
 
 /// The joint-error model identification starts from — the compliance choice's, with the
@@ -711,6 +734,18 @@ fn joint_error_start(
             let first = model.self_weight.len();
             model = model.with_self_weight(&(0..dof).collect::<Vec<_>>(), dof);
             params.extend((first..model.self_weight.len()).map(ErrorParam::SelfWeight));
+        }
+        if je.link_weights {
+            if let Some(values) = &je.compliance_start {
+                for &p in &params {
+                    if let ErrorParam::Compliance(j) = p {
+                        model.values[j] = values[j];
+                    }
+                }
+            }
+            let first = model.link_weights.len();
+            model = model.with_link_weights(&(0..dof).collect::<Vec<_>>());
+            params.extend((first..model.link_weights.len()).map(ErrorParam::LinkWeight));
         }
         if je.backlash {
             let first = model.backlash.len();
@@ -910,6 +945,48 @@ pub fn calibrate_kinematics(
         };
         &probe
     };
+    // The links' weights act through the joints' compliances: a first identification without
+    // them gives the compliances the one with them starts from (at zero compliance a weight
+    // moves nothing, and the identifiability analysis would hold every weight at zero).
+    if let Some(je) = &settings.joint_errors
+        && je.link_weights
+        && je.compliance_start.is_none()
+    {
+        if settings.compliance.is_none() {
+            return Err(IdentError::Compliance(
+                "link weights act through the joint compliances: identify the compliances too"
+                    .into(),
+            ));
+        }
+        let mut first = settings.clone();
+        let je_first = first.joint_errors.as_mut().expect("joint errors");
+        je_first.link_weights = false;
+        if !(je_first.harmonics > 0 || je_first.self_weight || je_first.backlash) {
+            first.joint_errors = None;
+        }
+        let fit = calibrate_kinematics(nominal, obs, &first)?;
+        let Some(values) = fit.compliance.as_ref().map(|c| c.values.clone()) else {
+            return Ok(fit);
+        };
+        let mut next = settings.clone();
+        let je_next = next.joint_errors.as_mut().expect("joint errors");
+        je_next.compliance_start = Some(values);
+        if je_next.backlash && je_next.backlash_torque && je_next.flanks.is_none() {
+            // The first fit chose the flanks; keep them rather than choose again.
+            je_next.flanks = fit.compliance.as_ref().map(|c| {
+                let mut flanks: Vec<Flank> = (0..nominal.dof())
+                    .map(|j| Flank::Approach {
+                        home: je_next.backlash_home.as_ref().map_or(0.0, |h| h[j]),
+                    })
+                    .collect();
+                for b in &c.backlash {
+                    flanks[b.joint] = b.flank.clone();
+                }
+                flanks
+            });
+        }
+        return calibrate_kinematics(nominal, obs, &next);
+    }
     // Backlash that may rest on the flank its torque presses: a first identification on the
     // flanks of the approach from home, each joint's flank chosen from what it leaves, then the
     // identification on those flanks; the choice made again from that fit (a flank chosen from

@@ -6,7 +6,7 @@ use faer::Mat;
 use faer::linalg::solvers::Solve;
 use robocal_robot::{
     ErrorParam, JointErrors, JointField, MomentPart, ParamId, backlash_name, compliance_name,
-    harmonic_name, self_weight_name,
+    harmonic_name, link_weight_name, self_weight_name,
 };
 
 /// Result of [`analyse`].
@@ -50,6 +50,13 @@ pub enum Column {
     },
     /// The half play of a joint's backlash (0-based).
     Backlash(usize),
+    /// A link's weight shared by the joints it loads.
+    LinkWeight {
+        /// 0-based link.
+        body: usize,
+        /// Its mass or a first moment.
+        part: MomentPart,
+    },
 }
 
 impl Column {
@@ -68,6 +75,10 @@ impl Column {
                 part: errors.self_weight[i].part,
             },
             ErrorParam::Backlash(i) => Self::Backlash(errors.backlash[i].joint),
+            ErrorParam::LinkWeight(i) => Self::LinkWeight {
+                body: errors.link_weights[i].body,
+                part: errors.link_weights[i].part,
+            },
         }
     }
 }
@@ -90,6 +101,7 @@ impl std::fmt::Display for Column {
                 f.write_str(&self_weight_name(*joint, *body, *part))
             }
             Self::Backlash(j) => f.write_str(&backlash_name(*j)),
+            Self::LinkWeight { body, part } => f.write_str(&link_weight_name(*body, *part)),
         }
     }
 }
@@ -108,6 +120,7 @@ fn priority(column: Column) -> (usize, usize, usize) {
             return (5, joint, 4 * body + part as usize);
         }
         Column::Backlash(j) => return (6, j, 0),
+        Column::LinkWeight { body, part } => return (7, body, part as usize),
     };
     match id {
         ParamId::Base(a) => (0, 0, a),

@@ -180,6 +180,9 @@ pub struct RawJointErrorStage {
     pub joints: Option<Vec<usize>>,
     /// Self-weight terms (default false).
     pub self_weight: Option<bool>,
+    /// The links' weights shared by the joints they load, through the joints' compliances
+    /// (default false; needs `[compliance]`).
+    pub link_weights: Option<bool>,
     /// Backlash of every joint (default false): on the flank of the approach from home, or on
     /// the flank the torque presses where that explains more (see `backlash_torque`).
     pub backlash: Option<bool>,
@@ -211,6 +214,7 @@ impl RawJointErrorStage {
             s.harmonic_joints = Some(joint_list("joint_errors.joints", joints)?);
         }
         s.self_weight = self.self_weight.unwrap_or(false);
+        s.link_weights = self.link_weights.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
         // The backlash settings mean nothing without backlash.
         for (key, given) in [
@@ -248,6 +252,7 @@ impl RawJointErrorStage {
             harmonics: Some(settings.harmonics),
             joints: (settings.harmonic_joints.as_ref()).map(|j| j.iter().map(|j| j + 1).collect()),
             self_weight: Some(settings.self_weight),
+            link_weights: settings.link_weights.then_some(true),
             backlash: Some(settings.backlash),
             backlash_torque: Some(settings.backlash_torque),
             backlash_home: (settings.backlash_home.as_ref())

@@ -60,6 +60,16 @@ impl RawStages {
         if let (Some(je), Some(c)) = (&mut kinematic.joint_errors, &kinematic.compliance) {
             je.gravity = c.gravity;
         }
+        if kinematic
+            .joint_errors
+            .as_ref()
+            .is_some_and(|je| je.link_weights && kinematic.compliance.is_none())
+        {
+            return Err(Invalid::new(
+                "joint_errors.link_weights",
+                "the links' weights act through the joint compliances: add [compliance]",
+            ));
+        }
         let residual = match &self.residual {
             None => None,
             Some(raw) => {

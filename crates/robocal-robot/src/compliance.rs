@@ -71,6 +71,10 @@ pub struct JointErrors {
     pub self_weight: Vec<SelfWeight>,
     /// Backlash terms.
     pub backlash: Vec<Backlash>,
+    /// The links' weights (masses and first moments), shared by every joint they load: each
+    /// joint deflects by its compliance (`values`) times the gravity torque of the payload and
+    /// of these weights.
+    pub link_weights: Vec<LinkWeight>,
 }
 
 /// The former name of [`JointErrors`], when it held payload compliances only.
@@ -232,6 +236,22 @@ pub struct SelfWeight {
     pub value: f64,
 }
 
+/// One quantity of one link's weight, in the shared model of the links' weights: every joint
+/// at or before the link feels its gravity torque and deflects by that torque times its own
+/// compliance (`JointErrors::values`), as under the payload. The per-joint self-weight terms
+/// ([`SelfWeight`]) are the same physics with one coefficient per joint and link, `compliance ×
+/// value`; shared, the links' weights are fewer unknowns, and the joint stiffness the payload
+/// shows is the one their weight meets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkWeight {
+    /// 0-based link (moved by joint `body`).
+    pub body: usize,
+    /// Which quantity: its mass at the link frame's origin (kg) or a first moment (kg·m).
+    pub part: MomentPart,
+    /// kg for [`MomentPart::Mass`], kg·m for the moments.
+    pub value: f64,
+}
+
 /// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
 /// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²).
 fn unit_torque(
@@ -308,6 +328,11 @@ pub fn self_weight_name(joint: usize, body: usize, part: MomentPart) -> String {
     format!("j{}.sw{}.{}", joint + 1, body + 1, part.name())
 }
 
+/// The name of a shared link weight: `link3.mass`, `link3.x` (link 0-based here).
+pub fn link_weight_name(body: usize, part: MomentPart) -> String {
+    format!("link{}.{}", body + 1, part.name())
+}
+
 /// The name of a joint's backlash (half its play): `j1.backlash`.
 pub fn backlash_name(joint: usize) -> String {
     format!("j{}.backlash", joint + 1)
@@ -326,6 +351,8 @@ pub enum ErrorParam {
     SelfWeight(usize),
     /// The half play of `backlash[i]`.
     Backlash(usize),
+    /// The value of `link_weights[i]`.
+    LinkWeight(usize),
 }
 
 impl Robot {
@@ -379,6 +406,21 @@ pub struct RawCompliance {
     /// Backlash terms.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub backlash: Vec<RawBacklash>,
+    /// The links' shared weights.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub link_weight: Vec<RawLinkWeight>,
+}
+
+/// `[[link_weight]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLinkWeight {
+    /// Link, counted from 1 (link i moves with joint i).
+    pub body: usize,
+    /// `mass` (kg, at the link frame's origin), or `x`, `y`, `z` (first moments, kg·m).
+    pub part: MomentPart,
+    /// kg or kg·m.
+    pub value: f64,
 }
 
 /// `[[backlash]]` as written: `home` (the flank of the approach from home) or `torque` (the flank
@@ -448,12 +490,16 @@ impl JointErrors {
             harmonics: Vec::new(),
             self_weight: Vec::new(),
             backlash: Vec::new(),
+            link_weights: Vec::new(),
         }
     }
 
     /// Whether there is any term besides the payload compliances.
     pub fn has_configuration_terms(&self) -> bool {
-        !self.harmonics.is_empty() || !self.self_weight.is_empty() || !self.backlash.is_empty()
+        !self.harmonics.is_empty()
+            || !self.self_weight.is_empty()
+            || !self.backlash.is_empty()
+            || !self.link_weights.is_empty()
     }
 
     /// The value of one coefficient (internal units).
@@ -464,6 +510,7 @@ impl JointErrors {
             ErrorParam::HarmonicCos(i) => self.harmonics[i].cos,
             ErrorParam::SelfWeight(i) => self.self_weight[i].value,
             ErrorParam::Backlash(i) => self.backlash[i].value,
+            ErrorParam::LinkWeight(i) => self.link_weights[i].value,
         }
     }
 
@@ -475,21 +522,24 @@ impl JointErrors {
             ErrorParam::HarmonicCos(i) => self.harmonics[i].cos = v,
             ErrorParam::SelfWeight(i) => self.self_weight[i].value = v,
             ErrorParam::Backlash(i) => self.backlash[i].value = v,
+            ErrorParam::LinkWeight(i) => self.link_weights[i].value = v,
         }
     }
 
-    /// The joint a coefficient turns.
+    /// The joint a coefficient turns (a link weight turns every joint up to its link's: its
+    /// link's).
     pub fn joint_of(&self, p: ErrorParam) -> usize {
         match p {
             ErrorParam::Compliance(j) => j,
             ErrorParam::HarmonicSin(i) | ErrorParam::HarmonicCos(i) => self.harmonics[i].joint,
             ErrorParam::SelfWeight(i) => self.self_weight[i].joint,
             ErrorParam::Backlash(i) => self.backlash[i].joint,
+            ErrorParam::LinkWeight(i) => self.link_weights[i].body,
         }
     }
 
     /// A stable name for a coefficient: `j2.compliance`, `j3.h2.sin`, `j2.sw4.mass`,
-    /// `j1.backlash`.
+    /// `j1.backlash`, `link3.x`.
     pub fn param_name(&self, p: ErrorParam) -> String {
         match p {
             ErrorParam::Compliance(j) => compliance_name(j),
@@ -502,11 +552,16 @@ impl JointErrors {
                 self_weight_name(t.joint, t.body, t.part)
             }
             ErrorParam::Backlash(i) => backlash_name(self.backlash[i].joint),
+            ErrorParam::LinkWeight(i) => {
+                let w = &self.link_weights[i];
+                link_weight_name(w.body, w.part)
+            }
         }
     }
 
     /// Every coefficient of the model, in order: compliances of every joint, then each
-    /// harmonic's sine and cosine, then the self-weight terms, then the backlash terms.
+    /// harmonic's sine and cosine, then the self-weight terms, then the backlash terms, then the
+    /// link weights.
     pub fn params(&self) -> Vec<ErrorParam> {
         let mut out: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
         for i in 0..self.harmonics.len() {
@@ -515,7 +570,53 @@ impl JointErrors {
         }
         out.extend((0..self.self_weight.len()).map(ErrorParam::SelfWeight));
         out.extend((0..self.backlash.len()).map(ErrorParam::Backlash));
+        out.extend((0..self.link_weights.len()).map(ErrorParam::LinkWeight));
         out
+    }
+
+    /// Adds the shared weights (0) of links `bodies` (0-based): each one's mass and its three
+    /// first moments.
+    pub fn with_link_weights(mut self, bodies: &[usize]) -> Self {
+        for &body in bodies {
+            for part in MomentPart::ALL {
+                self.link_weights.push(LinkWeight {
+                    body,
+                    part,
+                    value: 0.0,
+                });
+            }
+        }
+        self
+    }
+
+    /// The gravity torque about every joint axis (N·m) at command `q` (rad) of the links'
+    /// weights ([`Self::link_weights`]); `None` without any.
+    fn link_torques(&self, robot: &Robot, q: &[f64]) -> Option<Vec<f64>> {
+        if self.link_weights.is_empty() {
+            return None;
+        }
+        let axes = robot.joint_axes(q);
+        let frames = robot.link_frames(q);
+        let g = self.gravity_world(robot);
+        let mut t = vec![0.0; q.len()];
+        for w in &self.link_weights {
+            for (j, axis) in axes.axes.iter().enumerate().take(w.body + 1) {
+                t[j] += w.value * unit_torque(axis, &frames[w.body], &g, w.part);
+            }
+        }
+        Some(t)
+    }
+
+    /// The gravity torque about every joint axis (N·m) at command `q` (rad) under `load` kg that
+    /// the compliances meet: the payload's, and the links' weights' when the model has them.
+    pub fn load_torques(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
+        let mut t = self.torques(robot, q, load);
+        if let Some(links) = self.link_torques(robot, q) {
+            for (t, l) in t.iter_mut().zip(links) {
+                *t += l;
+            }
+        }
+        t
     }
 
     /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
@@ -634,20 +735,22 @@ impl JointErrors {
             .collect()
     }
 
-    /// For each of `params`, the joint it turns and its basis value at command `q` (rad) under
-    /// `load` kg: the coefficient's deflection per unit.
+    /// For each of `params` (by position `k`), the joints it turns and its basis value there at
+    /// command `q` (rad) under `load` kg, as entries `(k, joint, value)`: the coefficient's
+    /// deflection of the joint per unit. Every term turns its one joint, except a link weight,
+    /// which turns every joint up to its link's by the joint's compliance times its torque.
     pub fn basis(
         &self,
         robot: &Robot,
         q: &[f64],
         load: f64,
         params: &[ErrorParam],
-    ) -> Vec<(usize, f64)> {
+    ) -> Vec<(usize, usize, f64)> {
         let torques = if params
             .iter()
             .any(|p| matches!(p, ErrorParam::Compliance(_)))
         {
-            self.torques(robot, q, load)
+            self.load_torques(robot, q, load)
         } else {
             Vec::new()
         };
@@ -664,22 +767,40 @@ impl JointErrors {
         } else {
             Vec::new()
         };
-        params
+        let links = params
             .iter()
-            .map(|&p| match p {
-                ErrorParam::Compliance(j) => (j, torques[j]),
+            .any(|p| matches!(p, ErrorParam::LinkWeight(_)))
+            .then(|| {
+                let g = self.gravity_world(robot);
+                (robot.joint_axes(q), robot.link_frames(q), g)
+            });
+        let mut out = Vec::with_capacity(params.len());
+        for (k, &p) in params.iter().enumerate() {
+            match p {
+                ErrorParam::Compliance(j) => out.push((k, j, torques[j])),
                 ErrorParam::HarmonicSin(i) => {
                     let h = &self.harmonics[i];
-                    (h.joint, h.basis(q[h.joint]).0)
+                    out.push((k, h.joint, h.basis(q[h.joint]).0));
                 }
                 ErrorParam::HarmonicCos(i) => {
                     let h = &self.harmonics[i];
-                    (h.joint, h.basis(q[h.joint]).1)
+                    out.push((k, h.joint, h.basis(q[h.joint]).1));
                 }
-                ErrorParam::SelfWeight(i) => (self.self_weight[i].joint, sw[i]),
-                ErrorParam::Backlash(i) => (self.backlash[i].joint, flanks[i]),
-            })
-            .collect()
+                ErrorParam::SelfWeight(i) => out.push((k, self.self_weight[i].joint, sw[i])),
+                ErrorParam::Backlash(i) => out.push((k, self.backlash[i].joint, flanks[i])),
+                ErrorParam::LinkWeight(i) => {
+                    let w = &self.link_weights[i];
+                    let (axes, frames, g) = links.as_ref().expect("computed for link weights");
+                    for (j, axis) in axes.axes.iter().enumerate().take(w.body + 1) {
+                        if self.values[j] != 0.0 {
+                            let phi = unit_torque(axis, &frames[w.body], g, w.part);
+                            out.push((k, j, self.values[j] * phi));
+                        }
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// Gravity in the world frame of `robot`, m/s².
@@ -704,9 +825,10 @@ impl JointErrors {
     }
 
     /// How far each joint turns from command `q` (rad) under `load` kg, rad: compliance ×
-    /// payload torque, plus the harmonics, the self-weight terms and the backlash.
+    /// torque of the payload and of the links' weights, plus the harmonics, the self-weight
+    /// terms and the backlash.
     pub fn deflection(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
-        let t = self.torques(robot, q, load);
+        let t = self.load_torques(robot, q, load);
         let mut d: Vec<f64> = self.values.iter().zip(&t).map(|(c, t)| c * t).collect();
         for h in &self.harmonics {
             d[h.joint] += h.value(q[h.joint]);
@@ -735,8 +857,8 @@ impl JointErrors {
     }
 
     /// Jacobian of the point with respect to each of `params` (mm per internal unit), and the
-    /// point, at command `q` under `load`: column `k` is the joint Jacobian's column of the
-    /// coefficient's joint, at the deflected angles, times its basis value.
+    /// point, at command `q` under `load`: column `k` is the sum, over the joints the coefficient
+    /// turns, of the joint Jacobian's column at the deflected angles times its basis value there.
     pub fn param_jacobian(
         &self,
         robot: &Robot,
@@ -747,16 +869,17 @@ impl JointErrors {
         let qd = self.deflected(robot, q, load);
         let joint = robot.joint_jacobian(&qd);
         let mut jac = Matrix3xX::zeros(params.len());
-        for (k, (j, phi)) in self.basis(robot, q, load, params).into_iter().enumerate() {
-            jac.column_mut(k).copy_from(&(joint.column(j) * phi));
+        for (k, j, phi) in self.basis(robot, q, load, params) {
+            let mut column = jac.column_mut(k);
+            column += joint.column(j) * phi;
         }
         (robot.point(&qd), jac)
     }
 
     /// Jacobian of the tool frame's orientation with respect to each of `params` (rad per
     /// internal unit, world-frame rotation vectors), and the tool frame's rotation, at command
-    /// `q` under `load`: column `k` is the coefficient's joint axis, at the deflected angles,
-    /// times its basis value.
+    /// `q` under `load`: column `k` is the sum, over the joints the coefficient turns, of the
+    /// joint's axis at the deflected angles times its basis value there.
     pub fn orientation_param_jacobian(
         &self,
         robot: &Robot,
@@ -767,8 +890,9 @@ impl JointErrors {
         let qd = self.deflected(robot, q, load);
         let axes = robot.joint_axes(&qd);
         let mut jac = Matrix3xX::zeros(params.len());
-        for (k, (j, phi)) in self.basis(robot, q, load, params).into_iter().enumerate() {
-            jac.column_mut(k).copy_from(&(axes.axes[j].0 * phi));
+        for (k, j, phi) in self.basis(robot, q, load, params) {
+            let mut column = jac.column_mut(k);
+            column += axes.axes[j].0 * phi;
         }
         (axes.flange_rotation * robot.tool_frame_rotation(), jac)
     }
@@ -931,6 +1055,24 @@ impl JointErrors {
                 value: b.value.to_radians(),
             });
         }
+        let mut link_weights = Vec::with_capacity(raw.link_weight.len());
+        for (i, w) in raw.link_weight.iter().enumerate() {
+            let key = format!("link_weight[{}]", i + 1);
+            if !(1..=dof).contains(&w.body) {
+                return Err(invalid(
+                    &key,
+                    format!("body {} of a robot with {dof} links", w.body),
+                ));
+            }
+            if !w.value.is_finite() {
+                return Err(invalid(&key, "value must be a finite number".into()));
+            }
+            link_weights.push(LinkWeight {
+                body: w.body - 1,
+                part: w.part,
+                value: w.value,
+            });
+        }
         Ok(Self {
             values: raw.compliance.iter().map(|c| c * DEG_PER_KNM).collect(),
             gravity: Vector3::from(raw.gravity),
@@ -938,6 +1080,7 @@ impl JointErrors {
             harmonics,
             self_weight,
             backlash,
+            link_weights,
         })
     }
 
@@ -985,6 +1128,13 @@ impl JointErrors {
                     value: b.value.to_degrees(),
                 })
                 .collect(),
+            link_weight: (self.link_weights.iter())
+                .map(|w| RawLinkWeight {
+                    body: w.body + 1,
+                    part: w.part,
+                    value: w.value,
+                })
+                .collect(),
         };
         let body = toml::to_string(&raw).unwrap_or_default();
         let more = if self.has_configuration_terms() {
@@ -998,7 +1148,11 @@ impl JointErrors {
              # from home (+ at or above it); with `torque`, the flank its torque presses (+ where\n\
              # the weights times the features are at least 0: for each link from the joint's\n\
              # outwards the gravity torques of a unit mass at its frame's origin and of unit first\n\
-             # moments along x, y, z, then the same of the flange frame times the load, then 1).\n"
+             # moments along x, y, z, then the same of the flange frame times the load, then 1).\n\
+             # link_weight: the weight of link `body` shared by every joint up to it: its mass\n\
+             # (part = mass, kg, at the link frame's origin) or first moment (x, y, z: kg·m along\n\
+             # the link frame's axes); each joint deflects by its compliance × the gravity torque\n\
+             # of the payload and of these weights.\n"
         } else {
             ""
         };

@@ -557,9 +557,14 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     )
     .with_harmonics(&[0, 1, 3], 2)
     .with_self_weight(&[1, 2], 6)
-    .with_backlash(&[0, 3]);
+    .with_backlash(&[0, 3])
+    .with_link_weights(&[1, 2, 4, 5]);
     for (k, p) in e.params().into_iter().enumerate() {
-        let v = e.param(p) + 1e-4 * ((k % 7) as f64 - 3.0);
+        let v = match p {
+            // Links of kilograms, first moments of a fraction of a kg·m.
+            ErrorParam::LinkWeight(_) => 3.0 - 0.7 * (k % 5) as f64,
+            _ => e.param(p) + 1e-4 * ((k % 7) as f64 - 3.0),
+        };
         e.set_param(p, v);
     }
     let q: Vec<f64> = [10.0f64, -40.0, 25.0, 30.0, 50.0, -15.0]
@@ -572,9 +577,11 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         .map(ErrorParam::SelfWeight)
         .collect();
     let basis = e.basis(&robot, &q, load, &sw);
-    for (i, (joint, phi)) in basis.iter().enumerate() {
+    assert_eq!(basis.len(), sw.len());
+    for &(i, joint, phi) in &basis {
         let t = e.self_weight[i];
-        assert_eq!(*joint, t.joint);
+        let phi = &phi;
+        assert_eq!(joint, t.joint);
         let h = 1e-6;
         let at = |q: &[f64]| {
             let (r, o) = robot.link_frames(q)[t.body];
@@ -645,11 +652,39 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             ojac.column(k)
         );
     }
+    // The shared link weights are the per-joint self-weight terms with coefficient
+    // `compliance × weight` for every joint up to the link: the same deflection.
+    let mut shared = JointErrors::new(e.values.clone(), e.gravity, e.payload_com);
+    shared.link_weights = e.link_weights.clone();
+    let mut per_joint = JointErrors::new(e.values.clone(), e.gravity, e.payload_com);
+    for w in &e.link_weights {
+        for joint in 0..=w.body {
+            per_joint.self_weight.push(robocal_robot::SelfWeight {
+                joint,
+                body: w.body,
+                part: w.part,
+                value: e.values[joint] * w.value,
+            });
+        }
+    }
+    let (a, b) = (
+        shared.deflection(&robot, &q, load),
+        per_joint.deflection(&robot, &q, load),
+    );
+    assert!(
+        a.iter().zip(&b).all(|(a, b)| (a - b).abs() < 1e-15),
+        "{a:?} vs {b:?}"
+    );
+    assert!(
+        a[1].abs() > 1e-6,
+        "the links' weights deflect joint 2: {a:?}"
+    );
     let text = e.to_toml_string();
     assert!(
         text.contains("[[harmonic]]")
             && text.contains("[[self_weight]]")
             && text.contains("[[backlash]]")
+            && text.contains("[[link_weight]]")
     );
     let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
     assert_eq!(back.params(), e.params());
@@ -665,6 +700,15 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         .to_string();
     assert!(
         err.contains("m/compliance.toml") && err.contains("harmonic[5]"),
+        "{err}"
+    );
+    let bad = text.replacen("[[link_weight]]\nbody = 2", "[[link_weight]]\nbody = 7", 1);
+    assert_ne!(bad, text);
+    let err = JointErrors::from_toml_str(&bad, "m/compliance.toml", 6)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("link_weight[1]") && err.contains("body 7"),
         "{err}"
     );
 }

@@ -225,7 +225,9 @@ impl Physics {
                 self.harmonics
             ));
         }
-        if self.self_weight {
+        if self.self_weight && self.compliance {
+            parts.push("the links' weights (each joint deflecting by its compliance under them and the payload)".to_string());
+        } else if self.self_weight {
             parts.push("self-weight terms".to_string());
         }
         if self.backlash {
@@ -247,9 +249,14 @@ impl Physics {
                 plausible_only: true,
                 ..ComplianceSettings::default()
             }),
+            // With the compliances identified, the deflection under the links' own weight is
+            // theirs too: the links' weights shared by the joints (a few masses and moments)
+            // rather than a coefficient per joint and link, which the poses determine less
+            // well and which extrapolate worse.
             joint_errors: self.has_joint_errors().then(|| JointErrorSettings {
                 harmonics: self.harmonics,
-                self_weight: self.self_weight,
+                self_weight: self.self_weight && !self.compliance,
+                link_weights: self.self_weight && self.compliance,
                 backlash: self.backlash,
                 ..JointErrorSettings::default()
             }),
