@@ -200,7 +200,17 @@ pub struct ComplianceSettings {
     /// beyond [`COMPLIANCE_BOUND`], or less than its own standard deviation (the default
     /// calibration sets it; stage files and experiments keep every value, with a warning).
     pub plausible_only: bool,
+    /// When the registered base is more than [`MOUNTING_ANGLE_DEG`] from upright in the
+    /// tracker frame (an arm on a wall or a ceiling), also identify with gravity along the
+    /// tracker's −z (a levelled tracker) and keep the fit with the lower sum of squares; the
+    /// report's warnings say when that one was kept. `gravity` is the base-frame guess (the
+    /// default calibration sets it; stage files and experiments take `gravity` as given).
+    pub detect_mounting: bool,
 }
+
+/// How far (deg) the registered base's −z may lie from the tracker's −z before the default
+/// calibration also tries gravity along the tracker's −z ([`ComplianceSettings::detect_mounting`]).
+pub const MOUNTING_ANGLE_DEG: f64 = 30.0;
 
 impl Default for ComplianceSettings {
     fn default() -> Self {
@@ -209,6 +219,7 @@ impl Default for ComplianceSettings {
             gravity: Vector3::new(0.0, 0.0, -9.80665),
             payload_com: None,
             plausible_only: false,
+            detect_mounting: false,
         }
     }
 }
@@ -945,6 +956,44 @@ pub fn calibrate_kinematics(
         };
         &probe
     };
+    // An arm hung on a wall or a ceiling: gravity is not along its base's −z. With a levelled
+    // tracker it is along the tracker's; the data tell which of the two fits.
+    if let Some(c) = &settings.compliance
+        && c.detect_mounting
+    {
+        let mut given = settings.clone();
+        let gc = given.compliance.as_mut().expect("compliance");
+        gc.detect_mounting = false;
+        let aligned = align(nominal, obs)?;
+        let down = aligned.base_rotation().transpose() * Vector3::new(0.0, 0.0, -c.gravity.norm());
+        let angle = down.angle(&c.gravity).to_degrees();
+        if angle <= MOUNTING_ANGLE_DEG {
+            return calibrate_kinematics(nominal, obs, &given);
+        }
+        let upright = calibrate_kinematics(nominal, obs, &given);
+        let mut levelled = given.clone();
+        levelled.compliance.as_mut().expect("compliance").gravity = down;
+        if let Some(je) = levelled.joint_errors.as_mut() {
+            je.gravity = down;
+        }
+        let tracker = calibrate_kinematics(nominal, obs, &levelled);
+        return match (upright, tracker) {
+            (Ok(u), Ok(mut t)) if t.report.after.rms < u.report.after.rms => {
+                t.report.warnings.push(format!(
+                    "gravity taken along the tracker's -z, [{:.3}, {:.3}, {:.3}] m/s² in the robot base frame: the registered base is {angle:.0}° from upright (an arm on a wall or a ceiling), and the fit with gravity along the base's -z was worse (RMS {:.4} against {:.4} mm); give gravity in a stage config's [compliance] if neither is right",
+                    down.x,
+                    down.y,
+                    down.z,
+                    u.report.after.rms,
+                    t.report.after.rms
+                ));
+                Ok(t)
+            }
+            (Ok(u), _) => Ok(u),
+            (Err(_), Ok(t)) => Ok(t),
+            (Err(e), Err(_)) => Err(e),
+        };
+    }
     // The links' weights act through the joints' compliances: a first identification without
     // them gives the compliances the one with them starts from (at zero compliance a weight
     // moves nothing, and the identifiability analysis would hold every weight at zero).

@@ -324,6 +324,19 @@ pub fn not_carried(model: &CalibratedModel) -> Vec<String> {
         if !e.self_weight.is_empty() {
             out.push(format!("{} self-weight terms", e.self_weight.len()));
         }
+        let links: Vec<usize> = (e.link_weights.iter())
+            .filter(|w| w.value != 0.0)
+            .map(|w| w.body)
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        if !links.is_empty() {
+            let which = if links.len() == 1 { "link" } else { "links" };
+            out.push(format!(
+                "the weights of {} {which} deflecting the joints",
+                links.len()
+            ));
+        }
         let backlash = e.backlash.iter().filter(|b| b.value != 0.0).count();
         if backlash > 0 {
             let joints = if backlash == 1 { "joint" } else { "joints" };

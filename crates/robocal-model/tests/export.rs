@@ -49,14 +49,18 @@ fn the_json_table_holds_the_values_their_sigmas_and_what_it_leaves_out() {
     assert!((beta - robot.joints[2].beta.unwrap().to_degrees()).abs() < 1e-12);
     assert_eq!(t["base"]["std"][5].as_f64().unwrap(), 0.001);
     assert!(t["not_carried"].as_array().unwrap().is_empty());
-    // Joint errors a table cannot carry are named: the backlash of the joints that have one.
+    // Joint errors a table cannot carry are named: the backlash of the joints that have one, the
+    // weights of the links identified.
     let mut errors = robocal_robot::JointErrors::new(
         vec![0.0; 6],
         nalgebra::Vector3::new(0.0, 0.0, -9.8),
         nalgebra::Vector3::zeros(),
     )
-    .with_backlash(&[0, 3, 4]);
+    .with_backlash(&[0, 3, 4])
+    .with_link_weights(&[2, 3]);
     errors.backlash[1].value = 0.001;
+    // Link 3's mass identified, link 4's held at zero.
+    errors.link_weights[0].value = 12.0;
     let with_errors = CalibratedModel {
         joint_errors: Some(errors),
         ..model
@@ -65,7 +69,13 @@ fn the_json_table_holds_the_values_their_sigmas_and_what_it_leaves_out() {
     let said: Vec<&str> = (t["not_carried"].as_array().unwrap().iter())
         .map(|v| v.as_str().unwrap())
         .collect();
-    assert_eq!(said, ["the backlash of 1 joint"]);
+    assert_eq!(
+        said,
+        [
+            "the weights of 1 link deflecting the joints",
+            "the backlash of 1 joint"
+        ]
+    );
 }
 
 /// Named points travel as fixed frames of their own, each checked like the measured point; a

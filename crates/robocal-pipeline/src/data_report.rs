@@ -162,7 +162,7 @@ fn parts(model: &CalibratedModel) -> Vec<String> {
         if !e.harmonics.is_empty() {
             blocks.push("transmission harmonics");
         }
-        if !e.self_weight.is_empty() {
+        if !e.self_weight.is_empty() || !e.link_weights.is_empty() {
             blocks.push("self-weight compliance");
         }
         if !e.backlash.is_empty() {

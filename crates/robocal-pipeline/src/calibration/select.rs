@@ -247,6 +247,7 @@ impl Physics {
             angle_weight,
             compliance: self.compliance.then(|| ComplianceSettings {
                 plausible_only: true,
+                detect_mounting: true,
                 ..ComplianceSettings::default()
             }),
             // With the compliances identified, the deflection under the links' own weight is
