@@ -995,8 +995,9 @@ pub fn calibrate_kinematics(
         };
     }
     // The links' weights act through the joints' compliances: a first identification without
-    // them gives the compliances the one with them starts from (at zero compliance a weight
-    // moves nothing, and the identifiability analysis would hold every weight at zero).
+    // them (nor backlash, whose flanks are chosen below with the whole model) gives the
+    // compliances the one with them starts from (at zero compliance a weight moves nothing, and
+    // the identifiability analysis would hold every weight at zero).
     if let Some(je) = &settings.joint_errors
         && je.link_weights
         && je.compliance_start.is_none()
@@ -1010,7 +1011,8 @@ pub fn calibrate_kinematics(
         let mut first = settings.clone();
         let je_first = first.joint_errors.as_mut().expect("joint errors");
         je_first.link_weights = false;
-        if !(je_first.harmonics > 0 || je_first.self_weight || je_first.backlash) {
+        je_first.backlash = false;
+        if !(je_first.harmonics > 0 || je_first.self_weight) {
             first.joint_errors = None;
         }
         let fit = calibrate_kinematics(nominal, obs, &first)?;
@@ -1018,22 +1020,10 @@ pub fn calibrate_kinematics(
             return Ok(fit);
         };
         let mut next = settings.clone();
-        let je_next = next.joint_errors.as_mut().expect("joint errors");
-        je_next.compliance_start = Some(values);
-        if je_next.backlash && je_next.backlash_torque && je_next.flanks.is_none() {
-            // The first fit chose the flanks; keep them rather than choose again.
-            je_next.flanks = fit.compliance.as_ref().map(|c| {
-                let mut flanks: Vec<Flank> = (0..nominal.dof())
-                    .map(|j| Flank::Approach {
-                        home: je_next.backlash_home.as_ref().map_or(0.0, |h| h[j]),
-                    })
-                    .collect();
-                for b in &c.backlash {
-                    flanks[b.joint] = b.flank.clone();
-                }
-                flanks
-            });
-        }
+        next.joint_errors
+            .as_mut()
+            .expect("joint errors")
+            .compliance_start = Some(values);
         return calibrate_kinematics(nominal, obs, &next);
     }
     // Backlash that may rest on the flank its torque presses: a first identification on the

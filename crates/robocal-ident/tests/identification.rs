@@ -796,7 +796,11 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
         ..settings.clone()
     };
     let elastic = calibrate_kinematics(&nominal, &obs, &plain).unwrap();
-    assert!(elastic.report.after.mean > 0.01, "{:?}", elastic.report.after);
+    assert!(
+        elastic.report.after.mean > 0.01,
+        "{:?}",
+        elastic.report.after
+    );
     let weights: Vec<(&str, &str)> = (cal.report.joint_errors.iter())
         .map(|t| (t.name.as_str(), t.unit))
         .collect();
@@ -812,6 +816,53 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
     };
     let err = calibrate_kinematics(&nominal, &obs, &rigid).unwrap_err();
     assert!(err.to_string().contains("compliance"), "{err}");
+}
+
+/// An arm hung from a ceiling (its base turned upside down in a levelled tracker's frame):
+/// gravity runs along its base's +z. Told to detect the mounting, the identification also tries
+/// gravity along the tracker's −z, keeps that fit (the compliances come back as injected, the
+/// points to round-off) and says so; taking gravity along the base's −z as given, the same data
+/// give negative compliances and a worse fit.
+#[test]
+fn elasto_geometric_lm_detects_a_ceiling_mount() {
+    let mut nominal = nominal();
+    nominal.base.rpy = Vector3::new(std::f64::consts::PI, 0.0, 0.4);
+    let configs = configurations();
+    let mut truth = injected(&nominal, &configs, 19);
+    truth.base.rpy = Vector3::new(std::f64::consts::PI - 0.003, 0.002, 0.41);
+    let mut compliance = injected_compliance();
+    // Gravity as a levelled tracker sees it, in the base frame of the upside-down arm.
+    compliance.gravity = truth.base_rotation().transpose() * Vector3::new(0.0, 0.0, -9.80665);
+    assert!(compliance.gravity.z > 9.8);
+    let obs = observe_loaded(&truth, &compliance, &configs[..80], &[0.0, 5.0, 20.0]);
+    let settings = |detect_mounting: bool| KinematicSettings {
+        compliance: Some(ComplianceSettings {
+            joints: Some(vec![1, 2, 3, 4, 5]),
+            payload_com: Some(compliance.payload_com),
+            detect_mounting,
+            ..ComplianceSettings::default()
+        }),
+        ..KinematicSettings::default()
+    };
+    let cal = calibrate_kinematics(&nominal, &obs, &settings(true)).unwrap();
+    assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
+    let found = cal.compliance.as_ref().unwrap();
+    for j in 1..6 {
+        let (a, b) = (found.values[j], compliance.values[j]);
+        assert!((a - b).abs() < 1e-6 * b, "j{}: {a} vs {b}", j + 1);
+    }
+    assert!(
+        cal.report
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("gravity taken along the tracker's -z")),
+        "{:?}",
+        cal.report.warnings
+    );
+    let given = calibrate_kinematics(&nominal, &obs, &settings(false)).unwrap();
+    assert!(given.report.after.rms > 10.0 * cal.report.after.rms.max(1e-6));
+    let upright = given.compliance.as_ref().unwrap();
+    assert!(upright.values[1] < 0.0, "{:?}", upright.values);
 }
 
 /// Backlash on the flank of the approach from home, injected on joints 1 and 4 (both swept
