@@ -976,14 +976,25 @@ pub fn calibrate_kinematics(
         if let Some(je) = levelled.joint_errors.as_mut() {
             je.gravity = down;
         }
-        let tracker = calibrate_kinematics(nominal, obs, &levelled);
+        // The registration's base is a first guess of the base's rotation: once more with the
+        // identified one.
+        let tracker = calibrate_kinematics(nominal, obs, &levelled).and_then(|fit| {
+            let down =
+                fit.robot.base_rotation().transpose() * Vector3::new(0.0, 0.0, -c.gravity.norm());
+            levelled.compliance.as_mut().expect("compliance").gravity = down;
+            if let Some(je) = levelled.joint_errors.as_mut() {
+                je.gravity = down;
+            }
+            calibrate_kinematics(nominal, obs, &levelled)
+        });
         return match (upright, tracker) {
             (Ok(u), Ok(mut t)) if t.report.after.rms < u.report.after.rms => {
+                let g = t.compliance.as_ref().map_or(down, |c| c.gravity);
                 t.report.warnings.push(format!(
                     "gravity taken along the tracker's -z, [{:.3}, {:.3}, {:.3}] m/s² in the robot base frame: the registered base is {angle:.0}° from upright (an arm on a wall or a ceiling), and the fit with gravity along the base's -z was worse (RMS {:.4} against {:.4} mm); give gravity in a stage config's [compliance] if neither is right",
-                    down.x,
-                    down.y,
-                    down.z,
+                    g.x,
+                    g.y,
+                    g.z,
                     u.report.after.rms,
                     t.report.after.rms
                 ));
