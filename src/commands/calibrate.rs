@@ -226,8 +226,10 @@ fn link_weight_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
             let values: Vec<String> = (parts.iter())
                 .filter(|w| w.value != 0.0)
                 .map(|w| match w.part {
-                    robocal_robot::MomentPart::Mass => format!("mass {:.3} kg", w.value),
-                    p => format!("moment {} {:.4} kg·m", p.name(), w.value),
+                    robocal_robot::MomentPart::Mass => {
+                        format!("mass {:.3} {}", w.value, w.part.weight_unit())
+                    }
+                    p => format!("moment {} {:.4} {}", p.name(), w.value, p.weight_unit()),
                 })
                 .collect();
             format!(

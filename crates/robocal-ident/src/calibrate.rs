@@ -5,8 +5,7 @@ use faer::Mat;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, robust_std};
 use robocal_robot::{
-    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, MomentPart, ParamId, Robot,
-    Unit,
+    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, ParamId, Robot, Unit,
 };
 use serde::Serialize;
 
@@ -676,10 +675,7 @@ fn joint_error_reports(
                 name: model.param_name(p),
                 unit: match p {
                     ErrorParam::SelfWeight(_) => "deg per basis unit",
-                    ErrorParam::LinkWeight(i) if model.link_weights[i].part == MomentPart::Mass => {
-                        "kg"
-                    }
-                    ErrorParam::LinkWeight(_) => "kg·m",
+                    ErrorParam::LinkWeight(i) => model.link_weights[i].part.weight_unit(),
                     _ => "deg",
                 },
                 value: in_file_unit(p, model.param(p)),
@@ -964,29 +960,31 @@ pub fn calibrate_kinematics(
         let mut given = settings.clone();
         let gc = given.compliance.as_mut().expect("compliance");
         gc.detect_mounting = false;
-        let aligned = align(nominal, obs)?;
-        let down = aligned.base_rotation().transpose() * Vector3::new(0.0, 0.0, -c.gravity.norm());
+        // Gravity along the tracker's −z in the base frame of `robot`.
+        let down_of = |robot: &Robot| {
+            robot.base_rotation().transpose() * Vector3::new(0.0, 0.0, -c.gravity.norm())
+        };
+        // The settings with gravity `g` for the compliances and the joint errors alike.
+        let with_gravity = |mut s: KinematicSettings, g: Vector3<f64>| {
+            s.compliance.as_mut().expect("compliance").gravity = g;
+            if let Some(je) = s.joint_errors.as_mut() {
+                je.gravity = g;
+            }
+            s
+        };
+        let down = down_of(&align(nominal, obs)?);
         let angle = down.angle(&c.gravity).to_degrees();
         if angle <= MOUNTING_ANGLE_DEG {
             return calibrate_kinematics(nominal, obs, &given);
         }
         let upright = calibrate_kinematics(nominal, obs, &given);
-        let mut levelled = given.clone();
-        levelled.compliance.as_mut().expect("compliance").gravity = down;
-        if let Some(je) = levelled.joint_errors.as_mut() {
-            je.gravity = down;
-        }
         // The registration's base is a first guess of the base's rotation: once more with the
         // identified one.
-        let tracker = calibrate_kinematics(nominal, obs, &levelled).and_then(|fit| {
-            let down =
-                fit.robot.base_rotation().transpose() * Vector3::new(0.0, 0.0, -c.gravity.norm());
-            levelled.compliance.as_mut().expect("compliance").gravity = down;
-            if let Some(je) = levelled.joint_errors.as_mut() {
-                je.gravity = down;
-            }
-            calibrate_kinematics(nominal, obs, &levelled)
-        });
+        let tracker = calibrate_kinematics(nominal, obs, &with_gravity(given.clone(), down))
+            .and_then(|fit| {
+                let levelled = with_gravity(given.clone(), down_of(&fit.robot));
+                calibrate_kinematics(nominal, obs, &levelled)
+            });
         return match (upright, tracker) {
             (Ok(u), Ok(mut t)) if t.report.after.rms < u.report.after.rms => {
                 let g = t.compliance.as_ref().map_or(down, |c| c.gravity);

@@ -324,11 +324,9 @@ pub fn not_carried(model: &CalibratedModel) -> Vec<String> {
         if !e.self_weight.is_empty() {
             out.push(format!("{} self-weight terms", e.self_weight.len()));
         }
-        let links: Vec<usize> = (e.link_weights.iter())
+        let links: std::collections::BTreeSet<usize> = (e.link_weights.iter())
             .filter(|w| w.value != 0.0)
             .map(|w| w.body)
-            .collect::<std::collections::BTreeSet<_>>()
-            .into_iter()
             .collect();
         if !links.is_empty() {
             let which = if links.len() == 1 { "link" } else { "links" };

@@ -130,11 +130,7 @@ impl Pool {
                         ("deg", 180.0 / std::f64::consts::PI)
                     }
                     Column::SelfWeight { .. } => ("deg/unit", 180.0 / std::f64::consts::PI),
-                    Column::LinkWeight {
-                        part: robocal_robot::MomentPart::Mass,
-                        ..
-                    } => ("kg", 1.0),
-                    Column::LinkWeight { .. } => ("kg·m", 1.0),
+                    Column::LinkWeight { part, .. } => (part.weight_unit(), 1.0),
                 })
                 .collect(),
             scale: keep.iter().map(|&p| problem.scale()[p]).collect(),

@@ -211,6 +211,15 @@ impl MomentPart {
     /// Every part, in the order of the self-weight terms and torque features.
     pub const ALL: [Self; 4] = [Self::Mass, Self::X, Self::Y, Self::Z];
 
+    /// The unit of a link's quantity of this part: `kg` for its mass, `kg·m` for a first
+    /// moment.
+    pub fn weight_unit(self) -> &'static str {
+        match self {
+            Self::Mass => "kg",
+            Self::X | Self::Y | Self::Z => "kg·m",
+        }
+    }
+
     /// Name in files and reports.
     pub fn name(self) -> &'static str {
         match self {
@@ -589,34 +598,50 @@ impl JointErrors {
         self
     }
 
-    /// The gravity torque about every joint axis (N·m) at command `q` (rad) of the links'
-    /// weights ([`Self::link_weights`]); `None` without any.
-    fn link_torques(&self, robot: &Robot, q: &[f64]) -> Option<Vec<f64>> {
+    /// For each link weight ([`Self::link_weights`]), the gravity torque (N·m per kg or per
+    /// kg·m) of its unit quantity about every joint axis up to its link's (entry `j` for joint
+    /// `j`), at command `q` (rad); empty without any.
+    fn link_weight_basis(&self, robot: &Robot, q: &[f64]) -> Vec<Vec<f64>> {
         if self.link_weights.is_empty() {
-            return None;
+            return Vec::new();
         }
         let axes = robot.joint_axes(q);
         let frames = robot.link_frames(q);
         let g = self.gravity_world(robot);
-        let mut t = vec![0.0; q.len()];
-        for w in &self.link_weights {
-            for (j, axis) in axes.axes.iter().enumerate().take(w.body + 1) {
-                t[j] += w.value * unit_torque(axis, &frames[w.body], &g, w.part);
+        (self.link_weights.iter())
+            .map(|w| {
+                (axes.axes[..=w.body].iter())
+                    .map(|axis| unit_torque(axis, &frames[w.body], &g, w.part))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The payload's gravity torques (`torques`) plus the links' weights' (`basis`:
+    /// [`Self::link_weight_basis`]), N·m.
+    fn with_link_torques(&self, mut torques: Vec<f64>, basis: &[Vec<f64>]) -> Vec<f64> {
+        if self.link_weights.is_empty() {
+            return torques;
+        }
+        let mut links = vec![0.0; torques.len()];
+        for (w, phi) in self.link_weights.iter().zip(basis) {
+            for (t, phi) in links.iter_mut().zip(phi) {
+                *t += w.value * phi;
             }
         }
-        Some(t)
+        for (t, l) in torques.iter_mut().zip(links) {
+            *t += l;
+        }
+        torques
     }
 
     /// The gravity torque about every joint axis (N·m) at command `q` (rad) under `load` kg that
     /// the compliances meet: the payload's, and the links' weights' when the model has them.
     pub fn load_torques(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
-        let mut t = self.torques(robot, q, load);
-        if let Some(links) = self.link_torques(robot, q) {
-            for (t, l) in t.iter_mut().zip(links) {
-                *t += l;
-            }
-        }
-        t
+        self.with_link_torques(
+            self.torques(robot, q, load),
+            &self.link_weight_basis(robot, q),
+        )
     }
 
     /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
@@ -746,11 +771,21 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> Vec<(usize, usize, f64)> {
-        let torques = if params
+        let compliance = params
             .iter()
-            .any(|p| matches!(p, ErrorParam::Compliance(_)))
+            .any(|p| matches!(p, ErrorParam::Compliance(_)));
+        // The links' unit torques serve the compliances' torques and the weights' own columns.
+        let links = if compliance
+            || params
+                .iter()
+                .any(|p| matches!(p, ErrorParam::LinkWeight(_)))
         {
-            self.load_torques(robot, q, load)
+            self.link_weight_basis(robot, q)
+        } else {
+            Vec::new()
+        };
+        let torques = if compliance {
+            self.with_link_torques(self.torques(robot, q, load), &links)
         } else {
             Vec::new()
         };
@@ -767,13 +802,6 @@ impl JointErrors {
         } else {
             Vec::new()
         };
-        let links = params
-            .iter()
-            .any(|p| matches!(p, ErrorParam::LinkWeight(_)))
-            .then(|| {
-                let g = self.gravity_world(robot);
-                (robot.joint_axes(q), robot.link_frames(q), g)
-            });
         let mut out = Vec::with_capacity(params.len());
         for (k, &p) in params.iter().enumerate() {
             match p {
@@ -789,11 +817,8 @@ impl JointErrors {
                 ErrorParam::SelfWeight(i) => out.push((k, self.self_weight[i].joint, sw[i])),
                 ErrorParam::Backlash(i) => out.push((k, self.backlash[i].joint, flanks[i])),
                 ErrorParam::LinkWeight(i) => {
-                    let w = &self.link_weights[i];
-                    let (axes, frames, g) = links.as_ref().expect("computed for link weights");
-                    for (j, axis) in axes.axes.iter().enumerate().take(w.body + 1) {
+                    for (j, phi) in links[i].iter().enumerate() {
                         if self.values[j] != 0.0 {
-                            let phi = unit_torque(axis, &frames[w.body], g, w.part);
                             out.push((k, j, self.values[j] * phi));
                         }
                     }
