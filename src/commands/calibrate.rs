@@ -114,6 +114,28 @@ pub fn run(
                 }
             );
         }
+        if c.payload_com_source.starts_with("identified") {
+            // Each coordinate with its σ where the report has one.
+            let coordinates: Vec<String> = (0..3)
+                .map(|axis| {
+                    let name = robocal_robot::payload_com_name(axis);
+                    let std = (r.joint_errors.iter())
+                        .find(|t| t.name == name && t.identified)
+                        .and_then(|t| t.std);
+                    format!(
+                        "{} {:.1}{}",
+                        ["x", "y", "z"][axis],
+                        c.payload_com[axis],
+                        std.map_or(String::new(), |s| format!(" ± {s:.1}"))
+                    )
+                })
+                .collect();
+            eprintln!(
+                "robocal: payload centre of mass {} mm (flange frame; {})",
+                coordinates.join(", "),
+                c.payload_com_source
+            );
+        }
     }
     if let Some(errors) = &built.kinematic.compliance {
         for line in harmonic_lines(errors)

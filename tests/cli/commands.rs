@@ -1205,3 +1205,63 @@ fn calibrate_prints_and_saves_the_harmonics_reach() {
     }
     assert!(printed >= 3, "{stderr}");
 }
+
+/// calibrate with `identify_payload_com` (a stage config) on the bundled twin with only its
+/// geometry errors and compliances (noise-free points, 0 and 20 kg, the links' weights in the
+/// model too: every effect of this twin in the model family) finds the twin's payload centre of
+/// mass, on a bracket 100 mm off the flange's axis, starting from the measured point; it prints
+/// it with its σ, saves it in compliance.toml and names its coordinates in report.json.
+#[test]
+fn calibrate_identifies_prints_and_saves_the_payload_centre_of_mass() {
+    let dir = tempfile::tempdir().unwrap();
+    let twin = crate::common::bundled_twin(40, "")
+        .replace("enabled = true", "enabled = false")
+        .replace(
+            "[compliance]\nenabled = false",
+            "[compliance]\nenabled = true",
+        );
+    let twin = write(dir.path(), "twin.toml", &twin);
+    let sim = dir.path().join("sim");
+    simulate(s(&twin), &sim);
+    let truth = sim.join("truth.csv");
+    let stage = write(
+        dir.path(),
+        "com.toml",
+        "[kinematic]\nsolver = \"lm\"\n[compliance]\nidentify_payload_com = true\n[joint_errors]\nharmonics = 0\nlink_weights = true\n",
+    );
+    let model = dir.path().join("model");
+    let o = calibrate_with(&truth, &model, &stage);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let c = robocal_robot::Compliance::load(model.join("compliance.toml"), 6).unwrap();
+    // The flange frame is known up to what the tool point takes (the last link's length and the
+    // tool's z are one parameter): the centre of mass from the measured point is what the data
+    // fix. The twin's: [masses] payload_com = [100.0, 0.0, 60.0], [truth.tool] xyz = [2.14,
+    // -1.37, 98.26].
+    let tool = Robot::load(model.join("kinematics.toml")).unwrap().tool;
+    let expected = nalgebra::Vector3::new(100.0 - 2.14, 0.0 + 1.37, 60.0 - 98.26);
+    assert!(
+        (c.payload_com - tool - expected).norm() < 0.5,
+        "{} vs {expected}",
+        c.payload_com - tool
+    );
+    // It started from the measured point, 100 mm away.
+    let start = Robot::load("configs/robots/pmc6va030.toml").unwrap().tool;
+    assert!((c.payload_com - start).norm() > 50.0);
+    let line = stderr
+        .lines()
+        .find(|l| l.starts_with("robocal: payload centre of mass x "))
+        .unwrap_or_else(|| panic!("no payload line in {stderr}"));
+    assert!(
+        line.contains(&format!("x {:.1} ± ", c.payload_com.x))
+            && line.contains(&format!("z {:.1} ± ", c.payload_com.z))
+            && line.contains("identified with the compliances (3 of 3 coordinates"),
+        "{line}"
+    );
+    let r = report(&model);
+    let names: Vec<&str> = (r["kinematic"]["joint_errors"].as_array().unwrap().iter())
+        .filter(|t| t["unit"] == "mm")
+        .map(|t| t["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["payload_com.x", "payload_com.y", "payload_com.z"]);
+}

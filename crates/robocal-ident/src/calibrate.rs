@@ -116,9 +116,6 @@ pub struct JointErrorSettings {
     /// the links beyond it). Needs the compliance settings; identified after a first fit
     /// without them, from that fit's compliances (at zero compliance a weight moves nothing).
     pub link_weights: bool,
-    /// The compliances (rad/(N·m), one per joint) the identification with link weights starts
-    /// from (the first fit's; set by the identification itself).
-    pub compliance_start: Option<Vec<f64>>,
     /// Backlash of every joint (a joint whose flanks the poses do not separate from its offset
     /// is held at zero), each on the flank of its approach from home, or (with
     /// `backlash_torque`) on the flank its gravity torque presses where that explains more.
@@ -143,7 +140,6 @@ impl Default for JointErrorSettings {
             harmonic_joints: None,
             self_weight: false,
             link_weights: false,
-            compliance_start: None,
             backlash: false,
             backlash_home: None,
             backlash_torque: true,
@@ -205,7 +201,22 @@ pub struct ComplianceSettings {
     /// report's warnings say when that one was kept. `gravity` is the base-frame guess (the
     /// default calibration sets it; stage files and experiments take `gravity` as given).
     pub detect_mounting: bool,
+    /// Identify the payload's centre of mass (flange frame) with the compliances, starting
+    /// from `payload_com` (or the measured point): the payload's torque on every joint moves
+    /// with it, each joint deflecting by its compliance. Like the links' weights, identified
+    /// after a first fit without it, from that fit's compliances (at zero compliance it moves
+    /// nothing); a coordinate identified beyond [`PAYLOAD_COM_BOUND`] is held at its start.
+    pub identify_payload_com: bool,
+    /// The compliances (rad/(N·m), one per joint) an identification with the links' weights or
+    /// the payload's centre of mass starts from (the first fit's; set by the identification
+    /// itself).
+    pub start: Option<Vec<f64>>,
 }
+
+/// Farthest (mm) an identified coordinate of the payload's centre of mass may lie from the
+/// flange: a payload's centre of mass lies within a metre of the flange it hangs on; beyond, the
+/// coordinate fits something else and is held at its start.
+pub const PAYLOAD_COM_BOUND: f64 = 1000.0;
 
 /// How far (deg) the registered base's −z may lie from the tracker's −z before the default
 /// calibration also tries gravity along the tracker's −z ([`ComplianceSettings::detect_mounting`]).
@@ -219,6 +230,8 @@ impl Default for ComplianceSettings {
             payload_com: None,
             plausible_only: false,
             detect_mounting: false,
+            identify_payload_com: false,
+            start: None,
         }
     }
 }
@@ -628,7 +641,16 @@ fn compliance_report(
         (Some(choice), Some(model)) => Some(ComplianceReport {
             gravity: model.gravity.into(),
             payload_com: model.payload_com.into(),
-            payload_com_source: choice.payload_com_source.clone(),
+            payload_com_source: match (0..3)
+                .filter(|&axis| kept.contains(&Column::PayloadCom(axis)))
+                .count()
+            {
+                0 => choice.payload_com_source.clone(),
+                n => format!(
+                    "identified with the compliances ({n} of 3 coordinates; started from {})",
+                    choice.payload_com_source
+                ),
+            },
             joints_source: choice.joints_source.clone(),
             loads: obs.distinct_loads(),
             joints: (0..model.values.len())
@@ -659,7 +681,8 @@ fn compliance_report(
     }
 }
 
-/// The harmonic and self-weight terms in the report: value (deg), σ, whether identified.
+/// The joint-error terms besides the compliances in the report (harmonics, self-weight, backlash,
+/// the links' weights, the payload's centre of mass): value in its unit, σ, whether identified.
 fn joint_error_reports(
     model: &JointErrors,
     params: &[ErrorParam],
@@ -676,6 +699,7 @@ fn joint_error_reports(
                 unit: match p {
                     ErrorParam::SelfWeight(_) => "deg per basis unit",
                     ErrorParam::LinkWeight(i) => model.link_weights[i].part.weight_unit(),
+                    ErrorParam::PayloadCom(_) => "mm",
                     _ => "deg",
                 },
                 value: in_file_unit(p, model.param(p)),
@@ -686,11 +710,11 @@ fn joint_error_reports(
         .collect()
 }
 
-/// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m as
-/// they are, the rest from radians to degrees.
+/// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m and
+/// the payload's centre of mass's mm as they are, the rest from radians to degrees.
 fn in_file_unit(p: ErrorParam, value: f64) -> f64 {
     match p {
-        ErrorParam::LinkWeight(_) => value,
+        ErrorParam::LinkWeight(_) | ErrorParam::PayloadCom(_) => value,
         _ => value.to_degrees(),
     }
 }
@@ -743,13 +767,6 @@ fn joint_error_start(
             params.extend((first..model.self_weight.len()).map(ErrorParam::SelfWeight));
         }
         if je.link_weights {
-            if let Some(values) = &je.compliance_start {
-                for &p in &params {
-                    if let ErrorParam::Compliance(j) = p {
-                        model.values[j] = values[j];
-                    }
-                }
-            }
             let first = model.link_weights.len();
             model = model.with_link_weights(&(0..dof).collect::<Vec<_>>());
             params.extend((first..model.link_weights.len()).map(ErrorParam::LinkWeight));
@@ -780,6 +797,20 @@ fn joint_error_start(
             params.extend((first..model.backlash.len()).map(ErrorParam::Backlash));
         }
         start = Some(model);
+    }
+    // The compliances a first fit found, and the payload's centre of mass, which moves nothing
+    // at zero compliance.
+    if let (Some(model), Some(c)) = (start.as_mut(), &settings.compliance) {
+        if let Some(values) = &c.start {
+            for &p in &params {
+                if let ErrorParam::Compliance(j) = p {
+                    model.values[j] = values[j];
+                }
+            }
+        }
+        if c.identify_payload_com {
+            params.extend((0..3).map(ErrorParam::PayloadCom));
+        }
     }
     Ok((start, params))
 }
@@ -861,6 +892,7 @@ fn solve_gated(
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
                 && !matches!(kept[p], Column::Backlash(j) if half_play(j) > BACKLASH_BOUND_DEG)
+                && !matches!(kept[p], Column::PayloadCom(axis) if !(model.payload_com[axis].abs() <= PAYLOAD_COM_BOUND))
                 && implausible(p).is_none()
         });
         if drop.is_empty() {
@@ -875,6 +907,10 @@ fn solve_gated(
                 Column::Backlash(j) => format!(
                     "held at zero: its backlash came out at {:.3}° half play, beyond the {BACKLASH_BOUND_DEG}° a reducer's can have (an effect it does not model, or poses that barely move the point with the joint)",
                     half_play(j)
+                ),
+                Column::PayloadCom(axis) => format!(
+                    "held at its start: it came out at {:.0} mm, beyond the {PAYLOAD_COM_BOUND} mm from the flange a payload's centre of mass can lie (an effect it does not model, or loads that barely determine it)",
+                    model.payload_com[axis]
                 ),
                 _ => format!(
                     "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), held rigid",
@@ -1003,36 +1039,39 @@ pub fn calibrate_kinematics(
             (Err(e), Err(_)) => Err(e),
         };
     }
-    // The links' weights act through the joints' compliances: a first identification without
-    // them (nor backlash, whose flanks are chosen below with the whole model) gives the
-    // compliances the one with them starts from (at zero compliance a weight moves nothing, and
-    // the identifiability analysis would hold every weight at zero).
-    if let Some(je) = &settings.joint_errors
-        && je.link_weights
-        && je.compliance_start.is_none()
+    // The links' weights and the payload's centre of mass act through the joints' compliances:
+    // a first identification without them (nor backlash, whose flanks are chosen below with the
+    // whole model) gives the compliances the one with them starts from (at zero compliance they
+    // move nothing, and the identifiability analysis would hold them at zero).
+    let link_weights = (settings.joint_errors.as_ref()).is_some_and(|je| je.link_weights);
+    if link_weights && settings.compliance.is_none() {
+        return Err(IdentError::Compliance(
+            "link weights act through the joint compliances: identify the compliances too".into(),
+        ));
+    }
+    if let Some(c) = &settings.compliance
+        && c.start.is_none()
+        && (link_weights || c.identify_payload_com)
     {
-        if settings.compliance.is_none() {
-            return Err(IdentError::Compliance(
-                "link weights act through the joint compliances: identify the compliances too"
-                    .into(),
-            ));
-        }
         let mut first = settings.clone();
-        let je_first = first.joint_errors.as_mut().expect("joint errors");
-        je_first.link_weights = false;
-        je_first.backlash = false;
-        if !(je_first.harmonics > 0 || je_first.self_weight) {
-            first.joint_errors = None;
+        first
+            .compliance
+            .as_mut()
+            .expect("compliance")
+            .identify_payload_com = false;
+        if let Some(je_first) = first.joint_errors.as_mut() {
+            je_first.link_weights = false;
+            je_first.backlash = false;
+            if !(je_first.harmonics > 0 || je_first.self_weight) {
+                first.joint_errors = None;
+            }
         }
         let fit = calibrate_kinematics(nominal, obs, &first)?;
         let Some(values) = fit.compliance.as_ref().map(|c| c.values.clone()) else {
             return Ok(fit);
         };
         let mut next = settings.clone();
-        next.joint_errors
-            .as_mut()
-            .expect("joint errors")
-            .compliance_start = Some(values);
+        next.compliance.as_mut().expect("compliance").start = Some(values);
         return calibrate_kinematics(nominal, obs, &next);
     }
     // Backlash that may rest on the flank its torque presses: a first identification on the
@@ -1241,7 +1280,10 @@ pub fn calibrate_kinematics(
         &std_of,
     );
     let joint_errors = match &compliance {
-        Some(model) if settings.joint_errors.is_some() => {
+        Some(model)
+            if settings.joint_errors.is_some()
+                || (settings.compliance.as_ref()).is_some_and(|c| c.identify_payload_com) =>
+        {
             joint_error_reports(model, &params, &kept, &std_of)
         }
         _ => Vec::new(),

@@ -6,7 +6,7 @@ use faer::Mat;
 use faer::linalg::solvers::Solve;
 use robocal_robot::{
     ErrorParam, JointErrors, JointField, MomentPart, ParamId, backlash_name, compliance_name,
-    harmonic_name, link_weight_name, self_weight_name,
+    harmonic_name, link_weight_name, payload_com_name, self_weight_name,
 };
 
 /// Result of [`analyse`].
@@ -57,6 +57,8 @@ pub enum Column {
         /// Its mass or a first moment.
         part: MomentPart,
     },
+    /// A coordinate (0: x, 1: y, 2: z) of the payload's centre of mass in the flange frame.
+    PayloadCom(usize),
 }
 
 impl Column {
@@ -79,6 +81,7 @@ impl Column {
                 body: errors.link_weights[i].body,
                 part: errors.link_weights[i].part,
             },
+            ErrorParam::PayloadCom(axis) => Self::PayloadCom(axis),
         }
     }
 }
@@ -102,6 +105,7 @@ impl std::fmt::Display for Column {
             }
             Self::Backlash(j) => f.write_str(&backlash_name(*j)),
             Self::LinkWeight { body, part } => f.write_str(&link_weight_name(*body, *part)),
+            Self::PayloadCom(axis) => f.write_str(&payload_com_name(*axis)),
         }
     }
 }
@@ -121,6 +125,7 @@ fn priority(column: Column) -> (usize, usize, usize) {
         }
         Column::Backlash(j) => return (6, j, 0),
         Column::LinkWeight { body, part } => return (7, body, part as usize),
+        Column::PayloadCom(axis) => return (8, axis, 0),
     };
     match id {
         ParamId::Base(a) => (0, 0, a),

@@ -125,6 +125,10 @@ pub struct RawComplianceStage {
     /// The payload's centre of mass in the flange frame, mm (default: the measured point).
     #[serde(default, deserialize_with = "robocal_robot::exact::option")]
     pub payload_com: Option<[f64; 3]>,
+    /// Identify the payload's centre of mass with the compliances, starting from `payload_com`
+    /// (default false).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub identify_payload_com: Option<bool>,
 }
 
 impl RawComplianceStage {
@@ -152,6 +156,7 @@ impl RawComplianceStage {
             }
             s.payload_com = Some(c.into());
         }
+        s.identify_payload_com = self.identify_payload_com.unwrap_or(false);
         Ok(s)
     }
 
@@ -165,6 +170,7 @@ impl RawComplianceStage {
                 .map(|j| j.iter().map(|j| j + 1).collect()),
             gravity: Some(settings.gravity.into()),
             payload_com: settings.payload_com.map(Into::into),
+            identify_payload_com: settings.identify_payload_com.then_some(true),
         }
     }
 }

@@ -131,6 +131,7 @@ impl Pool {
                     }
                     Column::SelfWeight { .. } => ("deg/unit", 180.0 / std::f64::consts::PI),
                     Column::LinkWeight { part, .. } => (part.weight_unit(), 1.0),
+                    Column::PayloadCom(_) => ("mm", 1.0),
                 })
                 .collect(),
             scale: keep.iter().map(|&p| problem.scale()[p]).collect(),

@@ -342,6 +342,12 @@ pub fn link_weight_name(body: usize, part: MomentPart) -> String {
     format!("link{}.{}", body + 1, part.name())
 }
 
+/// The name of a coordinate (0: x, 1: y, 2: z) of the payload's centre of mass in the flange
+/// frame: `payload_com.x`.
+pub fn payload_com_name(axis: usize) -> String {
+    format!("payload_com.{}", ["x", "y", "z"][axis])
+}
+
 /// The name of a joint's backlash (half its play): `j1.backlash`.
 pub fn backlash_name(joint: usize) -> String {
     format!("j{}.backlash", joint + 1)
@@ -362,6 +368,10 @@ pub enum ErrorParam {
     Backlash(usize),
     /// The value of `link_weights[i]`.
     LinkWeight(usize),
+    /// Coordinate `axis` (0: x, 1: y, 2: z) of the payload's centre of mass in the flange frame,
+    /// mm: it moves the payload's gravity torque on every joint, each deflecting by its
+    /// compliance.
+    PayloadCom(usize),
 }
 
 impl Robot {
@@ -520,6 +530,7 @@ impl JointErrors {
             ErrorParam::SelfWeight(i) => self.self_weight[i].value,
             ErrorParam::Backlash(i) => self.backlash[i].value,
             ErrorParam::LinkWeight(i) => self.link_weights[i].value,
+            ErrorParam::PayloadCom(axis) => self.payload_com[axis],
         }
     }
 
@@ -532,11 +543,12 @@ impl JointErrors {
             ErrorParam::SelfWeight(i) => self.self_weight[i].value = v,
             ErrorParam::Backlash(i) => self.backlash[i].value = v,
             ErrorParam::LinkWeight(i) => self.link_weights[i].value = v,
+            ErrorParam::PayloadCom(axis) => self.payload_com[axis] = v,
         }
     }
 
     /// The joint a coefficient turns (a link weight turns every joint up to its link's: its
-    /// link's).
+    /// link's; the payload's centre of mass every joint: the last).
     pub fn joint_of(&self, p: ErrorParam) -> usize {
         match p {
             ErrorParam::Compliance(j) => j,
@@ -544,11 +556,12 @@ impl JointErrors {
             ErrorParam::SelfWeight(i) => self.self_weight[i].joint,
             ErrorParam::Backlash(i) => self.backlash[i].joint,
             ErrorParam::LinkWeight(i) => self.link_weights[i].body,
+            ErrorParam::PayloadCom(_) => self.values.len().saturating_sub(1),
         }
     }
 
     /// A stable name for a coefficient: `j2.compliance`, `j3.h2.sin`, `j2.sw4.mass`,
-    /// `j1.backlash`, `link3.x`.
+    /// `j1.backlash`, `link3.x`, `payload_com.z`.
     pub fn param_name(&self, p: ErrorParam) -> String {
         match p {
             ErrorParam::Compliance(j) => compliance_name(j),
@@ -565,12 +578,13 @@ impl JointErrors {
                 let w = &self.link_weights[i];
                 link_weight_name(w.body, w.part)
             }
+            ErrorParam::PayloadCom(axis) => payload_com_name(axis),
         }
     }
 
     /// Every coefficient of the model, in order: compliances of every joint, then each
     /// harmonic's sine and cosine, then the self-weight terms, then the backlash terms, then the
-    /// link weights.
+    /// link weights (the payload's centre of mass, a setting unless identified, is not listed).
     pub fn params(&self) -> Vec<ErrorParam> {
         let mut out: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
         for i in 0..self.harmonics.len() {
@@ -763,7 +777,8 @@ impl JointErrors {
     /// For each of `params` (by position `k`), the joints it turns and its basis value there at
     /// command `q` (rad) under `load` kg, as entries `(k, joint, value)`: the coefficient's
     /// deflection of the joint per unit. Every term turns its one joint, except a link weight,
-    /// which turns every joint up to its link's by the joint's compliance times its torque.
+    /// which turns every joint up to its link's by the joint's compliance times its torque, and
+    /// a coordinate of the payload's centre of mass, which turns every joint so.
     pub fn basis(
         &self,
         robot: &Robot,
@@ -802,6 +817,26 @@ impl JointErrors {
         } else {
             Vec::new()
         };
+        // The payload's torque per mm of its centre of mass along each flange axis, on every
+        // joint (none without a load).
+        let com = if load != 0.0
+            && params
+                .iter()
+                .any(|p| matches!(p, ErrorParam::PayloadCom(_)))
+        {
+            let axes = robot.joint_axes(q);
+            let flange = robot.flange_frame(q);
+            let g = self.gravity_world(robot);
+            [MomentPart::X, MomentPart::Y, MomentPart::Z]
+                .map(|part| {
+                    (axes.axes.iter())
+                        .map(|axis| load * 1e-3 * unit_torque(axis, &flange, &g, part))
+                        .collect::<Vec<_>>()
+                })
+                .to_vec()
+        } else {
+            Vec::new()
+        };
         let mut out = Vec::with_capacity(params.len());
         for (k, &p) in params.iter().enumerate() {
             match p {
@@ -818,6 +853,13 @@ impl JointErrors {
                 ErrorParam::Backlash(i) => out.push((k, self.backlash[i].joint, flanks[i])),
                 ErrorParam::LinkWeight(i) => {
                     for (j, phi) in links[i].iter().enumerate() {
+                        if self.values[j] != 0.0 {
+                            out.push((k, j, self.values[j] * phi));
+                        }
+                    }
+                }
+                ErrorParam::PayloadCom(axis) => {
+                    for (j, phi) in com.get(axis).into_iter().flatten().enumerate() {
                         if self.values[j] != 0.0 {
                             out.push((k, j, self.values[j] * phi));
                         }

@@ -37,8 +37,8 @@ pub mod table;
 pub use compliance::{
     Backlash, Compliance, DEG_PER_KNM, ErrorParam, Flank, HARMONIC_REACH, Harmonic, JointErrors,
     LinkWeight, MomentPart, RawCompliance, SelfWeight, TORQUE_FEATURES_PER_LINK, backlash_name,
-    compliance_name, harmonic_name, link_weight_name, payload_mass_feature, self_weight_name,
-    torque_side,
+    compliance_name, harmonic_name, link_weight_name, payload_com_name, payload_mass_feature,
+    self_weight_name, torque_side,
 };
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};

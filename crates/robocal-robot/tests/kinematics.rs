@@ -652,6 +652,40 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             ojac.column(k)
         );
     }
+    // The payload's centre of mass moves the payload's torque on every joint: its columns
+    // (small, a compliance times a load times a lever) against central differences, tightly.
+    let com: Vec<ErrorParam> = (0..3).map(ErrorParam::PayloadCom).collect();
+    let (_, cjac) = e.param_jacobian(&robot, &q, load, &com);
+    let (_, cojac) = e.orientation_param_jacobian(&probe, &q, load, &com);
+    for (k, &param) in com.iter().enumerate() {
+        let h = 1e-2;
+        let (mut up, mut down) = (e.clone(), e.clone());
+        up.set_param(param, e.param(param) + h);
+        down.set_param(param, e.param(param) - h);
+        let fd = (up.point(&robot, &q, load) - down.point(&robot, &q, load)) / (2.0 * h);
+        assert!(
+            fd.norm() > 1e-5 && (fd - cjac.column(k)).norm() < 1e-6 * fd.norm(),
+            "{}: {fd} vs {}",
+            e.param_name(param),
+            cjac.column(k)
+        );
+        let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
+        let fd = Vector3::new(
+            d[(2, 1)] - d[(1, 2)],
+            d[(0, 2)] - d[(2, 0)],
+            d[(1, 0)] - d[(0, 1)],
+        ) / (4.0 * h);
+        assert!(
+            (fd - cojac.column(k)).norm() < 1e-6 * fd.norm(),
+            "orientation {}: {fd} vs {}",
+            e.param_name(param),
+            cojac.column(k)
+        );
+    }
+    assert_eq!(e.param_name(ErrorParam::PayloadCom(2)), "payload_com.z");
+    // Without a load the payload's centre of mass moves nothing.
+    let (_, unloaded) = e.param_jacobian(&robot, &q, 0.0, &com);
+    assert_eq!(unloaded.norm(), 0.0);
     // The shared link weights are the per-joint self-weight terms with coefficient
     // `compliance × weight` for every joint up to the link: the same deflection.
     let mut shared = JointErrors::new(e.values.clone(), e.gravity, e.payload_com);

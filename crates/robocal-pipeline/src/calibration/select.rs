@@ -226,7 +226,7 @@ impl Physics {
             ));
         }
         if self.self_weight && self.compliance {
-            parts.push("the links' weights (each joint deflecting by its compliance under them and the payload)".to_string());
+            parts.push("the links' weights and the payload's centre of mass (each joint deflecting by its compliance under their torques)".to_string());
         } else if self.self_weight {
             parts.push("self-weight terms".to_string());
         }
@@ -245,9 +245,13 @@ impl Physics {
     fn settings(self, angle_weight: Option<f64>) -> KinematicSettings {
         KinematicSettings {
             angle_weight,
+            // The payload's centre of mass is rarely known to the millimetre: identified with
+            // the links' weights (the mass properties the compliances meet; both after a first
+            // fit that gives the compliances they start from).
             compliance: self.compliance.then(|| ComplianceSettings {
                 plausible_only: true,
                 detect_mounting: true,
+                identify_payload_com: self.self_weight,
                 ..ComplianceSettings::default()
             }),
             // With the compliances identified, the deflection under the links' own weight is
