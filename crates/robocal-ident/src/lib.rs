@@ -26,8 +26,9 @@ pub use calibrate::{
     BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport,
     FAR_FROM_NOMINAL, FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED, IRLS_ROUNDS,
     JointCompliance, JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings,
-    Loss, OrientationReport, POOR_FIT, ParameterReport, SolverKind, TORQUE_SHARE, align,
-    calibrate_kinematics, default_compliance_joints, far_from_nominal,
+    Loss, MOUNTING_ANGLE_DEG, OrientationReport, PAYLOAD_COM_BOUND, POOR_FIT, ParameterReport,
+    SolverKind, TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints,
+    far_from_nominal,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};

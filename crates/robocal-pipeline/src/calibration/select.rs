@@ -5,9 +5,11 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{
     ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings,
+    MOUNTING_ANGLE_DEG, Observations, align, calibrate_kinematics,
 };
 use robocal_model::CalibratedModel;
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
@@ -112,6 +114,10 @@ pub struct AutoSettings {
     /// Weight of a 6-DoF probe's orientation residuals, mm per deg (`None`: the kinematic
     /// settings' default, `noise_mm / noise_deg`).
     pub angle_weight: Option<f64>,
+    /// Gravity in the robot base frame {0}, m/s², for every candidate (`None`: decided once
+    /// from the data before the candidates — the base's −z, or for an arm on a wall or a
+    /// ceiling a levelled tracker's −z where a fit with the compliances says it fits better).
+    pub gravity: Option<Vector3<f64>>,
 }
 
 /// Folds of the default cross-validation.
@@ -147,6 +153,7 @@ impl Default for AutoSettings {
             budget_seconds: DEFAULT_BUDGET_SECONDS,
             outliers: Some(OutlierSettings::default()),
             angle_weight: None,
+            gravity: None,
         }
     }
 }
@@ -240,17 +247,22 @@ impl Physics {
         format!("{parts} identified with the geometry")
     }
 
-    /// The kinematic settings of this physics, with a 6-DoF probe's `angle_weight` (mm per deg;
-    /// `None`: the default).
-    fn settings(self, angle_weight: Option<f64>) -> KinematicSettings {
+    /// The kinematic settings of this physics, with `auto`'s 6-DoF probe `angle_weight` (mm per
+    /// deg; `None`: the default) and gravity (`None`: the base's −z, the tracker's tried where
+    /// the base is far from upright).
+    fn settings(self, auto: &AutoSettings) -> KinematicSettings {
+        let gravity = auto
+            .gravity
+            .unwrap_or(ComplianceSettings::default().gravity);
         KinematicSettings {
-            angle_weight,
+            angle_weight: auto.angle_weight,
             // The payload's centre of mass is rarely known to the millimetre: identified with
             // the links' weights (the mass properties the compliances meet; both after a first
             // fit that gives the compliances they start from).
             compliance: self.compliance.then(|| ComplianceSettings {
+                gravity,
                 plausible_only: true,
-                detect_mounting: true,
+                detect_mounting: auto.gravity.is_none(),
                 identify_payload_com: self.self_weight,
                 ..ComplianceSettings::default()
             }),
@@ -263,6 +275,7 @@ impl Physics {
                 self_weight: self.self_weight && !self.compliance,
                 link_weights: self.self_weight && self.compliance,
                 backlash: self.backlash,
+                gravity,
                 ..JointErrorSettings::default()
             }),
             ..KinematicSettings::default()
@@ -293,14 +306,14 @@ struct Scored {
 /// Fits `physics` on every fold and scores it on the fold's held-out rows.
 fn score_physics(
     physics: Physics,
-    angle_weight: Option<f64>,
+    auto: &AutoSettings,
     nominal: &Robot,
     splits: &[Fold<'_>],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
 ) -> Scored {
     let t = std::time::Instant::now();
-    let kinematic = physics.settings(angle_weight);
+    let kinematic = physics.settings(auto);
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
@@ -503,7 +516,6 @@ fn physics_chain(
     observer: &dyn Observer,
     over_budget: &dyn Fn(f64) -> bool,
 ) -> Chain {
-    let angle_weight = settings.angle_weight;
     let mut score = |physics: Physics| {
         // A joint-error candidate does not start when the budget would be spent before it ends,
         // projected from the slowest candidate so far (it holds at least as many terms).
@@ -531,7 +543,7 @@ fn physics_chain(
         }
         score_physics(
             physics,
-            angle_weight,
+            settings,
             nominal,
             &plan.splits,
             candidates,
@@ -922,6 +934,36 @@ fn kinematic_only(
 /// the best identified one — is scored by its error on held-out poses: the mean of its mean
 /// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
 /// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
+/// Gravity for an arm whose registered base is more than [`MOUNTING_ANGLE_DEG`] from upright
+/// (on a wall or a ceiling), when the rows hold two or more loads: the base's −z or a levelled
+/// tracker's −z, whichever a fit with the compliances on every row fits better
+/// ([`ComplianceSettings::detect_mounting`]), and the warning that fit gave when it took the
+/// tracker's. `None` for an upright arm (each fit keeps the base's −z) or where no fit can tell.
+fn mounting(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&Measurement],
+) -> Option<(Vector3<f64>, Option<String>)> {
+    if loads(rows).len() < 2 {
+        return None;
+    }
+    let obs = Observations::from_rows(nominal.dof(), rows.iter().copied());
+    let up = ComplianceSettings::default().gravity;
+    let down = align(nominal, &obs).ok()?.base_rotation().transpose() * -Vector3::z() * up.norm();
+    if down.angle(&up).to_degrees() <= MOUNTING_ANGLE_DEG {
+        return None;
+    }
+    let physics = Physics {
+        compliance: true,
+        ..Physics::RIGID
+    };
+    let fit = calibrate_kinematics(nominal, &obs, &physics.settings(settings)).ok()?;
+    let warning = (fit.report.warnings.iter())
+        .find(|w| w.starts_with("gravity taken along"))
+        .cloned();
+    Some((fit.compliance?.gravity, warning))
+}
+
 /// The choice is a chain — identified table, compliance, the joint-error blocks by forward
 /// stepwise selection (harmonics and self-weight each alone, the better first, then the other),
 /// the best residual model — each step taken only if it lowers the held-out errors significantly
@@ -943,6 +985,17 @@ pub fn automatic(
         _ => (None, rows.to_vec()),
     };
     let rows = kept.as_slice();
+    // An arm on a wall or a ceiling: gravity decided once, for every candidate and fold (each
+    // fit deciding it again would identify every candidate three times).
+    let mut settings = settings.clone();
+    let mut mounting_warning = None;
+    if settings.gravity.is_none()
+        && let Some((gravity, warning)) = mounting(&settings, nominal, rows)
+    {
+        settings.gravity = Some(gravity);
+        mounting_warning = warning;
+    }
+    let settings = &settings;
     let Some(plan) = FoldPlan::new(settings, rows, validation.as_ref()) else {
         let mut built = kinematic_only(settings, nominal, rows, observer, start)?;
         built.outliers = outliers;
@@ -1023,7 +1076,7 @@ pub fn automatic(
     // Fit the winner on every row (with a validation file: on the data file's rows, the
     // validation file early-stopping the networks as it always has).
     let stages = Stages {
-        kinematic: chosen_physics.settings(settings.angle_weight),
+        kinematic: chosen_physics.settings(&settings),
         residual: residual_wins.map(|(r, _)| settings.residuals[r].clone()),
     };
     if plan.refit {
@@ -1052,6 +1105,9 @@ pub fn automatic(
         );
         d.reason.push_str(&note);
         observer.message(&format!("stage compliance: {}", d.reason));
+    }
+    if let Some(w) = mounting_warning {
+        built.kinematic.report.warnings.push(w);
     }
     built.outliers = outliers;
     built.selection = Some(Selection {
