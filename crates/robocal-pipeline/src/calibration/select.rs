@@ -1123,3 +1123,48 @@ pub fn automatic(
     });
     Ok(built)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use robocal_twin::TwinConfig;
+
+    use super::*;
+
+    /// A twin's rows, `count` configurations at its trained loads.
+    fn twin_rows(file: &str, count: usize) -> (TwinConfig, Vec<Measurement>) {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut twin = TwinConfig::load(root.join(file)).unwrap();
+        twin.poses.count = count;
+        let rows = twin.generate().unwrap().measurements.rows;
+        (twin, rows)
+    }
+
+    /// The ceiling-mounted ARM6K (gravity along +z of its base frame): the default decides once
+    /// that gravity lies along the tracker's −z — within a degree of the twin's — and keeps the
+    /// warning for the report; the upright ARM5's is left to each fit, and so is any arm's with
+    /// one load (no compliance to tell).
+    #[test]
+    fn the_mounting_is_decided_once_from_the_data() {
+        let (twin, rows) = twin_rows("configs/twin/arm6k.toml", 30);
+        let rows: Vec<&Measurement> = rows.iter().collect();
+        let (gravity, warning) = mounting(&AutoSettings::default(), &twin.nominal, &rows).unwrap();
+        assert!(
+            gravity.angle(&twin.gravity).to_degrees() < 1.0,
+            "{gravity} vs {}",
+            twin.gravity
+        );
+        assert!(
+            warning.is_some_and(|w| w.starts_with("gravity taken along the tracker's -z")),
+            "no warning"
+        );
+        let one_load: Vec<&Measurement> = (rows.iter().copied())
+            .filter(|r| r.sample.load == 0.0)
+            .collect();
+        assert!(mounting(&AutoSettings::default(), &twin.nominal, &one_load).is_none());
+        let (upright, rows) = twin_rows("configs/twin/arm5.toml", 30);
+        let rows: Vec<&Measurement> = rows.iter().collect();
+        assert!(mounting(&AutoSettings::default(), &upright.nominal, &rows).is_none());
+    }
+}
