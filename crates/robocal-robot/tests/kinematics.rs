@@ -629,6 +629,15 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         tool_rpy: Some(Vector3::new(0.3, -0.2, 1.1)),
         ..robot.clone()
     };
+    // The rotation vector between the tool frames of two models, over their parameters' step.
+    let orientation_fd = |up: &JointErrors, down: &JointErrors, h: f64| {
+        let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
+        Vector3::new(
+            d[(2, 1)] - d[(1, 2)],
+            d[(0, 2)] - d[(2, 0)],
+            d[(1, 0)] - d[(0, 1)],
+        ) / (4.0 * h)
+    };
     let (rot, ojac) = e.orientation_param_jacobian(&probe, &q, load, &params);
     assert!((rot - e.rotation(&probe, &q, load)).norm() < 1e-12);
     for (k, &param) in params.iter().enumerate() {
@@ -639,12 +648,7 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         let (mut up, mut down) = (e.clone(), e.clone());
         up.set_param(param, e.param(param) + h);
         down.set_param(param, e.param(param) - h);
-        let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
-        let fd = Vector3::new(
-            d[(2, 1)] - d[(1, 2)],
-            d[(0, 2)] - d[(2, 0)],
-            d[(1, 0)] - d[(0, 1)],
-        ) / (4.0 * h);
+        let fd = orientation_fd(&up, &down, h);
         assert!(
             (fd - ojac.column(k)).norm() < 1e-4 * fd.norm().max(1e-3),
             "orientation {}: {fd} vs {}",
@@ -669,12 +673,7 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             e.param_name(param),
             cjac.column(k)
         );
-        let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
-        let fd = Vector3::new(
-            d[(2, 1)] - d[(1, 2)],
-            d[(0, 2)] - d[(2, 0)],
-            d[(1, 0)] - d[(0, 1)],
-        ) / (4.0 * h);
+        let fd = orientation_fd(&up, &down, h);
         assert!(
             (fd - cojac.column(k)).norm() < 1e-6 * fd.norm(),
             "orientation {}: {fd} vs {}",
