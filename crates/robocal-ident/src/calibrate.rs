@@ -889,10 +889,15 @@ fn solve_gated(
                 })
             }
         };
+        // A coordinate of the payload's centre of mass beyond where a payload can hang.
+        let com_too_far = |axis: usize| {
+            let c = model.payload_com[axis];
+            !c.is_finite() || c.abs() > PAYLOAD_COM_BOUND
+        };
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
                 && !matches!(kept[p], Column::Backlash(j) if half_play(j) > BACKLASH_BOUND_DEG)
-                && !matches!(kept[p], Column::PayloadCom(axis) if !(model.payload_com[axis].abs() <= PAYLOAD_COM_BOUND))
+                && !matches!(kept[p], Column::PayloadCom(axis) if com_too_far(axis))
                 && implausible(p).is_none()
         });
         if drop.is_empty() {

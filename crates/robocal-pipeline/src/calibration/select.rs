@@ -1076,7 +1076,7 @@ pub fn automatic(
     // Fit the winner on every row (with a validation file: on the data file's rows, the
     // validation file early-stopping the networks as it always has).
     let stages = Stages {
-        kinematic: chosen_physics.settings(&settings),
+        kinematic: chosen_physics.settings(settings),
         residual: residual_wins.map(|(r, _)| settings.residuals[r].clone()),
     };
     if plan.refit {
