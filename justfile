@@ -53,10 +53,10 @@ twin:
 fuzz cases="20000":
     PROPTEST_CASES={{cases}} cargo test --release --test fuzz_loaders
 
-# the accuracy suite: default calibrate and each stage on twins of eleven arms (two seeds, effects
+# the accuracy suite: default calibrate and each stage on twins of twelve arms (two seeds, effects
 # all on / modelled only, configuration and extrapolation splits), errors against the twins'
-# noise-free points; the eight families kept aside (ARM6S, ARM6H, ARM6C, ARM6M, ARM6N, ARM6U,
-# ARM6K, ARM6W) only with aside="--aside"
+# noise-free points; the nine families kept aside (ARM6S, ARM6H, ARM6C, ARM6M, ARM6N, ARM6U,
+# ARM6K, ARM6W, ARM6T) only with aside="--aside"
 # (docs/accuracy.md)
 accuracy seeds="2" aside="":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}}
