@@ -122,9 +122,10 @@ pub fn run(
                     let std = (r.joint_errors.iter())
                         .find(|t| t.name == name && t.identified)
                         .and_then(|t| t.std);
+                    // The coordinate's letter, as its name in the report ends.
+                    let letter = name.rsplit('.').next().unwrap_or_default();
                     format!(
-                        "{} {:.1}{}",
-                        ["x", "y", "z"][axis],
+                        "{letter} {:.1}{}",
                         c.payload_com[axis],
                         std.map_or(String::new(), |s| format!(" ± {s:.1}"))
                     )

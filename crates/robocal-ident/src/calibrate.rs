@@ -440,6 +440,19 @@ fn indices(robot: &Robot, keep: impl Fn(ParamId) -> bool) -> Vec<usize> {
         .collect()
 }
 
+/// The tracker's −z with the length of `gravity`, in the base frame `nominal` registers to from
+/// `obs` ([`align`]), and its angle (degrees) from `gravity` (base frame): how far from upright
+/// the arm stands if the tracker is levelled. Beyond [`MOUNTING_ANGLE_DEG`] the arm is taken
+/// to hang on a wall or a ceiling, and the data decide which of the two gravity is.
+pub fn tracker_down(
+    nominal: &Robot,
+    obs: &Observations,
+    gravity: &Vector3<f64>,
+) -> Result<(Vector3<f64>, f64)> {
+    let down = align(nominal, obs)?.base_rotation().transpose() * -Vector3::z() * gravity.norm();
+    Ok((down, down.angle(gravity).to_degrees()))
+}
+
 /// Fits only the base and tool of `robot` (after a closed-form registration of the base):
 /// the "before calibration" model of a tracker's best-fit alignment.
 pub fn align(robot: &Robot, obs: &Observations) -> Result<Robot> {
@@ -1013,8 +1026,7 @@ pub fn calibrate_kinematics(
             }
             s
         };
-        let down = down_of(&align(nominal, obs)?);
-        let angle = down.angle(&c.gravity).to_degrees();
+        let (down, angle) = tracker_down(nominal, obs, &c.gravity)?;
         if angle <= MOUNTING_ANGLE_DEG {
             return calibrate_kinematics(nominal, obs, &given);
         }

@@ -44,12 +44,14 @@
 //! # Ok::<(), robocal_robot::RobotError>(())
 //! ```
 
+use std::cell::OnceCell;
 use std::path::Path;
 
 use nalgebra::{Matrix3, Matrix3xX, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, RobotError};
+use crate::kinematics::{Axis, Frame};
 use crate::table::{Robot, toml_error};
 
 /// Degrees per kN·m in radians per N·m: the file unit of a compliance.
@@ -263,6 +265,35 @@ pub struct LinkWeight {
 
 /// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
 /// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²).
+/// What every gravity term reads at one command: each joint's axis (unit, and a point on it,
+/// mm), every link frame {1}..{n} (the last is the flange's) and gravity (m/s²), world frame.
+struct Pose<'a> {
+    axes: &'a [Axis],
+    frames: &'a [Frame],
+    g: &'a Vector3<f64>,
+}
+
+/// The arm's joint axes and link frames at command `q`, computed on first use and once: the
+/// payload's torques, the links' weights, the self-weight terms, the torque flanks and the
+/// centre of mass's columns of one row share them.
+struct PoseCache<'a> {
+    robot: &'a Robot,
+    q: &'a [f64],
+    g: Vector3<f64>,
+    pose: OnceCell<(Vec<Axis>, Vec<Frame>)>,
+}
+
+impl PoseCache<'_> {
+    fn get(&self) -> Pose<'_> {
+        let (axes, frames) = self.pose.get_or_init(|| self.robot.axes_and_frames(self.q));
+        Pose {
+            axes,
+            frames,
+            g: &self.g,
+        }
+    }
+}
+
 fn unit_torque(
     (w, a): &(Vector3<f64>, Vector3<f64>),
     (r, o): &(Matrix3<f64>, Vector3<f64>),
@@ -615,17 +646,15 @@ impl JointErrors {
     /// For each link weight ([`Self::link_weights`]), the gravity torque (N·m per kg or per
     /// kg·m) of its unit quantity about every joint axis up to its link's (entry `j` for joint
     /// `j`), at command `q` (rad); empty without any.
-    fn link_weight_basis(&self, robot: &Robot, q: &[f64]) -> Vec<Vec<f64>> {
+    fn link_weight_basis(&self, pose: &PoseCache) -> Vec<Vec<f64>> {
         if self.link_weights.is_empty() {
             return Vec::new();
         }
-        let axes = robot.joint_axes(q);
-        let frames = robot.link_frames(q);
-        let g = self.gravity_world(robot);
+        let Pose { axes, frames, g } = pose.get();
         (self.link_weights.iter())
             .map(|w| {
-                (axes.axes[..=w.body].iter())
-                    .map(|axis| unit_torque(axis, &frames[w.body], &g, w.part))
+                (axes[..=w.body].iter())
+                    .map(|axis| unit_torque(axis, &frames[w.body], g, w.part))
                     .collect()
             })
             .collect()
@@ -652,10 +681,12 @@ impl JointErrors {
     /// The gravity torque about every joint axis (N·m) at command `q` (rad) under `load` kg that
     /// the compliances meet: the payload's, and the links' weights' when the model has them.
     pub fn load_torques(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
-        self.with_link_torques(
-            self.torques(robot, q, load),
-            &self.link_weight_basis(robot, q),
-        )
+        self.load_torques_at(&self.pose(robot, q), load)
+    }
+
+    /// [`Self::load_torques`] at the command `pose` holds.
+    fn load_torques_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
+        self.with_link_torques(self.torques_at(pose, load), &self.link_weight_basis(pose))
     }
 
     /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
@@ -679,14 +710,9 @@ impl JointErrors {
     /// wherever that centre lies); then 1. [`TORQUE_FEATURES_PER_LINK`] per link and as many
     /// for the payload, plus one.
     pub fn torque_features(&self, robot: &Robot, q: &[f64], load: f64, joint: usize) -> Vec<f64> {
-        let axes = robot.joint_axes(q);
-        let frames = robot.link_frames(q);
-        torque_features_at(
-            &axes.axes[joint],
-            &frames[joint..],
-            &self.gravity_world(robot),
-            load,
-        )
+        let pose = self.pose(robot, q);
+        let Pose { axes, frames, g } = pose.get();
+        torque_features_at(&axes[joint], &frames[joint..], g, load)
     }
 
     /// How many gravity-torque features joint `joint` (0-based) of a `dof`-joint arm has.
@@ -706,21 +732,14 @@ impl JointErrors {
 
     /// The flank (`±1`) of every backlash term at command `q` (rad) under `load` kg, the arm's
     /// frames computed once for all the torque flanks.
-    fn flanks(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
-        let torque = (self.backlash.iter()).any(|b| matches!(b.flank, Flank::Torque { .. }));
-        let frames = torque.then(|| {
-            let g = self.gravity_world(robot);
-            (robot.joint_axes(q), robot.link_frames(q), g)
-        });
+    fn flanks(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
         (self.backlash.iter())
-            .map(|b| match (&b.flank, &frames) {
-                (Flank::Approach { home }, _) => side(q[b.joint] >= *home),
-                (Flank::Torque { weights }, Some((axes, frames, g))) => {
-                    let f = torque_features_at(&axes.axes[b.joint], &frames[b.joint..], g, load);
+            .map(|b| match &b.flank {
+                Flank::Approach { home } => side(pose.q[b.joint] >= *home),
+                Flank::Torque { weights } => {
+                    let Pose { axes, frames, g } = pose.get();
+                    let f = torque_features_at(&axes[b.joint], &frames[b.joint..], g, load);
                     torque_side(weights, &f)
-                }
-                (Flank::Torque { .. }, None) => {
-                    unreachable!("frames are computed for torque flanks")
                 }
             })
             .collect()
@@ -761,16 +780,14 @@ impl JointErrors {
     }
 
     /// The basis value `φ` of every self-weight term at command `q` (rad).
-    fn self_weight_basis(&self, robot: &Robot, q: &[f64]) -> Vec<f64> {
+    fn self_weight_basis(&self, pose: &PoseCache) -> Vec<f64> {
         if self.self_weight.is_empty() {
             return Vec::new();
         }
-        let axes = robot.joint_axes(q);
-        let frames = robot.link_frames(q);
-        let g = self.gravity_world(robot);
+        let Pose { axes, frames, g } = pose.get();
         self.self_weight
             .iter()
-            .map(|t| unit_torque(&axes.axes[t.joint], &frames[t.body], &g, t.part))
+            .map(|t| unit_torque(&axes[t.joint], &frames[t.body], g, t.part))
             .collect()
     }
 
@@ -786,6 +803,17 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> Vec<(usize, usize, f64)> {
+        self.basis_at(&self.pose(robot, q), load, params)
+    }
+
+    /// [`Self::basis`] at the command `pose` holds.
+    fn basis_at(
+        &self,
+        pose: &PoseCache,
+        load: f64,
+        params: &[ErrorParam],
+    ) -> Vec<(usize, usize, f64)> {
+        let q = pose.q;
         let compliance = params
             .iter()
             .any(|p| matches!(p, ErrorParam::Compliance(_)));
@@ -795,12 +823,12 @@ impl JointErrors {
                 .iter()
                 .any(|p| matches!(p, ErrorParam::LinkWeight(_)))
         {
-            self.link_weight_basis(robot, q)
+            self.link_weight_basis(pose)
         } else {
             Vec::new()
         };
         let torques = if compliance {
-            self.with_link_torques(self.torques(robot, q, load), &links)
+            self.with_link_torques(self.torques_at(pose, load), &links)
         } else {
             Vec::new()
         };
@@ -808,12 +836,12 @@ impl JointErrors {
             .iter()
             .any(|p| matches!(p, ErrorParam::SelfWeight(_)))
         {
-            self.self_weight_basis(robot, q)
+            self.self_weight_basis(pose)
         } else {
             Vec::new()
         };
         let flanks = if params.iter().any(|p| matches!(p, ErrorParam::Backlash(_))) {
-            self.flanks(robot, q, load)
+            self.flanks(pose, load)
         } else {
             Vec::new()
         };
@@ -824,13 +852,12 @@ impl JointErrors {
                 .iter()
                 .any(|p| matches!(p, ErrorParam::PayloadCom(_)))
         {
-            let axes = robot.joint_axes(q);
-            let flange = robot.flange_frame(q);
-            let g = self.gravity_world(robot);
+            let Pose { axes, frames, g } = pose.get();
+            let flange = frames.last().expect("an arm has a joint");
             [MomentPart::X, MomentPart::Y, MomentPart::Z]
                 .map(|part| {
-                    (axes.axes.iter())
-                        .map(|axis| load * 1e-3 * unit_torque(axis, &flange, &g, part))
+                    (axes.iter())
+                        .map(|axis| load * 1e-3 * unit_torque(axis, flange, g, part))
                         .collect::<Vec<_>>()
                 })
                 .to_vec()
@@ -878,36 +905,52 @@ impl JointErrors {
     /// Gravity torque of `load` kg at the payload's centre of mass about every joint axis, N·m,
     /// at command `q` (rad).
     pub fn torques(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
+        self.torques_at(&self.pose(robot, q), load)
+    }
+
+    /// [`Self::torques`] at the command `pose` holds.
+    fn torques_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
         if load == 0.0 {
-            return vec![0.0; q.len()];
+            return vec![0.0; pose.q.len()];
         }
-        let axes = robot.joint_axes(q);
-        let (r, o) = robot.flange_frame(q);
+        let Pose { axes, frames, g } = pose.get();
+        let (r, o) = frames.last().expect("an arm has a joint");
         let com = o + r * self.payload_com;
-        let force = self.gravity_world(robot) * load;
-        axes.axes
-            .iter()
+        let force = g * load;
+        axes.iter()
             .map(|(w, a)| w.dot(&(com - a).cross(&force)) * 1e-3)
             .collect()
+    }
+
+    /// A lazily computed [`Pose`] of `robot` at command `q` (rad), for this model's gravity.
+    fn pose<'a>(&self, robot: &'a Robot, q: &'a [f64]) -> PoseCache<'a> {
+        PoseCache {
+            robot,
+            q,
+            g: self.gravity_world(robot),
+            pose: OnceCell::new(),
+        }
     }
 
     /// How far each joint turns from command `q` (rad) under `load` kg, rad: compliance ×
     /// torque of the payload and of the links' weights, plus the harmonics, the self-weight
     /// terms and the backlash.
     pub fn deflection(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
-        let t = self.load_torques(robot, q, load);
+        self.deflection_at(&self.pose(robot, q), load)
+    }
+
+    /// [`Self::deflection`] at the command `pose` holds.
+    fn deflection_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
+        let q = pose.q;
+        let t = self.load_torques_at(pose, load);
         let mut d: Vec<f64> = self.values.iter().zip(&t).map(|(c, t)| c * t).collect();
         for h in &self.harmonics {
             d[h.joint] += h.value(q[h.joint]);
         }
-        for (t, phi) in self
-            .self_weight
-            .iter()
-            .zip(self.self_weight_basis(robot, q))
-        {
+        for (t, phi) in self.self_weight.iter().zip(self.self_weight_basis(pose)) {
             d[t.joint] += t.value * phi;
         }
-        for (b, s) in self.backlash.iter().zip(self.flanks(robot, q, load)) {
+        for (b, s) in self.backlash.iter().zip(self.flanks(pose, load)) {
             d[b.joint] += b.value * s;
         }
         d
@@ -915,10 +958,16 @@ impl JointErrors {
 
     /// The joint angles the arm really takes for command `q` (rad) under `load` kg, rad.
     pub fn deflected(&self, robot: &Robot, q: &[f64], load: f64) -> Vec<f64> {
+        self.deflected_at(&self.pose(robot, q), load)
+    }
+
+    /// [`Self::deflected`] at the command `pose` holds.
+    fn deflected_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
+        let q = pose.q;
         if load == 0.0 && !self.has_configuration_terms() {
             return q.to_vec();
         }
-        (q.iter().zip(self.deflection(robot, q, load)))
+        (q.iter().zip(self.deflection_at(pose, load)))
             .map(|(q, d)| q + d)
             .collect()
     }
@@ -933,10 +982,11 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> (Vector3<f64>, Matrix3xX<f64>) {
-        let qd = self.deflected(robot, q, load);
+        let pose = self.pose(robot, q);
+        let qd = self.deflected_at(&pose, load);
         let joint = robot.joint_jacobian(&qd);
         let mut jac = Matrix3xX::zeros(params.len());
-        for (k, j, phi) in self.basis(robot, q, load, params) {
+        for (k, j, phi) in self.basis_at(&pose, load, params) {
             let mut column = jac.column_mut(k);
             column += joint.column(j) * phi;
         }
@@ -954,10 +1004,11 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> (Matrix3<f64>, Matrix3xX<f64>) {
-        let qd = self.deflected(robot, q, load);
+        let pose = self.pose(robot, q);
+        let qd = self.deflected_at(&pose, load);
         let axes = robot.joint_axes(&qd);
         let mut jac = Matrix3xX::zeros(params.len());
-        for (k, j, phi) in self.basis(robot, q, load, params) {
+        for (k, j, phi) in self.basis_at(&pose, load, params) {
             let mut column = jac.column_mut(k);
             column += axes.axes[j].0 * phi;
         }

@@ -8,6 +8,12 @@ use nalgebra::{DMatrix, IsometryMatrix3, Matrix3, Matrix3xX, Rotation3, Translat
 
 use crate::table::{Joint, Robot};
 
+/// A joint's axis in the world frame: unit direction, and a point on it (mm).
+pub(crate) type Axis = (Vector3<f64>, Vector3<f64>);
+
+/// A frame in the world frame: rotation, and origin (mm).
+pub(crate) type Frame = (Matrix3<f64>, Vector3<f64>);
+
 /// Rotation about x by an angle with cosine `c` and sine `s`.
 #[inline]
 fn rot_x(c: f64, s: f64) -> Matrix3<f64> {
@@ -397,6 +403,14 @@ impl Robot {
     /// Every link frame {1}..{n} in the world frame as (rotation, origin mm); `q` in rad.
     pub fn link_frames(&self, q: &[f64]) -> Vec<(Matrix3<f64>, Vector3<f64>)> {
         self.steps(q).map(|s| (s.r, s.o)).collect()
+    }
+
+    /// Every joint's axis (unit, and a point on it, mm) and every link frame {1}..{n}
+    /// (rotation, origin mm), world frame, at command `q` (rad), in one pass.
+    pub(crate) fn axes_and_frames(&self, q: &[f64]) -> (Vec<Axis>, Vec<Frame>) {
+        self.steps(q)
+            .map(|s| ((s.r3.column(2).into_owned(), s.o2), (s.r, s.o)))
+            .unzip()
     }
 
     /// Joint axes for configuration `q`: the ingredients of the 6 × n geometric Jacobian.

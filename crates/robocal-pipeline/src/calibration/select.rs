@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{
     ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings,
-    MOUNTING_ANGLE_DEG, Observations, align, calibrate_kinematics,
+    MOUNTING_ANGLE_DEG, Observations, calibrate_kinematics, tracker_down,
 };
 use robocal_model::CalibratedModel;
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
@@ -948,9 +948,8 @@ fn mounting(
         return None;
     }
     let obs = Observations::from_rows(nominal.dof(), rows.iter().copied());
-    let up = ComplianceSettings::default().gravity;
-    let down = align(nominal, &obs).ok()?.base_rotation().transpose() * -Vector3::z() * up.norm();
-    if down.angle(&up).to_degrees() <= MOUNTING_ANGLE_DEG {
+    let (_, angle) = tracker_down(nominal, &obs, &ComplianceSettings::default().gravity).ok()?;
+    if angle <= MOUNTING_ANGLE_DEG {
         return None;
     }
     let physics = Physics {
