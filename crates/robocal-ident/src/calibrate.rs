@@ -1106,7 +1106,10 @@ pub fn calibrate_kinematics(
         start.backlash_torque = false;
         let home = (start.backlash_home.clone()).unwrap_or_else(|| vec![0.0; nominal.dof()]);
         let mut fit = calibrate_kinematics(nominal, obs, &round)?;
-        let mut best: Option<KinematicCalibration> = None;
+        // The fit on the approach flanks competes too: flanks chosen from a fit that lacked
+        // them can leave more than it did (a joint's flank chosen nearly constant, its step then
+        // absorbed by its offset and bent into its harmonics).
+        let mut best = fit.clone();
         let mut signs: Option<Vec<f64>> = None;
         for _ in 0..FLANK_ROUNDS {
             let Some(errors) = fit.compliance.as_ref() else {
@@ -1126,18 +1129,15 @@ pub fn calibrate_kinematics(
             signs = now;
             // The fit kept: the lowest sum of squares (the identification's own objective; of
             // equal ones, the later).
-            if best
-                .as_ref()
-                .is_none_or(|b| next.report.after.rms <= b.report.after.rms)
-            {
-                best = Some(next.clone());
+            if next.report.after.rms <= best.report.after.rms {
+                best = next.clone();
             }
             fit = next;
             if settled {
                 break;
             }
         }
-        return Ok(best.unwrap_or(fit));
+        return Ok(best);
     }
     let selected = select(nominal, settings.parameters.as_deref())?;
     if 3 * obs.len() < selected.len().min(9) || obs.len() < 3 {
