@@ -23,6 +23,8 @@ struct RawTwin {
     gear: RawGear,
     #[serde(default)]
     backlash: Vec<RawBacklash>,
+    #[serde(default)]
+    beyond: Option<RawBeyond>,
     noise: RawNoise,
     poses: RawPoses,
     loads: RawLoads,
@@ -64,6 +66,19 @@ struct RawBacklash {
     side: String,
     home: Option<f64>,
     preload: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBeyond {
+    enabled: bool,
+    tilt_stiffness: Vec<f64>,
+    wobble: Vec<f64>,
+    wobble_phase: Vec<f64>,
+    harmonic_3: Vec<f64>,
+    phase_3: Vec<f64>,
+    coupling: Vec<f64>,
+    coupling_phase: Vec<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -160,6 +175,32 @@ pub struct Backlash {
     pub width: f64,
     /// Which flank.
     pub side: BacklashSide,
+}
+
+/// Effects a real arm has and robocal's physical model family does not hold: what a learned
+/// residual model is there for. Each is zero (off) for a joint whose value is 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Beyond {
+    /// Tilting (moment) stiffness of each joint's bearing and reducer, N·m/rad (0: rigid): the
+    /// gravity moment of the links and payload beyond the joint, across its axis, tilts them by
+    /// moment / stiffness about the joint's origin. robocal's compliances turn joints about
+    /// their axes only.
+    pub tilt_stiffness: Vec<f64>,
+    /// Axis runout at twice the joint angle, rad: the parts beyond joint i tilt across its axis
+    /// by `wobble_i` in the direction `2 q_i + φ_i` of the link frame's x–y plane.
+    pub wobble: Vec<f64>,
+    /// Phase of the runout, rad.
+    pub wobble_phase: Vec<f64>,
+    /// Third harmonic of the transmission error, rad: `A3 sin(3q + φ3)` (robocal's default
+    /// identifies orders 1 and 2).
+    pub harmonic_3: Vec<f64>,
+    /// Phase of the third harmonic, rad.
+    pub phase_3: Vec<f64>,
+    /// Transmission error of joint i driven through joint i−1 (a wrist's coupled gearing),
+    /// rad: `C_i sin(q_i + q_(i−1) + ψ_i)`; joint 1's must be 0.
+    pub coupling: Vec<f64>,
+    /// Phase of the coupled error, rad.
+    pub coupling_phase: Vec<f64>,
 }
 
 /// Measurement noise, each world coordinate independent Gaussian.
@@ -271,6 +312,8 @@ pub struct TwinConfig {
     pub gear: Option<Gear>,
     /// Backlash of the joints that have play (enabled entries, one per joint at most).
     pub backlash: Vec<Backlash>,
+    /// Effects beyond robocal's model family, if enabled.
+    pub beyond: Option<Beyond>,
     /// Measurement noise, if enabled.
     pub noise: Option<Noise>,
     /// Pose design.
@@ -450,6 +493,38 @@ impl TwinConfig {
                 side,
             });
         }
+        let beyond = match &raw.beyond {
+            Some(b) if b.enabled => {
+                c.per_joint("beyond.tilt_stiffness", &b.tilt_stiffness, n)?;
+                c.non_negative("beyond.tilt_stiffness", &b.tilt_stiffness)?;
+                for (key, values) in [
+                    ("beyond.wobble", &b.wobble),
+                    ("beyond.wobble_phase", &b.wobble_phase),
+                    ("beyond.harmonic_3", &b.harmonic_3),
+                    ("beyond.phase_3", &b.phase_3),
+                    ("beyond.coupling", &b.coupling),
+                    ("beyond.coupling_phase", &b.coupling_phase),
+                ] {
+                    c.per_joint(key, values, n)?;
+                }
+                if b.coupling.first().is_some_and(|v| *v != 0.0) {
+                    return c.fail(
+                        "beyond.coupling",
+                        "joint 1 has no joint before it to be driven through: its value must be 0",
+                    );
+                }
+                Some(Beyond {
+                    tilt_stiffness: b.tilt_stiffness.clone(),
+                    wobble: rad(&b.wobble),
+                    wobble_phase: rad(&b.wobble_phase),
+                    harmonic_3: rad(&b.harmonic_3),
+                    phase_3: rad(&b.phase_3),
+                    coupling: rad(&b.coupling),
+                    coupling_phase: rad(&b.coupling_phase),
+                })
+            }
+            _ => None,
+        };
         let noise = if raw.noise.enabled {
             let z = &raw.noise;
             c.non_negative("noise.tracker_base", &[z.tracker_base])?;
@@ -512,6 +587,7 @@ impl TwinConfig {
             compliance,
             gear,
             backlash,
+            beyond,
             noise,
             poses: PoseGrid {
                 x: p.x,
@@ -534,6 +610,7 @@ impl TwinConfig {
             compliance: None,
             gear: None,
             backlash: Vec::new(),
+            beyond: None,
             noise: None,
             ..self.clone()
         }

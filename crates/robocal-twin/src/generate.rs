@@ -270,6 +270,14 @@ impl TwinConfig {
             backlash,
             on(self.noise.is_some()),
         );
+        if self.beyond.is_some() {
+            let _ = writeln!(
+                s,
+                "- beyond robocal's model family (`[beyond]`): tilt of each joint's bearing under the gravity moment \
+                 across its axis, axis runout at twice the joint angle, the gears' third harmonic, the wrist's coupled \
+                 transmission error\n"
+            );
+        }
         s
     }
 }

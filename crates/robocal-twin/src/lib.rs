@@ -20,7 +20,7 @@ pub mod generate;
 pub mod physics;
 
 pub use config::{
-    Backlash, BacklashSide, Gear, Loads, Masses, Noise, PoseGrid, Stiffness, TwinConfig,
+    Backlash, BacklashSide, Beyond, Gear, Loads, Masses, Noise, PoseGrid, Stiffness, TwinConfig,
 };
 pub use design::{GridPoint, PointStatus, PoseDesign};
 pub use error::{Result, TwinError};

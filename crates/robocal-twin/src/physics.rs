@@ -124,34 +124,96 @@ impl TwinConfig {
         offset
     }
 
+    /// Joint errors beyond robocal's model family at reading `q`, rad: the third harmonic of
+    /// each joint's transmission error and joint i's error driven through joint i−1 (zero
+    /// without `[beyond]`).
+    pub fn beyond_joint_error(&self, q: &[f64]) -> Vec<f64> {
+        let Some(b) = &self.beyond else {
+            return vec![0.0; q.len()];
+        };
+        (0..q.len())
+            .map(|i| {
+                let coupled = match i.checked_sub(1) {
+                    Some(before) => {
+                        b.coupling[i] * (q[i] + q[before] + b.coupling_phase[i]).sin()
+                    }
+                    None => 0.0,
+                };
+                b.harmonic_3[i] * (3.0 * q[i] + b.phase_3[i]).sin() + coupled
+            })
+            .collect()
+    }
+
+    /// The small rotations (rad, world frame) that the effects beyond robocal's model family
+    /// give the parts beyond each joint, with the point each turns about (the joint's origin,
+    /// mm), at real joint angles `q` (rad) under `load` kg: the tilt under the gravity moment
+    /// across the joint's axis, and the runout at twice its angle. Empty without `[beyond]`.
+    pub fn beyond_turns(&self, q: &[f64], load: f64) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+        let Some(b) = &self.beyond else {
+            return Vec::new();
+        };
+        let axes = self.truth.joint_axes(q).axes;
+        let frames = self.truth.link_frames(q);
+        let masses = self.mass_points(q);
+        (axes.iter().zip(&frames).enumerate())
+            .map(|(i, ((w, a), (r, _)))| {
+                let mut turn = Vector3::zeros();
+                if b.tilt_stiffness[i] > 0.0 {
+                    let m = self.gravity_moment(&masses, i, a, load);
+                    turn += (m - w * w.dot(&m)) / b.tilt_stiffness[i];
+                }
+                if b.wobble[i] != 0.0 {
+                    // The link frame's x across the axis (a Hayati β leaves it a hair off).
+                    let x = r.column(0).into_owned();
+                    let x = (x - w * w.dot(&x)).normalize();
+                    let angle = 2.0 * q[i] + b.wobble_phase[i];
+                    turn += b.wobble[i] * (x * angle.cos() + w.cross(&x) * angle.sin());
+                }
+                (turn, *a)
+            })
+            .collect()
+    }
+
     /// The real joint angles for reading `q` (rad) under `load` kg.
     pub fn actual_joints(&self, q: &[f64], load: f64) -> Vec<f64> {
         let mut torques = None;
         let deflection = self.deflection_with(q, load, &mut torques);
         let gear = self.gear_error(q);
         let backlash = self.backlash_with(q, load, &mut torques);
+        let beyond = self.beyond_joint_error(q);
         (0..q.len())
-            .map(|i| q[i] + deflection[i] + gear[i] + backlash[i])
+            .map(|i| q[i] + deflection[i] + gear[i] + backlash[i] + beyond[i])
             .collect()
+    }
+
+    /// `point` (mm, world frame, on the arm beyond every joint at real angles `actual`) moved by
+    /// [`Self::beyond_turns`] (to first order: the turns are micro-radians).
+    fn turned(&self, actual: &[f64], load: f64, point: Vector3<f64>) -> Vector3<f64> {
+        (self.beyond_turns(actual, load).iter())
+            .fold(point, |p, (turn, a)| p + turn.cross(&(point - a)))
     }
 
     /// Where the reflector really is, mm, world (tracker) frame, without measurement noise.
     pub fn true_point(&self, q: &[f64], load: f64) -> Vector3<f64> {
-        self.truth.point(&self.actual_joints(q, load))
+        let actual = self.actual_joints(q, load);
+        self.turned(&actual, load, self.truth.point(&actual))
     }
 
     /// The true position of the truth's target `target` (a `[tool.points]` name; empty or
     /// unknown: the default point), mm.
     pub fn true_point_of(&self, q: &[f64], load: f64, target: &str) -> Vector3<f64> {
         let t = self.truth.target_index(target).unwrap_or(0);
-        self.truth.for_target(t).point(&self.actual_joints(q, load))
+        let actual = self.actual_joints(q, load);
+        self.turned(&actual, load, self.truth.for_target(t).point(&actual))
     }
 
     /// The true orientation of the tool frame (the probe's), world frame, when the truth
     /// declares `[tool] rpy` (a 6-DoF probe); `None` otherwise.
     pub fn true_rotation(&self, q: &[f64], load: f64) -> Option<Matrix3<f64>> {
         self.truth.tool_rpy?;
-        Some(self.truth.tool_rotation(&self.actual_joints(q, load)))
+        let actual = self.actual_joints(q, load);
+        let turn: Vector3<f64> = (self.beyond_turns(&actual, load).iter()).map(|(t, _)| t).sum();
+        Some(Rotation3::new(turn).into_inner() * self.truth.tool_rotation(&actual))
     }
 
     /// What a 6-DoF probe reads for the true orientation `r`: `r` turned by a small random

@@ -245,7 +245,8 @@ fn bundled_dataset_regenerates_byte_for_byte() {
     }
 }
 
-fn bad(edit: impl Fn(String) -> String) -> TwinError {
+/// The bundled twin file edited by `edit`, loaded from a temporary directory.
+fn load_edited(edit: impl Fn(String) -> String) -> Result<TwinConfig, TwinError> {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(root().join("configs/twin/pmc6va030.toml")).unwrap();
     let text = edit(text).replace(
@@ -257,7 +258,11 @@ fn bad(edit: impl Fn(String) -> String) -> TwinError {
     );
     let path = dir.path().join("twin.toml");
     std::fs::write(&path, text).unwrap();
-    let err = TwinConfig::load(&path).unwrap_err();
+    TwinConfig::load(&path)
+}
+
+fn bad(edit: impl Fn(String) -> String) -> TwinError {
+    let err = load_edited(edit).unwrap_err();
     assert!(
         err.to_string().contains("twin.toml"),
         "names the file: {err}"
@@ -369,4 +374,143 @@ fn reflectors_of_one_pose_share_the_robots_error() {
     for (t, m) in first.iter().enumerate() {
         assert!((config.truth.for_target(t).point(&q) - m.position).norm() < 1e-6);
     }
+}
+
+/// The bundled twin's geometry with only `beyond` (every other effect and the noise off).
+fn beyond_only(beyond: robocal_twin::Beyond) -> TwinConfig {
+    TwinConfig {
+        beyond: Some(beyond),
+        ..twin().geometry_only()
+    }
+}
+
+/// `[beyond]` with every entry zero but those `edit` sets.
+fn no_beyond() -> robocal_twin::Beyond {
+    robocal_twin::Beyond {
+        tilt_stiffness: vec![0.0; 6],
+        wobble: vec![0.0; 6],
+        wobble_phase: vec![0.0; 6],
+        harmonic_3: vec![0.0; 6],
+        phase_3: vec![0.0; 6],
+        coupling: vec![0.0; 6],
+        coupling_phase: vec![0.0; 6],
+    }
+}
+
+/// Bearing tilt: the parts beyond joint 2 turn about its origin by the gravity moment across
+/// its axis over the tilting stiffness — against the moment summed here from the links' and
+/// the payload's centres of mass and an exact rotation of the point.
+#[test]
+fn bearing_tilt_turns_the_arm_beyond_the_joint_by_the_moment_across_its_axis() {
+    let k = 4.0e6;
+    let t = beyond_only(robocal_twin::Beyond {
+        tilt_stiffness: vec![0.0, k, 0.0, 0.0, 0.0, 0.0],
+        ..no_beyond()
+    });
+    // Wrist turned sideways so that the moment has a part across joint 2's axis.
+    let q = deg([25.0, -50.0, -20.0, 70.0, 60.0, 10.0]);
+    let load = 15.0;
+    let p = t.truth.point(&q);
+    let moved = t.true_point(&q, load);
+    // The moment about joint 2's origin, from the masses' positions in the link frames.
+    let frames = t.truth.link_frames(&q);
+    let (w, a) = t.truth.joint_axes(&q).axes[1];
+    let g = t.gravity_world();
+    let mut moment = Vector3::zeros();
+    for j in 1..6 {
+        let (r, o) = frames[j];
+        let com = o + r * t.masses.link_com[j];
+        moment += (com - a).cross(&(g * t.masses.link_mass[j])) * 1e-3;
+    }
+    let (r, o) = frames[5];
+    moment += (o + r * t.masses.payload_com - a).cross(&(g * load)) * 1e-3;
+    let across = moment - w * w.dot(&moment);
+    assert!(across.norm() > 5.0, "the pose loads the bearing: {across}");
+    let exact = a + nalgebra::Rotation3::new(across / k) * (p - a);
+    let (d, e) = (moved - p, exact - p);
+    assert!(d.norm() > 1e-3, "the tilt moves the point: {}", d.norm());
+    assert!(
+        (d - e).norm() < 1e-3 * e.norm(),
+        "{d} against the exact rotation's {e}"
+    );
+    // Half as far on a bearing twice as stiff; the payload's share linear in the load.
+    let stiffer = beyond_only(robocal_twin::Beyond {
+        tilt_stiffness: vec![0.0, 2.0 * k, 0.0, 0.0, 0.0, 0.0],
+        ..no_beyond()
+    });
+    assert!(((stiffer.true_point(&q, load) - p) * 2.0 - d).norm() < 1e-9);
+    let share = |l: f64| t.true_point(&q, l) - t.true_point(&q, 0.0);
+    assert!((share(20.0) - share(10.0) * 2.0).norm() < 1e-9);
+}
+
+/// Runout, a third harmonic and a coupled wrist lie outside robocal's model family: none is a
+/// constant plus a first and second harmonic of its joint's angle (what the identified geometry
+/// and the default's harmonics can take), and each has its stated size.
+#[test]
+fn effects_beyond_the_model_are_not_its_harmonics() {
+    let phase = 0.7;
+    let t = beyond_only(robocal_twin::Beyond {
+        wobble: vec![0.0, 0.0, 0.0, 0.01f64.to_radians(), 0.0, 0.0],
+        wobble_phase: vec![0.0, 0.0, 0.0, phase, 0.0, 0.0],
+        harmonic_3: vec![0.0, 0.0, 0.005f64.to_radians(), 0.0, 0.0, 0.0],
+        phase_3: vec![0.0, 0.0, 0.3, 0.0, 0.0, 0.0],
+        coupling: vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.02f64.to_radians()],
+        coupling_phase: vec![0.0, 0.0, 0.0, 0.0, 0.0, -0.4],
+        ..no_beyond()
+    });
+    // The joint errors in closed form.
+    let q = deg(Q);
+    let e = t.beyond_joint_error(&q);
+    let third = 0.005f64.to_radians() * (3.0 * q[2] + 0.3).sin();
+    let coupled = 0.02f64.to_radians() * (q[5] + q[4] - 0.4).sin();
+    assert!((e[2] - third).abs() < 1e-15 && (e[5] - coupled).abs() < 1e-15);
+    assert!(e[0] == 0.0 && e[1] == 0.0 && e[3] == 0.0 && e[4] == 0.0);
+    // Joint 4's runout over a turn, in joint 3's frame (the frame before it, fixed while joint 4
+    // turns): its size is the amplitude, across the axis, and a least-squares fit of a constant
+    // and orders 1 and 2 of q4 leaves most of it.
+    let angles: Vec<f64> = (0..24).map(|k| k as f64 * std::f64::consts::TAU / 24.0).collect();
+    let mut turns = Vec::new();
+    for &q4 in &angles {
+        let mut q = deg(Q);
+        q[3] = q4;
+        let turn = t.beyond_turns(&q, 0.0)[3].0;
+        let (w, _) = t.truth.joint_axes(&q).axes[3];
+        assert!((turn.norm() - 0.01f64.to_radians()).abs() < 1e-12);
+        assert!(turn.dot(&w).abs() < 1e-12);
+        let r3 = t.truth.link_frames(&q)[2].0;
+        turns.push(r3.transpose() * turn);
+    }
+    let basis = |q: f64| [1.0, q.cos(), q.sin(), (2.0 * q).cos(), (2.0 * q).sin()];
+    let design = nalgebra::DMatrix::from_fn(angles.len(), 5, |i, j| basis(angles[i])[j]);
+    for axis in 0..3 {
+        let y = nalgebra::DVector::from_fn(angles.len(), |i, _| turns[i][axis]);
+        let fit = design.clone().svd(true, true).solve(&y, 1e-12).unwrap();
+        let left = (&y - &design * fit).norm();
+        if y.norm() > 1e-9 {
+            assert!(left > 0.9 * y.norm(), "axis {axis}: {left} of {}", y.norm());
+        }
+    }
+}
+
+#[test]
+fn a_bad_beyond_section_is_named() {
+    let section = "\n[beyond]\nenabled = true\ntilt_stiffness = [1.0e8, 1.0e8, 1.0e8, 1.0e7, 1.0e7, 1.0e7]\nwobble = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\nwobble_phase = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\nharmonic_3 = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\nphase_3 = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\ncoupling = [0.0, 0.0, 0.0, 0.0, 0.0, 0.01]\ncoupling_phase = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\n";
+    let good = load_edited(|t| t + section).unwrap().beyond.unwrap();
+    assert_eq!(good.tilt_stiffness[3], 1.0e7);
+    assert!((good.coupling[5] - 0.01f64.to_radians()).abs() < 1e-18);
+    let err = bad(|t| t + &section.replace("coupling = [0.0,", "coupling = [0.01,"));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, message, .. } if key == "beyond.coupling" && message.contains("joint 1")),
+        "{err}"
+    );
+    let err = bad(|t| t + &section.replace("1.0e7, 1.0e7, 1.0e7]", "1.0e7, 1.0e7]"));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "beyond.tilt_stiffness"),
+        "{err}"
+    );
+    let err = bad(|t| t + &section.replace("[1.0e8,", "[-1.0e8,"));
+    assert!(
+        matches!(&err, TwinError::InvalidValue { key, .. } if key == "beyond.tilt_stiffness"),
+        "{err}"
+    );
 }
