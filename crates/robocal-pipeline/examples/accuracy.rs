@@ -6,7 +6,8 @@
 //!
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
-//!     [--effects all,modelled,beyond] [--no-compensation] [--verbose] [--networks] [--export DIR]
+//!     [--effects all,modelled,beyond] [--budget S] [--no-compensation] [--verbose] [--networks]
+//!     [--physics full] [--export DIR]
 //! ```
 //!
 //! The effect sets: *all* (what the twin file holds: every effect robocal's physics models),
@@ -20,7 +21,9 @@
 //! was reported once (it then counted as seen); ARM6H was made after that, for the next report;
 //! ARM6C after ARM6H had been reported.
 //! `--networks` prints the residual models side by side on the identified physics instead
-//! (SOMM with the paper's and robocal's settings, robocal's CA-SOMM, the GP).
+//! (SOMM with the paper's and robocal's settings, robocal's CA-SOMM, the GP); with
+//! `--physics full`, on the default's fullest physical candidate (backlash and the links'
+//! weights too).
 //! `--export DIR` writes every case's files instead (`DIR/ARM-sSEED-EFFECTS-SPLIT/`: the nominal
 //! `robot.toml`, `train.csv`, `test.csv`, and `truth.csv` with the test rows' noise-free points),
 //! for the outside pipeline of `scripts/peer/lm_mlp.py`.
@@ -34,6 +37,7 @@ use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, Silent};
 use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
 use robocal_pipeline::CalibratedModel;
+use robocal_pipeline::calibration::DEFAULT_BUDGET_SECONDS;
 use robocal_pipeline::calibration::{
     configured, fit_kinematic, hold_out, physical_model, train_residual,
 };
@@ -171,16 +175,21 @@ fn beyond(twin: &TwinConfig, seed: u64) -> robocal_twin::Beyond {
         |g| (g.amplitude_1.clone(), g.amplitude_2.clone()),
     );
     robocal_twin::Beyond {
-        tilt_stiffness: twin
-            .compliance
-            .as_ref()
-            .map_or(vec![0.0; n], |c| c.stiffness.iter().map(|k| 5.0 * k).collect()),
+        tilt_stiffness: twin.compliance.as_ref().map_or(vec![0.0; n], |c| {
+            c.stiffness.iter().map(|k| 5.0 * k).collect()
+        }),
         wobble: a1.iter().map(|a| 0.25 * a).collect(),
         wobble_phase: phases(),
         harmonic_3: a2.iter().map(|a| 0.4 * a).collect(),
         phase_3: phases(),
         coupling: (0..n)
-            .map(|i| if i + 2 >= n && i > 0 { 0.5 * a1[i] } else { 0.0 })
+            .map(|i| {
+                if i + 2 >= n && i > 0 {
+                    0.5 * a1[i]
+                } else {
+                    0.0
+                }
+            })
             .collect(),
         coupling_phase: phases(),
     }
@@ -352,6 +361,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let verbose = args.iter().any(|a| a == "--verbose");
     // Residual models side by side on the identified physics, instead of the default.
     let networks = args.iter().any(|a| a == "--networks");
+    // With `--networks`: on the default's fullest physical candidate (backlash, the links'
+    // weights) instead of compliance + harmonics + per-joint self-weight.
+    let full_physics = value("--physics").is_some_and(|p| p == "full");
+    // The default's time budget, s (`--budget`; robocal's default otherwise).
+    let budget_seconds: f64 =
+        value("--budget").map_or(Ok(DEFAULT_BUDGET_SECONDS), |s| s.parse())?;
     // Every case's files for an outside pipeline (scripts/peer), instead of the table.
     let export = value("--export").map(PathBuf::from);
     // Which effect sets (`--effects all,modelled,beyond`; default every one).
@@ -440,12 +455,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             .collect();
                         ErrorStats::from_errors(&e).mean
                     };
+                    // Physics 0: kinematic; 1: + compliance; 2: + harmonics 2 and per-joint
+                    // self-weight; 3: the default's fullest candidate (compliance held
+                    // plausible, harmonics 2, the links' weights and the payload's centre of
+                    // mass, backlash on either flank).
                     let stage = |physics: u8, residual: Option<ResidualSettings>| Stages {
                         kinematic: KinematicSettings {
-                            compliance: (physics >= 1).then(ComplianceSettings::default),
+                            compliance: match physics {
+                                0 => None,
+                                1 | 2 => Some(ComplianceSettings::default()),
+                                _ => Some(ComplianceSettings {
+                                    plausible_only: true,
+                                    detect_mounting: true,
+                                    identify_payload_com: true,
+                                    ..ComplianceSettings::default()
+                                }),
+                            },
                             joint_errors: (physics >= 2).then(|| JointErrorSettings {
                                 harmonics: 2,
-                                self_weight: true,
+                                self_weight: physics == 2,
+                                link_weights: physics >= 3,
+                                backlash: physics >= 3,
                                 ..JointErrorSettings::default()
                             }),
                             ..KinematicSettings::default()
@@ -478,20 +508,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             let e = score(stages);
                             (e, t.elapsed().as_secs_f64())
                         };
-                        let (physics, _) = timed(&stage(2, None));
+                        let level = if full_physics { 3 } else { 2 };
+                        let (physics, _) = timed(&stage(level, None));
                         let (paper, paper_s) = timed(&stage(
-                            2,
+                            level,
                             Some(ResidualSettings::paper(ResidualKind::Somm, 2020)),
                         ));
                         let (ours, ours_s) = timed(&stage(
-                            2,
+                            level,
                             Some(ResidualSettings::robocal(ResidualKind::Somm, 2020)),
                         ));
                         let (gated, gated_s) = timed(&stage(
-                            2,
+                            level,
                             Some(ResidualSettings::robocal(ResidualKind::CaSomm, 2020)),
                         ));
-                        let (gp, gp_s) = timed(&stage(2, Some(ResidualSettings::gp(2020))));
+                        let (gp, gp_s) = timed(&stage(level, Some(ResidualSettings::gp(2020))));
                         let (e, h) = label(effects, how);
                         println!(
                             "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gated} | {gated_s:.1} | {gp} | {gp_s:.1} |",
@@ -507,7 +538,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         versus_truth(&previous_default(&twin.nominal, &train)?, &test, &truth).mean;
                     let t = Instant::now();
                     let built = automatic(
-                        &AutoSettings::default(),
+                        &AutoSettings {
+                            budget_seconds,
+                            ..AutoSettings::default()
+                        },
                         &twin.nominal,
                         &train,
                         None,

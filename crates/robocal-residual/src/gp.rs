@@ -31,6 +31,7 @@ use faer::{Mat, Side};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
@@ -179,23 +180,21 @@ fn nll_and_gradient(x: &[Vec<f64>], y: &[f64], theta: &[f64]) -> Option<(f64, Ve
     let nll = 0.5 * fit + 0.5 * log_det + 0.5 * n as f64 * (2.0 * std::f64::consts::PI).ln();
     // W = K⁻¹ − ααᵀ; dNLL/dθ = ½ Σ_ij W_ij ∂K_ij/∂θ.
     let kinv = llt.inverse();
+    // W and ∂K/∂θ are symmetric: each pair i > j counted once, twice over.
     let mut grad = vec![0.0; d + 2];
     for i in 0..n {
-        for j in 0..n {
-            let w = kinv[(i, j)] - alpha[(i, 0)] * alpha[(j, 0)];
-            let kse = if i == j { s2 } else { k[(i, j)] };
-            grad[0] += w * kse;
-            if i != j {
-                for (c, g) in grad[1..=d].iter_mut().enumerate() {
-                    let r = x[i][c] - x[j][c];
-                    *g += w * kse * r * r * inv_l2[c];
-                }
-            } else {
-                grad[d + 1] += w * noise;
+        let w = kinv[(i, i)] - alpha[(i, 0)] * alpha[(i, 0)];
+        grad[0] += 0.5 * w * s2;
+        grad[d + 1] += 0.5 * w * noise;
+        for j in 0..i {
+            let wk = (kinv[(i, j)] - alpha[(i, 0)] * alpha[(j, 0)]) * k[(i, j)];
+            grad[0] += wk;
+            for (c, g) in grad[1..=d].iter_mut().enumerate() {
+                let r = x[i][c] - x[j][c];
+                *g += wk * r * r * inv_l2[c];
             }
         }
     }
-    grad.iter_mut().for_each(|g| *g *= 0.5);
     Some((nll, grad))
 }
 
@@ -395,15 +394,17 @@ impl GpResidual {
         let x: Vec<Vec<f64>> = (train_set.inputs.iter())
             .map(|r| input_scale.apply(r))
             .collect();
-        let mut axes = Vec::with_capacity(3);
-        let mut rows = Vec::new();
-        for a in 0..3 {
-            let y: Vec<f64> = train_set.errors.iter().map(|e| e[a]).collect();
-            // One seed for every axis: the same conditioning rows.
-            let (gp, kept) = GpAxis::fit_rows(&x, &y, settings, seed)?;
-            axes.push(gp);
-            rows = kept;
-        }
+        // The axes are independent: on every core at once. One seed for every axis: the same
+        // conditioning rows.
+        let fits: Vec<(GpAxis, Vec<usize>)> = (0..3)
+            .into_par_iter()
+            .map(|a| {
+                let y: Vec<f64> = train_set.errors.iter().map(|e| e[a]).collect();
+                GpAxis::fit_rows(&x, &y, settings, seed)
+            })
+            .collect::<Result<_>>()?;
+        let rows = fits.first().map(|f| f.1.clone()).unwrap_or_default();
+        let axes: Vec<GpAxis> = fits.into_iter().map(|f| f.0).collect();
         Ok(Self {
             input_scale,
             rows: rows.iter().map(|&i| x[i].clone()).collect(),

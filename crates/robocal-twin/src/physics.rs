@@ -134,9 +134,7 @@ impl TwinConfig {
         (0..q.len())
             .map(|i| {
                 let coupled = match i.checked_sub(1) {
-                    Some(before) => {
-                        b.coupling[i] * (q[i] + q[before] + b.coupling_phase[i]).sin()
-                    }
+                    Some(before) => b.coupling[i] * (q[i] + q[before] + b.coupling_phase[i]).sin(),
                     None => 0.0,
                 };
                 b.harmonic_3[i] * (3.0 * q[i] + b.phase_3[i]).sin() + coupled
@@ -212,7 +210,9 @@ impl TwinConfig {
     pub fn true_rotation(&self, q: &[f64], load: f64) -> Option<Matrix3<f64>> {
         self.truth.tool_rpy?;
         let actual = self.actual_joints(q, load);
-        let turn: Vector3<f64> = (self.beyond_turns(&actual, load).iter()).map(|(t, _)| t).sum();
+        let turn: Vector3<f64> = (self.beyond_turns(&actual, load).iter())
+            .map(|(t, _)| t)
+            .sum();
         Some(Rotation3::new(turn).into_inner() * self.truth.tool_rotation(&actual))
     }
 

@@ -468,7 +468,9 @@ fn effects_beyond_the_model_are_not_its_harmonics() {
     // Joint 4's runout over a turn, in joint 3's frame (the frame before it, fixed while joint 4
     // turns): its size is the amplitude, across the axis, and a least-squares fit of a constant
     // and orders 1 and 2 of q4 leaves most of it.
-    let angles: Vec<f64> = (0..24).map(|k| k as f64 * std::f64::consts::TAU / 24.0).collect();
+    let angles: Vec<f64> = (0..24)
+        .map(|k| k as f64 * std::f64::consts::TAU / 24.0)
+        .collect();
     let mut turns = Vec::new();
     for &q4 in &angles {
         let mut q = deg(Q);

@@ -708,29 +708,44 @@ fn residual_candidates(
         } else {
             let mut held = Held::default();
             let mut abandoned = None;
-            for (f, fold) in splits.iter().enumerate() {
+            let fitted = &chain.scored[base_physics].fitted;
+            if fitted.iter().any(Option::is_none) {
+                abandoned = Some("skipped: its physical model failed on a fold".to_string());
+            }
+            // The folds' trainings are independent and seeded: as many at once as there are
+            // cores, taken in fold order (the same models on any number of cores).
+            let at_once = rayon::current_num_threads().max(1);
+            let mut done = 0;
+            while abandoned.is_none() && done < splits.len() {
                 let t = Instant::now();
-                let Some(base) = &chain.scored[base_physics].fitted[f] else {
-                    abandoned = Some("skipped: its physical model failed on a fold".to_string());
-                    break;
-                };
-                observer.advance(1);
-                let (model, _) = train_residual(stage, base, &fold.train, None, &Silent)?;
-                let candidate = CalibratedModel {
-                    residual: Some(model),
-                    ..base.clone()
-                };
-                held.add(fold, candidate.errors(&fold.test));
+                let chunk = done..(done + at_once).min(splits.len());
+                let trained: Vec<_> = (splits[chunk.clone()].par_iter())
+                    .zip(&fitted[chunk.clone()])
+                    .map(|(fold, base)| {
+                        let base = base.as_ref().expect("checked above");
+                        observer.advance(1);
+                        train_residual(stage, base, &fold.train, None, &Silent).map(|(model, _)| {
+                            CalibratedModel {
+                                residual: Some(model),
+                                ..base.clone()
+                            }
+                        })
+                    })
+                    .collect();
+                for (fold, candidate) in splits[chunk.clone()].iter().zip(trained) {
+                    held.add(fold, candidate?.errors(&fold.test));
+                }
                 let took = t.elapsed().as_secs_f64();
                 c.seconds += took;
-                // The remaining folds and the final fit, at this fold's pace.
-                let left = (splits.len() - f) as f64 * took;
-                if f + 1 < splits.len() && over_budget(left) {
+                done = chunk.end;
+                // The remaining folds at this chunk's pace, and the final fit (one training,
+                // as long as one of the chunk's).
+                let left = took * ((splits.len() - done) as f64 / chunk.len() as f64 + 1.0);
+                if done < splits.len() && over_budget(left) {
                     abandoned = Some(format!(
                         "abandoned: its folds would run past the time budget ({} s)",
                         settings.budget_seconds
                     ));
-                    break;
                 }
             }
             match abandoned {
