@@ -417,10 +417,11 @@ fn bearing_tilt_turns_the_arm_beyond_the_joint_by_the_moment_across_its_axis() {
     let (w, a) = t.truth.joint_axes(&q).axes[1];
     let g = t.gravity_world();
     let mut moment = Vector3::zeros();
-    for j in 1..6 {
-        let (r, o) = frames[j];
-        let com = o + r * t.masses.link_com[j];
-        moment += (com - a).cross(&(g * t.masses.link_mass[j])) * 1e-3;
+    for ((r, o), (com, mass)) in frames[1..]
+        .iter()
+        .zip(t.masses.link_com[1..].iter().zip(&t.masses.link_mass[1..]))
+    {
+        moment += (o + r * com - a).cross(&(g * *mass)) * 1e-3;
     }
     let (r, o) = frames[5];
     moment += (o + r * t.masses.payload_com - a).cross(&(g * load)) * 1e-3;
@@ -485,7 +486,7 @@ fn effects_beyond_the_model_are_not_its_harmonics() {
     let basis = |q: f64| [1.0, q.cos(), q.sin(), (2.0 * q).cos(), (2.0 * q).sin()];
     let design = nalgebra::DMatrix::from_fn(angles.len(), 5, |i, j| basis(angles[i])[j]);
     for axis in 0..3 {
-        let y = nalgebra::DVector::from_fn(angles.len(), |i, _| turns[i][axis]);
+        let y = nalgebra::DVector::from_iterator(angles.len(), turns.iter().map(|t| t[axis]));
         let fit = design.clone().svd(true, true).solve(&y, 1e-12).unwrap();
         let left = (&y - &design * fit).norm();
         if y.norm() > 1e-9 {
