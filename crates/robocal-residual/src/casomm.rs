@@ -154,9 +154,7 @@ impl CaSomm {
         let val_a: Vec<bool> = val_b.iter().map(|b| !b).collect();
         for (name, keep) in [("A", &in_a), ("B", &in_b)] {
             if keep.iter().filter(|k| **k).count() < 2 {
-                return Err(ResidualError::Data(format!(
-                    "class {name} has fewer than two training samples"
-                )));
+                return Err(ResidualError::EmptyClass { class: name });
             }
         }
         let (train_a, val_a) = (train_set.subset(&in_a), validation.subset(&val_a));

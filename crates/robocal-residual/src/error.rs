@@ -27,6 +27,13 @@ pub enum ResidualError {
     /// The data cannot train this model.
     #[error("residual training: {0}")]
     Data(String),
+    /// CA-SOMM's classes leave one of its two sets (`A` or `B`) with fewer than two training
+    /// rows: nothing to gate (with the fallback on, one SOMM on every row instead).
+    #[error("residual training: class {class} has fewer than two training samples")]
+    EmptyClass {
+        /// `A` or `B`.
+        class: &'static str,
+    },
 }
 
 /// Result with [`ResidualError`].

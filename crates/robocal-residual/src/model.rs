@@ -193,7 +193,7 @@ impl ResidualModel {
                 seed,
                 progress,
             )),
-            ResidualKind::CaSomm => Fitted::CaSomm(CaSomm::fit(
+            ResidualKind::CaSomm => match CaSomm::fit(
                 &settings.classifier,
                 &settings.axes,
                 train_set,
@@ -202,7 +202,27 @@ impl ResidualModel {
                 raw_validation,
                 seed,
                 progress,
-            )?),
+            ) {
+                Ok(gated) => Fitted::CaSomm(gated),
+                // The gate routes (nearly) every row to one class, as on a residual the
+                // physics left unimodal: with the fallback, one SOMM on every row.
+                Err(ResidualError::EmptyClass { class })
+                    if settings.classifier.fallback == Some(true) =>
+                {
+                    progress.message(&format!(
+                        "CA-SOMM: class {class} has fewer than two training rows; one SOMM on every row instead"
+                    ));
+                    Fitted::Somm(Somm::fit(
+                        &settings.axes,
+                        train_set,
+                        validation,
+                        seed,
+                        0,
+                        progress,
+                    ))
+                }
+                Err(e) => return Err(e),
+            },
             ResidualKind::Gp => Fitted::Gp(GpResidual::fit(&settings.gp, train_set, seed)?),
         };
         let mut model = Self {
@@ -212,7 +232,7 @@ impl ResidualModel {
             fitted,
             gate_decision: None,
         };
-        if settings.kind == ResidualKind::CaSomm
+        if matches!(model.fitted, Fitted::CaSomm(_))
             && settings.classifier.fallback == Some(true)
             && !validation.is_empty()
         {

@@ -5,8 +5,8 @@ use rand_chacha::ChaCha8Rng;
 use robocal_data::Silent;
 use robocal_residual::{
     Activation, ClassRule, Encoding, Gate, GateInputs, NetSettings, PHYSICS_PER_JOINT, PerClass,
-    ResidualKind, ResidualModel, ResidualSettings, Samples, Schedule, Split, gate_feature_names,
-    two_means_threshold,
+    ResidualError, ResidualKind, ResidualModel, ResidualSettings, Samples, Schedule, Split,
+    gate_feature_names, two_means_threshold,
 };
 
 fn settings(hidden: Vec<usize>, lr: f64, epochs: usize) -> NetSettings {
@@ -574,4 +574,33 @@ fn a_physics_gate_learns_a_flank_the_raw_angles_hide_and_the_fallback_keeps_what
             ResidualKind::Somm
         }
     );
+}
+
+/// A gate that cannot split (leaves of more rows than there are) routes every row to one class:
+/// an error naming the empty class without the fallback; with it, one SOMM on every row (no
+/// classifier, no gate decision) that learns the smooth axes like a SOMM of the same settings.
+#[test]
+fn routed_classes_left_empty_fall_back_to_one_somm() {
+    let (train, val) = (flank_samples(300, 31), flank_samples(100, 32));
+    let net = settings(vec![8], 5e-3, 10);
+    let mut s = somm(net, 5);
+    s.kind = ResidualKind::CaSomm;
+    s.encoding = Encoding::Periodic;
+    s.classifier.classes = Some(ClassRule::Routed);
+    s.classifier.tree_search = Some(false);
+    s.classifier.min_samples_leaf = 10_000;
+    s.classifier.fallback = Some(false);
+    let err = ResidualModel::fit(&s, &train, &val, &Silent).unwrap_err();
+    assert!(matches!(err, ResidualError::EmptyClass { .. }), "{err}");
+    assert!(
+        err.to_string().contains("fewer than two training samples"),
+        "{err}"
+    );
+    s.classifier.fallback = Some(true);
+    let model = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    assert!(model.classifier().is_none() && model.gate_decision.is_none());
+    let mut plain = s.clone();
+    plain.kind = ResidualKind::Somm;
+    let one = ResidualModel::fit(&plain, &train, &val, &Silent).unwrap();
+    assert_eq!(model.predict(&val), one.predict(&val));
 }
