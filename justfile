@@ -54,7 +54,8 @@ fuzz cases="20000":
     PROPTEST_CASES={{cases}} cargo test --release --test fuzz_loaders
 
 # the accuracy suite: default calibrate and each stage on twins of twelve arms (two seeds, effects
-# all on / modelled only, configuration and extrapolation splits), errors against the twins'
+# all on / modelled only / beyond the model family, configuration and extrapolation splits;
+# `--effects` picks sets when run by hand), errors against the twins'
 # noise-free points; the nine families kept aside (ARM6S, ARM6H, ARM6C, ARM6M, ARM6N, ARM6U,
 # ARM6K, ARM6W, ARM6T) only with aside="--aside"
 # (docs/accuracy.md)
