@@ -177,15 +177,10 @@ impl ResidualModel {
         } else {
             Self::searched(settings, train_set, validation)
         };
+        // A SOMM on every row: the kind, or CA-SOMM's fallback when a class is left empty.
+        let somm = || Somm::fit(&settings.axes, train_set, validation, seed, 0, progress);
         let fitted = match settings.kind {
-            ResidualKind::Somm => Fitted::Somm(Somm::fit(
-                &settings.axes,
-                train_set,
-                validation,
-                seed,
-                0,
-                progress,
-            )),
+            ResidualKind::Somm => Fitted::Somm(somm()),
             ResidualKind::Mosm => Fitted::Mosm(Mosm::fit(
                 &settings.mosm,
                 train_set,
@@ -212,14 +207,7 @@ impl ResidualModel {
                     progress.message(&format!(
                         "CA-SOMM: class {class} has fewer than two training rows; one SOMM on every row instead"
                     ));
-                    Fitted::Somm(Somm::fit(
-                        &settings.axes,
-                        train_set,
-                        validation,
-                        seed,
-                        0,
-                        progress,
-                    ))
+                    Fitted::Somm(somm())
                 }
                 Err(e) => return Err(e),
             },

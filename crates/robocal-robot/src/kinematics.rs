@@ -9,10 +9,10 @@ use nalgebra::{DMatrix, IsometryMatrix3, Matrix3, Matrix3xX, Rotation3, Translat
 use crate::table::{Joint, Robot};
 
 /// A joint's axis in the world frame: unit direction, and a point on it (mm).
-pub(crate) type Axis = (Vector3<f64>, Vector3<f64>);
+pub type Axis = (Vector3<f64>, Vector3<f64>);
 
 /// A frame in the world frame: rotation, and origin (mm).
-pub(crate) type Frame = (Matrix3<f64>, Vector3<f64>);
+pub type Frame = (Matrix3<f64>, Vector3<f64>);
 
 /// Rotation about x by an angle with cosine `c` and sine `s`.
 #[inline]
@@ -407,7 +407,7 @@ impl Robot {
 
     /// Every joint's axis (unit, and a point on it, mm) and every link frame {1}..{n}
     /// (rotation, origin mm), world frame, at command `q` (rad), in one pass.
-    pub(crate) fn axes_and_frames(&self, q: &[f64]) -> (Vec<Axis>, Vec<Frame>) {
+    pub fn axes_and_frames(&self, q: &[f64]) -> (Vec<Axis>, Vec<Frame>) {
         self.steps(q)
             .map(|s| ((s.r3.column(2).into_owned(), s.o2), (s.r, s.o)))
             .unzip()

@@ -18,7 +18,14 @@ impl TwinConfig {
     /// Centres of mass of the links and of the payload in the world frame, mm, at real joint
     /// angles `q` (rad).
     fn mass_points(&self, q: &[f64]) -> (Vec<Vector3<f64>>, Vector3<f64>) {
-        let frames = self.truth.link_frames(q);
+        self.mass_points_in(&self.truth.link_frames(q))
+    }
+
+    /// [`Self::mass_points`] from the truth's link frames {1}..{n} (world frame) already made.
+    fn mass_points_in(
+        &self,
+        frames: &[(Matrix3<f64>, Vector3<f64>)],
+    ) -> (Vec<Vector3<f64>>, Vector3<f64>) {
         let coms = frames
             .iter()
             .zip(&self.masses.link_com)
@@ -150,9 +157,8 @@ impl TwinConfig {
         let Some(b) = &self.beyond else {
             return Vec::new();
         };
-        let axes = self.truth.joint_axes(q).axes;
-        let frames = self.truth.link_frames(q);
-        let masses = self.mass_points(q);
+        let (axes, frames) = self.truth.axes_and_frames(q);
+        let masses = self.mass_points_in(&frames);
         (axes.iter().zip(&frames).enumerate())
             .map(|(i, ((w, a), (r, _)))| {
                 let mut turn = Vector3::zeros();

@@ -708,10 +708,14 @@ fn residual_candidates(
         } else {
             let mut held = Held::default();
             let mut abandoned = None;
-            let fitted = &chain.scored[base_physics].fitted;
-            if fitted.iter().any(Option::is_none) {
+            let fitted: Option<Vec<&CalibratedModel>> = (chain.scored[base_physics].fitted)
+                .iter()
+                .map(Option::as_ref)
+                .collect();
+            let fitted = fitted.unwrap_or_else(|| {
                 abandoned = Some("skipped: its physical model failed on a fold".to_string());
-            }
+                Vec::new()
+            });
             // The folds' trainings are independent and seeded: as many at once as there are
             // cores, taken in fold order (the same models on any number of cores).
             let at_once = rayon::current_num_threads().max(1);
@@ -721,8 +725,7 @@ fn residual_candidates(
                 let chunk = done..(done + at_once).min(splits.len());
                 let trained: Vec<_> = (splits[chunk.clone()].par_iter())
                     .zip(&fitted[chunk.clone()])
-                    .map(|(fold, base)| {
-                        let base = base.as_ref().expect("checked above");
+                    .map(|(fold, &base)| {
                         observer.advance(1);
                         train_residual(stage, base, &fold.train, None, &Silent).map(|(model, _)| {
                             CalibratedModel {
