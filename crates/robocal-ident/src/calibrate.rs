@@ -828,19 +828,21 @@ fn joint_error_start(
     Ok((start, params))
 }
 
-/// Solves `problem`; a transmission harmonic identified beyond what a gear can have is not one
-/// (the term fits an effect it does not model, or the poses barely determine it, and it would
-/// not extrapolate): it is held at zero (moved from `kept` to `fixed`) and the rest solved
-/// again. Returns the solution, the iterations and why the solver stopped.
+/// Solves `problem` from `u0`; a transmission harmonic identified beyond what a gear can have is
+/// not one (the term fits an effect it does not model, or the poses barely determine it, and it
+/// would not extrapolate): it is held at zero (moved from `kept` to `fixed`) and the rest solved
+/// again, from where the first solve left them. Returns the solution, the iterations (every
+/// solve's) and why the last solve stopped.
 fn solve_gated(
     problem: &mut CalibrationProblem<'_>,
     kept: &mut Vec<Column>,
     fixed: &mut Vec<FixedParameter>,
     settings: &KinematicSettings,
+    mut u0: Vec<f64>,
 ) -> Result<(Vec<f64>, u64, String)> {
+    let mut iterations = 0;
     Ok(loop {
-        let u0 = vec![0.0; problem.unknowns()];
-        let solved = if kept.is_empty() {
+        let mut solved = if kept.is_empty() {
             (u0, 0, "nothing to identify".to_string())
         } else {
             match settings.solver {
@@ -848,6 +850,8 @@ fn solve_gated(
                 SolverKind::Bfgs => run_bfgs(problem, u0, settings.max_iterations)?,
             }
         };
+        iterations += solved.1;
+        solved.1 = iterations;
         let Some(model) = problem.compliance_at(&solved.0) else {
             break solved;
         };
@@ -943,6 +947,8 @@ fn solve_gated(
         }
         *problem = problem.restricted(&keep);
         *kept = keep.iter().map(|&p| kept[p]).collect();
+        // The rest start where this solve left them (`restricted` keeps their order).
+        u0 = keep.iter().map(|&p| solved.0[p]).collect();
     })
 }
 
@@ -1183,8 +1189,9 @@ pub fn calibrate_kinematics(
         })
         .collect();
 
+    let u0 = vec![0.0; problem.unknowns()];
     let (mut u, mut iterations, mut termination) =
-        solve_gated(&mut problem, &mut kept, &mut fixed, settings)?;
+        solve_gated(&mut problem, &mut kept, &mut fixed, settings, u0)?;
     if settings.loss == Loss::Huber {
         let mut previous: Option<Vec<f64>> = None;
         for _ in 0..IRLS_ROUNDS {
@@ -1204,7 +1211,8 @@ pub fn calibrate_kinematics(
                 break;
             }
             problem.set_point_weights(&weights);
-            let solved = solve_gated(&mut problem, &mut kept, &mut fixed, settings)?;
+            let zero = vec![0.0; problem.unknowns()];
+            let solved = solve_gated(&mut problem, &mut kept, &mut fixed, settings, zero)?;
             (u, iterations, termination) = (solved.0, iterations + solved.1, solved.2);
             previous = Some(weights);
         }

@@ -32,7 +32,7 @@ pub use calibrate::{
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};
-pub use lm::{LevenbergMarquardt, run_lm};
+pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm};
 pub use problem::{
     BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, MeanDistance,
     Observations, angle_weight, select,

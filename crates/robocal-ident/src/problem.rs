@@ -12,8 +12,8 @@ use faer::Mat;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use robocal_data::MeasurementSet;
 use robocal_robot::{
-    Compliance, ErrorParam, JointErrors, ParamId, Robot, left_jacobian_inverse, rotation_vector,
-    rpy_to_matrix,
+    Compliance, ErrorParam, JointErrors, JointField, ParamId, Robot, left_jacobian_inverse,
+    rotation_vector, rpy_to_matrix,
 };
 
 /// Measured points with their joint readings and loads.
@@ -306,17 +306,30 @@ impl<'a> CalibrationProblem<'a> {
         let mut cjac = DMatrix::zeros(rows, params.len());
         let mut r = Vec::with_capacity(rows);
         let targets = self.obs.target_indices(robot);
-        let measuring: Vec<Robot> = (0..=robot.points.len())
-            .map(|t| robot.for_target(t).into_owned())
+        // Each joint's `theta` column: the joint Jacobian's column (every joint is revolute), of
+        // which a joint-error coefficient's column is the sum over the joints it turns, each
+        // times its basis value.
+        let theta: Vec<usize> = (robot.param_ids().iter().enumerate())
+            .filter_map(|(col, id)| match id {
+                ParamId::Joint {
+                    field: JointField::Theta,
+                    ..
+                } => Some(col),
+                _ => None,
+            })
             .collect();
         for (i, &t) in targets.iter().enumerate() {
             let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
             let p = match compliance {
                 Some(c) => {
-                    let (_, jac) = c.param_jacobian(&measuring[t], q, load, params);
-                    cjac.view_mut((3 * i, 0), (3, params.len())).copy_from(&jac);
-                    let deflected = c.deflected(robot, q, load);
-                    robot.write_param_jacobian_at(&deflected, t, &mut full, 3 * i)
+                    let (deflected, basis) = c.deflected_and_basis(robot, q, load, params);
+                    let p = robot.write_param_jacobian_at(&deflected, t, &mut full, 3 * i);
+                    for (k, j, phi) in basis {
+                        for a in 0..3 {
+                            cjac[(3 * i + a, k)] += full[(3 * i + a, theta[j])] * phi;
+                        }
+                    }
+                    p
                 }
                 None => robot.write_param_jacobian_at(q, t, &mut full, 3 * i),
             };

@@ -686,7 +686,22 @@ impl JointErrors {
 
     /// [`Self::load_torques`] at the command `pose` holds.
     fn load_torques_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
-        self.with_link_torques(self.torques_at(pose, load), &self.link_weight_basis(pose))
+        let mut torques = self.torques_at(pose, load);
+        if self.link_weights.is_empty() {
+            return torques;
+        }
+        // The links' torques summed as [`Self::with_link_torques`] sums them, without the basis.
+        let Pose { axes, frames, g } = pose.get();
+        let mut links = vec![0.0; torques.len()];
+        for w in &self.link_weights {
+            for (t, axis) in links.iter_mut().zip(&axes[..=w.body]) {
+                *t += w.value * unit_torque(axis, &frames[w.body], g, w.part);
+            }
+        }
+        for (t, l) in torques.iter_mut().zip(links) {
+            *t += l;
+        }
+        torques
     }
 
     /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
@@ -970,6 +985,23 @@ impl JointErrors {
         (q.iter().zip(self.deflection_at(pose, load)))
             .map(|(q, d)| q + d)
             .collect()
+    }
+
+    /// The joint angles the arm really takes for command `q` (rad) under `load` kg
+    /// ([`Self::deflected`]) and the basis of `params` there ([`Self::basis`]), the arm's frames
+    /// at `q` computed once for both.
+    pub fn deflected_and_basis(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        params: &[ErrorParam],
+    ) -> (Vec<f64>, Vec<(usize, usize, f64)>) {
+        let pose = self.pose(robot, q);
+        (
+            self.deflected_at(&pose, load),
+            self.basis_at(&pose, load, params),
+        )
     }
 
     /// Jacobian of the point with respect to each of `params` (mm per internal unit), and the

@@ -227,16 +227,18 @@ impl Robot {
     ) -> Vector3<f64> {
         debug_assert_eq!(out.ncols(), self.param_count());
         debug_assert!(row + 3 <= out.nrows());
-        let (flange, origin) = self.flange_frame(q);
+        // One walk of the chain: the steps kept for the columns, which need the point.
+        let rb = self.base_rotation();
+        let steps: Vec<JointStep> = self.steps_from(rb, q).collect();
+        let (flange, origin) = steps.last().map_or((rb, self.base.xyz), |s| (s.r, s.o));
         let p = origin + flange * self.target_point(t);
         let mut put = |col: usize, v: Vector3<f64>| {
             out[(row, col)] = v.x;
             out[(row + 1, col)] = v.y;
             out[(row + 2, col)] = v.z;
         };
-        let rb = self.base_rotation();
         let mut col = 0;
-        for (joint, s) in self.joints.iter().zip(self.steps_from(rb, q)) {
+        for (joint, s) in self.joints.iter().zip(&steps) {
             let wx = s.r0.column(0).into_owned();
             put(col, wx); // a
             put(col + 1, wx.cross(&(p - s.o0))); // alpha
