@@ -62,6 +62,10 @@ pub enum Command {
         /// noise_deg (0.02 / 0.01 = 2).
         #[arg(long, value_name = "MM_PER_DEG")]
         angle_weight: Option<f64>,
+        /// Time budget of the default calibration (no `--config`), s: candidates whose folds
+        /// would run past it are skipped or abandoned and named in report.json [default: 120]
+        #[arg(long, value_name = "SECONDS")]
+        budget: Option<f64>,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

@@ -15,7 +15,8 @@ use robocal_robot::Robot;
 use super::terminal::Terminal;
 
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
-/// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations.
+/// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
+/// `budget` (s) bounds the default calibration's time.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     robot: &Path,
@@ -26,6 +27,7 @@ pub fn run(
     checks: Checks,
     pictures: Option<&Path>,
     angle_weight: Option<f64>,
+    budget: Option<f64>,
 ) -> Result<()> {
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
@@ -46,6 +48,7 @@ pub fn run(
         stages: stages.as_ref().zip(config),
         checks,
         angle_weight,
+        budget_seconds: budget,
     };
     let Calibration {
         model,

@@ -31,6 +31,7 @@ pub fn run(cli: Cli) -> Result<()> {
             keep_outliers,
             report,
             angle_weight,
+            budget,
         } => calibrate::run(
             &robot,
             &data,
@@ -43,6 +44,7 @@ pub fn run(cli: Cli) -> Result<()> {
             },
             report.as_deref(),
             angle_weight,
+            budget,
         ),
         Command::Report { model, data, out } => report::run(&model, &data, &out),
         Command::Predict {

@@ -959,10 +959,15 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
         s(&unloaded),
         "--out",
         s(&model),
+        "--budget",
+        "90",
     ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     let r = report(&model);
+    // The budget given, kept with what the selection took.
+    assert_eq!(r["selection"]["budget_seconds"], 90.0);
+    assert!(r["selection"]["seconds"].as_f64().unwrap() <= 90.0);
     assert_eq!(r["selection"]["refitted_on_every_row"], true);
     assert!(
         r["selection"]["held_out"]

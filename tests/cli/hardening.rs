@@ -376,6 +376,34 @@ fn every_command_refuses_bad_input_cleanly() {
         &["two.csv", "too few"],
         &outs,
     );
+    // The default calibration's time budget: a positive number of seconds, and not for a
+    // stage config (which runs what it names).
+    for (name, budget, config, needles) in [
+        ("zero budget", "0", None, &["`--budget`", "0 is not a positive number"][..]),
+        ("NaN budget", "NaN", None, &["`--budget`", "NaN is not a positive"][..]),
+        (
+            "budget with a stage config",
+            "60",
+            Some(s(&compliance)),
+            &["`--budget`", "compliance.toml", "takes none"][..],
+        ),
+    ] {
+        let mut args = vec![
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(&good),
+            "--out",
+            s(&model_out),
+            "--budget",
+            budget,
+        ];
+        if let Some(c) = config {
+            args.extend(["--config", c]);
+        }
+        fails(name, &args, needles, &outs);
+    }
 
     // --- Model directories.
     let copy = |name: &str| -> PathBuf {

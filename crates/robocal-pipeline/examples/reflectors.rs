@@ -119,6 +119,7 @@ fn run(
                             keep_outliers: true,
                         },
                         angle_weight: None,
+                        budget_seconds: None,
                     },
                     &Silent,
                 )?;

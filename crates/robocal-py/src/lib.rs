@@ -673,10 +673,11 @@ impl PyModel {
 /// readings are one configuration (or give `pose`, one id per row, as the CSV's `pose` column);
 /// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default);
 /// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg),
-/// weighted by `angle_weight` (mm per deg; default 2).
+/// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
+/// calibration's time (s; default 120).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -692,6 +693,7 @@ fn calibrate<'py>(
     target: Option<Vec<String>>,
     rpy: Option<Matrix<'py>>,
     angle_weight: Option<f64>,
+    budget: Option<f64>,
 ) -> PyResult<PyModel> {
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
@@ -744,6 +746,7 @@ fn calibrate<'py>(
                     keep_outliers,
                 },
                 angle_weight,
+                budget_seconds: budget,
             };
             run_calibration(&input, &Silent)
         })

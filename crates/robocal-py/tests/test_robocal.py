@@ -222,6 +222,11 @@ def test_errors_carry_the_cli_s_messages():
     # Data in metres: refused unless forced, as the CLI does.
     with pytest.raises(robocal.RobocalError, match="nothing written"):
         robocal.calibrate(robot, q, load, xyz / 1000.0)
+    # The default calibration's time budget: positive seconds, not with a stage config.
+    with pytest.raises(robocal.RobocalError, match="0 is not a positive number of seconds"):
+        robocal.calibrate(robot, q, load, xyz, budget=0.0)
+    with pytest.raises(robocal.RobocalError, match="takes none"):
+        robocal.calibrate(robot, q, load, xyz, budget=60.0, config=ROOT / "configs/stages/kinematic-lm.toml")
     # RobocalError is a ValueError.
     assert issubclass(robocal.RobocalError, ValueError)
 

@@ -11,8 +11,8 @@ use robocal_robot::Robot;
 use serde::Serialize;
 
 use super::{
-    AutoSettings, Built, OutlierReport, OutlierSettings, ResidualReport, Selection,
-    check_plausible, configured, find_outliers, select::automatic,
+    AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, ResidualReport,
+    Selection, check_plausible, configured, find_outliers, select::automatic,
 };
 use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
@@ -83,6 +83,9 @@ pub struct CalibrationInput<'a> {
     /// Weight of a 6-DoF probe's orientation residuals, mm per deg (over a stage config's
     /// `[kinematic] angle_weight`); `None`: the settings' own (default `noise_mm / noise_deg`).
     pub angle_weight: Option<f64>,
+    /// The default calibration's time budget, s (`None`: [`DEFAULT_BUDGET_SECONDS`]); a stage
+    /// config runs what it asks for and takes none.
+    pub budget_seconds: Option<f64>,
 }
 
 /// A calibration's result.
@@ -108,6 +111,19 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         data: data.clone(),
         source: Box::new(source),
     };
+    if let Some(b) = input.budget_seconds {
+        if !(b.is_finite() && b > 0.0) {
+            return Err(PipelineError::Stage(format!(
+                "the time budget (`--budget`, or `budget=` in Python): {b} is not a positive number of seconds"
+            )));
+        }
+        if let Some((_, file)) = input.stages {
+            return Err(PipelineError::Stage(format!(
+                "the time budget (`--budget`, or `budget=` in Python) is the default calibration's; {} runs the stages it names and takes none",
+                file.display()
+            )));
+        }
+    }
     let names = input.nominal.point_names();
     for set in std::iter::once(input.data).chain(input.validation) {
         check_targets(&set.source, set.rows.iter().map(|m| &m.sample), &names)?;
@@ -147,6 +163,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             let auto = AutoSettings {
                 outliers: Some(outliers),
                 angle_weight: input.angle_weight,
+                budget_seconds: input.budget_seconds.unwrap_or(DEFAULT_BUDGET_SECONDS),
                 ..AutoSettings::default()
             };
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
