@@ -188,3 +188,103 @@ where
     let u = result.state.get_best_param().cloned().unwrap_or_default();
     Ok((u, iters, reason))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{DMatrix, DVector};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// `y = a exp(−b x) + c sin(d x)` at fixed abscissae: residuals `model − y`.
+    struct Curve {
+        x: Vec<f64>,
+        y: Vec<f64>,
+    }
+
+    /// The model's value at `x` and its derivatives by `a, b, c, d`.
+    fn model(u: &[f64], x: f64) -> (f64, [f64; 4]) {
+        let (a, b, c, d) = (u[0], u[1], u[2], u[3]);
+        let e = (-b * x).exp();
+        let value = a * e + c * (d * x).sin();
+        (
+            value,
+            [e, -a * x * e, (d * x).sin(), c * x * (d * x).cos()],
+        )
+    }
+
+    impl Operator for Curve {
+        type Param = Vec<f64>;
+        type Output = Vec<f64>;
+        fn apply(&self, u: &Vec<f64>) -> Result<Vec<f64>, Error> {
+            Ok((self.x.iter().zip(&self.y))
+                .map(|(&x, &y)| model(u, x).0 - y)
+                .collect())
+        }
+    }
+
+    impl Jacobian for Curve {
+        type Param = Vec<f64>;
+        type Jacobian = Mat<f64>;
+        fn jacobian(&self, u: &Vec<f64>) -> Result<Mat<f64>, Error> {
+            Ok(Mat::from_fn(self.x.len(), 4, |i, j| model(u, self.x[i]).1[j]))
+        }
+    }
+
+    const TRUTH: [f64; 4] = [2.0, 0.7, 0.5, 3.0];
+    const START: [f64; 4] = [1.0, 0.3, 0.1, 2.9];
+
+    /// 200 points on `[0, 5]`, seeded normal noise of standard deviation `noise`.
+    fn curve(noise: f64) -> Curve {
+        let x: Vec<f64> = (0..200).map(|i| 5.0 * i as f64 / 199.0).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        let y = (x.iter())
+            .map(|&x| model(&TRUTH, x).0 + noise * normal.sample(&mut rng))
+            .collect();
+        Curve { x, y }
+    }
+
+    /// The least-squares minimum by plain Gauss–Newton from the truth (nalgebra's normal
+    /// equations, independent of the solver), and each parameter's standard deviation there.
+    fn gauss_newton(c: &Curve) -> (Vec<f64>, Vec<f64>) {
+        let mut u = TRUTH.to_vec();
+        let (n, k) = (c.x.len(), 4);
+        let mut jtj = DMatrix::zeros(k, k);
+        let mut rss = 0.0;
+        for _ in 0..100 {
+            let r = DVector::from_vec(c.apply(&u).unwrap());
+            let j = DMatrix::from_fn(n, k, |i, p| model(&u, c.x[i]).1[p]);
+            jtj = j.transpose() * &j;
+            let step = jtj.clone().cholesky().unwrap().solve(&(j.transpose() * &r));
+            u = (0..k).map(|p| u[p] - step[p]).collect();
+            rss = r.norm_squared();
+        }
+        let cov = jtj.try_inverse().unwrap() * (rss / (n - k) as f64);
+        (u, (0..k).map(|p| cov[(p, p)].sqrt()).collect())
+    }
+
+    /// The stopping rule ([`COST_TOLERANCE`] over [`STALLED_STEPS`] steps) ends a noisy fit
+    /// within a small fraction of a standard deviation of the minimum, from a start far from it.
+    #[test]
+    fn lm_stops_within_a_fraction_of_a_standard_deviation_of_the_minimum() {
+        let c = curve(0.01);
+        let (reference, sigma) = gauss_newton(&c);
+        let (u, iterations, why) = run_lm(c, START.to_vec(), 500).unwrap();
+        assert!(why.contains("converged"), "{why} after {iterations}");
+        for p in 0..4 {
+            let off = (u[p] - reference[p]).abs() / sigma[p];
+            assert!(off < 0.05, "parameter {p}: {off} σ from the minimum ({why})");
+        }
+    }
+
+    /// A noise-free fit is not stopped by the rule: its cost falls by large fractions down to
+    /// round-off, and the parameters come out exact.
+    #[test]
+    fn lm_runs_a_noise_free_fit_down_to_round_off() {
+        let (u, _, why) = run_lm(curve(0.0), START.to_vec(), 500).unwrap();
+        for p in 0..4 {
+            assert!((u[p] - TRUTH[p]).abs() < 1e-9, "parameter {p}: {} ({why})", u[p]);
+        }
+    }
+}
