@@ -196,7 +196,8 @@ mod tests {
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
 
-    /// `y = a exp(−b x) + c sin(d x)` at fixed abscissae: residuals `model − y`.
+    /// `y = a exp(−b x) + c exp(−d x)` at fixed abscissae: residuals `model − y`. Two decays
+    /// are a classic ill-conditioned fit: a narrow curved valley in which LM's steps shrink.
     struct Curve {
         x: Vec<f64>,
         y: Vec<f64>,
@@ -205,12 +206,8 @@ mod tests {
     /// The model's value at `x` and its derivatives by `a, b, c, d`.
     fn model(u: &[f64], x: f64) -> (f64, [f64; 4]) {
         let (a, b, c, d) = (u[0], u[1], u[2], u[3]);
-        let e = (-b * x).exp();
-        let value = a * e + c * (d * x).sin();
-        (
-            value,
-            [e, -a * x * e, (d * x).sin(), c * x * (d * x).cos()],
-        )
+        let (e, f) = ((-b * x).exp(), (-d * x).exp());
+        (a * e + c * f, [e, -a * x * e, f, -c * x * f])
     }
 
     impl Operator for Curve {
@@ -231,12 +228,12 @@ mod tests {
         }
     }
 
-    const TRUTH: [f64; 4] = [2.0, 0.7, 0.5, 3.0];
-    const START: [f64; 4] = [1.0, 0.3, 0.1, 2.9];
+    const TRUTH: [f64; 4] = [1.0, 0.5, 1.0, 2.0];
+    const START: [f64; 4] = [1.5, 0.2, 0.5, 3.0];
 
     /// 200 points on `[0, 5]`, seeded normal noise of standard deviation `noise`.
     fn curve(noise: f64) -> Curve {
-        let x: Vec<f64> = (0..200).map(|i| 5.0 * i as f64 / 199.0).collect();
+        let x: Vec<f64> = (0..200).map(|i| 4.0 * i as f64 / 199.0).collect();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let normal = Normal::new(0.0, 1.0).unwrap();
         let y = (x.iter())
@@ -264,11 +261,14 @@ mod tests {
         (u, (0..k).map(|p| cov[(p, p)].sqrt()).collect())
     }
 
-    /// The stopping rule ([`COST_TOLERANCE`] over [`STALLED_STEPS`] steps) ends a noisy fit
-    /// within a small fraction of a standard deviation of the minimum, from a start far from it.
+    /// The stopping rule ([`COST_TOLERANCE`] over [`STALLED_STEPS`] steps) ends a noisy fit at
+    /// the least-squares minimum (within 0.05 σ of it), from a start far from it. On a smooth
+    /// problem like this LM gains large fractions of the cost until it is there, so the rule's
+    /// threshold is not what this pins (the fit is the same with 0.5); a rule that ends the solve
+    /// at the first accepted step fails it (38 σ away).
     #[test]
     fn lm_stops_within_a_fraction_of_a_standard_deviation_of_the_minimum() {
-        let c = curve(0.01);
+        let c = curve(0.001);
         let (reference, sigma) = gauss_newton(&c);
         let (u, iterations, why) = run_lm(c, START.to_vec(), 500).unwrap();
         assert!(why.contains("converged"), "{why} after {iterations}");
