@@ -379,8 +379,18 @@ fn every_command_refuses_bad_input_cleanly() {
     // The default calibration's time budget: a positive number of seconds, and not for a
     // stage config (which runs what it names).
     for (name, budget, config, needles) in [
-        ("zero budget", "0", None, &["`--budget`", "0 is not a positive number"][..]),
-        ("NaN budget", "NaN", None, &["`--budget`", "NaN is not a positive"][..]),
+        (
+            "zero budget",
+            "0",
+            None,
+            &["`--budget`", "0 is not a positive number"][..],
+        ),
+        (
+            "NaN budget",
+            "NaN",
+            None,
+            &["`--budget`", "NaN is not a positive"][..],
+        ),
         (
             "budget with a stage config",
             "60",

@@ -224,7 +224,9 @@ mod tests {
         type Param = Vec<f64>;
         type Jacobian = Mat<f64>;
         fn jacobian(&self, u: &Vec<f64>) -> Result<Mat<f64>, Error> {
-            Ok(Mat::from_fn(self.x.len(), 4, |i, j| model(u, self.x[i]).1[j]))
+            Ok(Mat::from_fn(self.x.len(), 4, |i, j| {
+                model(u, self.x[i]).1[j]
+            }))
         }
     }
 
@@ -274,7 +276,10 @@ mod tests {
         assert!(why.contains("converged"), "{why} after {iterations}");
         for p in 0..4 {
             let off = (u[p] - reference[p]).abs() / sigma[p];
-            assert!(off < 0.05, "parameter {p}: {off} σ from the minimum ({why})");
+            assert!(
+                off < 0.05,
+                "parameter {p}: {off} σ from the minimum ({why})"
+            );
         }
     }
 
@@ -284,7 +289,11 @@ mod tests {
     fn lm_runs_a_noise_free_fit_down_to_round_off() {
         let (u, _, why) = run_lm(curve(0.0), START.to_vec(), 500).unwrap();
         for p in 0..4 {
-            assert!((u[p] - TRUTH[p]).abs() < 1e-9, "parameter {p}: {} ({why})", u[p]);
+            assert!(
+                (u[p] - TRUTH[p]).abs() < 1e-9,
+                "parameter {p}: {} ({why})",
+                u[p]
+            );
         }
     }
 }
