@@ -52,7 +52,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, RobotError};
 use crate::kinematics::{Axis, Frame};
-use crate::table::{Robot, toml_error};
+use crate::table::{Robot, file_value, toml_error};
 
 /// Degrees per kN·m in radians per N·m: the file unit of a compliance.
 pub const DEG_PER_KNM: f64 = std::f64::consts::PI / 180.0 / 1000.0;
@@ -1246,17 +1246,21 @@ impl JointErrors {
 
     /// The file form, with a header saying what the numbers mean.
     pub fn to_toml_string(&self) -> String {
+        // Every number as the one that reads back exactly (the loader's conversions inverted).
+        let deg = |v: f64| file_value(v, f64::to_degrees, f64::to_radians);
         let raw = RawCompliance {
             gravity: self.gravity.into(),
             payload_com: self.payload_com.into(),
-            compliance: self.values.iter().map(|c| c / DEG_PER_KNM).collect(),
+            compliance: (self.values.iter())
+                .map(|&c| file_value(c, |c| c / DEG_PER_KNM, |c| c * DEG_PER_KNM))
+                .collect(),
             harmonic: (self.harmonics.iter())
                 .map(|h| RawHarmonic {
                     joint: h.joint + 1,
                     order: h.order,
-                    sin: h.sin.to_degrees(),
-                    cos: h.cos.to_degrees(),
-                    reach: h.reach.map(|r| r.map(f64::to_degrees)),
+                    sin: deg(h.sin),
+                    cos: deg(h.cos),
+                    reach: h.reach.map(|r| r.map(deg)),
                 })
                 .collect(),
             self_weight: (self.self_weight.iter())
@@ -1264,18 +1268,18 @@ impl JointErrors {
                     joint: t.joint + 1,
                     body: t.body + 1,
                     part: t.part,
-                    value: t.value.to_degrees(),
+                    value: deg(t.value),
                 })
                 .collect(),
             backlash: (self.backlash.iter())
                 .map(|b| RawBacklash {
                     joint: b.joint + 1,
-                    home: b.home().map(f64::to_degrees),
+                    home: b.home().map(deg),
                     torque: match &b.flank {
                         Flank::Torque { weights } => Some(weights.clone()),
                         Flank::Approach { .. } => None,
                     },
-                    value: b.value.to_degrees(),
+                    value: deg(b.value),
                 })
                 .collect(),
             link_weight: (self.link_weights.iter())

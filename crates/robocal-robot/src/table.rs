@@ -306,7 +306,8 @@ fn valid_point_name(name: &str) -> bool {
 }
 
 /// `v` (rad) in degrees, as the shortest decimal that reads back to exactly `v`: an angle the
-/// user wrote (-120) comes back as written, not as -119.99999999999999.
+/// user wrote (-120) comes back as written, not as -119.99999999999999; where no decimal of up
+/// to 15 places does, the double nearest `v.to_degrees()` that does ([`file_value`]).
 pub fn degrees(v: f64) -> f64 {
     let d = v.to_degrees();
     for digits in 0..=15 {
@@ -316,7 +317,33 @@ pub fn degrees(v: f64) -> f64 {
             return r;
         }
     }
-    d
+    file_value(v, f64::to_degrees, f64::to_radians)
+}
+
+/// The number to write for the internal value `v` so that a file read back gives exactly `v`:
+/// `write(v)` (e.g. radians to degrees), or where its reading (`read`, the loader's own
+/// conversion) misses `v` by a rounding, the nearest double around it that `read` maps onto `v`.
+/// Each conversion rounds once, so `read(write(v))` can be a unit in the last place off, and a
+/// model saved and loaded again would predict a little differently from the one calibrated. A
+/// reading that shrinks (degrees to radians, deg/kN·m to rad/N·m) reaches every double, so the
+/// search finds one within a few steps; `write(v)` when none is found.
+pub fn file_value(v: f64, write: impl Fn(f64) -> f64, read: impl Fn(f64) -> f64) -> f64 {
+    let u = write(v);
+    if read(u) == v || !u.is_finite() {
+        return u;
+    }
+    let (mut below, mut above) = (u, u);
+    for _ in 0..16 {
+        below = below.next_down();
+        above = above.next_up();
+        if read(below) == v {
+            return below;
+        }
+        if read(above) == v {
+            return above;
+        }
+    }
+    u
 }
 
 impl Robot {

@@ -1060,3 +1060,114 @@ fn named_points_in_robot_files() {
     let name = bad("\"smr 2\" = [1.0, 2.0, 3.0]");
     assert!(name.contains("key `tool.points.smr 2`"), "{name}");
 }
+
+/// Numbers of every magnitude a calibration gives, from a seeded generator: `count` values in
+/// ±[1e-9, 1e3).
+fn scattered(count: usize, seed: u64) -> Vec<f64> {
+    let mut state = seed;
+    (0..count)
+        .map(|_| {
+            // xorshift64*: a mantissa in [0, 1) and a decade from 1e-9 to 1e2.
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            let r = state.wrapping_mul(0x2545_F491_4F6C_DD1D);
+            let unit = (r >> 11) as f64 / (1u64 << 53) as f64;
+            let sign = if r & 1 == 0 { 1.0 } else { -1.0 };
+            sign * (1.0 + 9.0 * unit) * 10f64.powi((r >> 3) as i32 % 12 - 9)
+        })
+        .collect()
+}
+
+/// Whether some double within 64 units in the last place of `write(v)` reads back to exactly
+/// `v` (brute force, wider than the writer's own search).
+fn reachable(v: f64, write: impl Fn(f64) -> f64, read: impl Fn(f64) -> f64) -> bool {
+    let (mut below, mut above) = (write(v), write(v));
+    for _ in 0..=64 {
+        if read(below) == v || read(above) == v {
+            return true;
+        }
+        below = below.next_down();
+        above = above.next_up();
+    }
+    false
+}
+
+/// A saved table and joint-error file read back bit for bit wherever the file's units allow:
+/// each conversion (radians to degrees, rad/N·m to deg/kN·m) rounds, and some doubles have no
+/// number in degrees that reads back onto them — those (about one in ten) come back within one
+/// unit in the last place; every other one exactly (written as computed, about one in ten of
+/// those came back a unit off).
+#[test]
+fn saved_tables_and_joint_errors_read_back_bit_for_bit() {
+    let v = scattered(600, 2026);
+    let rad = |x: f64| reachable(x, f64::to_degrees, f64::to_radians);
+    let same = |back: f64, x: f64, exact: bool| {
+        if exact {
+            back == x
+        } else {
+            (back - x).abs() <= f64::EPSILON * x.abs()
+        }
+    };
+    let mut robot = Robot::from_toml_str(
+        "name = \"r\"\n[base]\nxyz = [0, 0, 0]\nrpy = [0, 0, 0]\n[tool]\nxyz = [0, 0, 50]\nrpy = [0, 0, 0]\n\
+         [[joint]]\na = 0\nalpha = 0\nd = 0\ntheta = 0\n",
+        "r.toml",
+    )
+    .unwrap();
+    let mut unreachable = 0;
+    for chunk in v.chunks(6) {
+        robot.joints[0].alpha = chunk[0];
+        robot.joints[0].theta = chunk[1];
+        robot.base.rpy = Vector3::new(chunk[2], chunk[3], chunk[4]);
+        let back = Robot::from_toml_str(&robot.to_toml_string(), "r.toml").unwrap();
+        let pairs = [
+            (back.joints[0].alpha, chunk[0]),
+            (back.joints[0].theta, chunk[1]),
+            (back.base.rpy.x, chunk[2]),
+            (back.base.rpy.y, chunk[3]),
+            (back.base.rpy.z, chunk[4]),
+        ];
+        for (b, x) in pairs {
+            unreachable += usize::from(!rad(x));
+            assert!(same(b, x, rad(x)), "{x:e} read back as {b:e}");
+        }
+    }
+    // The file's units leave most doubles reachable; the test means something only then.
+    assert!(unreachable < 100, "{unreachable} of 500 angles unreachable");
+    let mut e = robocal_robot::JointErrors::new(Vec::new(), Vector3::z() * -9.8, Vector3::zeros());
+    e.values = v[..6].iter().map(|c| c.abs() * 1e-6).collect();
+    e.harmonics = (v.chunks(4).enumerate())
+        .map(|(i, c)| robocal_robot::Harmonic {
+            joint: i % 6,
+            order: 1 + (i / 6) as u32,
+            sin: c[0] * 1e-3,
+            cos: c[1] * 1e-3,
+            reach: Some([-c[2].abs(), c[3].abs()]),
+        })
+        .collect();
+    let back = robocal_robot::JointErrors::from_toml_str(&e.to_toml_string(), "c.toml", 6).unwrap();
+    let knm = |x: f64| {
+        reachable(
+            x,
+            |c| c / robocal_robot::DEG_PER_KNM,
+            |c| c * robocal_robot::DEG_PER_KNM,
+        )
+    };
+    for (b, x) in back.values.iter().zip(&e.values) {
+        assert!(same(*b, *x, knm(*x)), "{x:e} read back as {b:e}");
+    }
+    assert_eq!(back.harmonics.len(), e.harmonics.len());
+    for (b, h) in back.harmonics.iter().zip(&e.harmonics) {
+        let reach = h.reach.unwrap();
+        let back_reach = b.reach.unwrap();
+        for (b, x) in [
+            (b.sin, h.sin),
+            (b.cos, h.cos),
+            (back_reach[0], reach[0]),
+            (back_reach[1], reach[1]),
+        ] {
+            assert!(same(b, x, rad(x)), "{x:e} read back as {b:e}");
+        }
+    }
+}
