@@ -660,15 +660,20 @@ impl JointErrors {
             .collect()
     }
 
-    /// The payload's gravity torques (`torques`) plus the links' weights' (`basis`:
-    /// [`Self::link_weight_basis`]), N·m.
-    fn with_link_torques(&self, mut torques: Vec<f64>, basis: &[Vec<f64>]) -> Vec<f64> {
+    /// The payload's gravity torques (`torques`) plus the links' weights', N·m: `units` gives,
+    /// for each link weight, its unit quantity's torque about every joint up to its link's (the
+    /// rows of [`Self::link_weight_basis`], or computed as they are summed).
+    fn with_link_torques<U>(&self, mut torques: Vec<f64>, units: U) -> Vec<f64>
+    where
+        U: IntoIterator,
+        U::Item: IntoIterator<Item = f64>,
+    {
         if self.link_weights.is_empty() {
             return torques;
         }
         let mut links = vec![0.0; torques.len()];
-        for (w, phi) in self.link_weights.iter().zip(basis) {
-            for (t, phi) in links.iter_mut().zip(phi) {
+        for (w, unit) in self.link_weights.iter().zip(units) {
+            for (t, phi) in links.iter_mut().zip(unit) {
                 *t += w.value * phi;
             }
         }
@@ -686,22 +691,16 @@ impl JointErrors {
 
     /// [`Self::load_torques`] at the command `pose` holds.
     fn load_torques_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
-        let mut torques = self.torques_at(pose, load);
+        let torques = self.torques_at(pose, load);
         if self.link_weights.is_empty() {
             return torques;
         }
-        // The links' torques summed as [`Self::with_link_torques`] sums them, without the basis.
+        // The links' unit torques as they are summed, without collecting the basis.
         let Pose { axes, frames, g } = pose.get();
-        let mut links = vec![0.0; torques.len()];
-        for w in &self.link_weights {
-            for (t, axis) in links.iter_mut().zip(&axes[..=w.body]) {
-                *t += w.value * unit_torque(axis, &frames[w.body], g, w.part);
-            }
-        }
-        for (t, l) in torques.iter_mut().zip(links) {
-            *t += l;
-        }
-        torques
+        let units = (self.link_weights.iter()).map(|w| {
+            (axes[..=w.body].iter()).map(move |axis| unit_torque(axis, &frames[w.body], g, w.part))
+        });
+        self.with_link_torques(torques, units)
     }
 
     /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
@@ -843,7 +842,10 @@ impl JointErrors {
             Vec::new()
         };
         let torques = if compliance {
-            self.with_link_torques(self.torques_at(pose, load), &links)
+            self.with_link_torques(
+                self.torques_at(pose, load),
+                links.iter().map(|u| u.iter().copied()),
+            )
         } else {
             Vec::new()
         };

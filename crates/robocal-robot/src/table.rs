@@ -324,9 +324,11 @@ pub fn degrees(v: f64) -> f64 {
 /// `write(v)` (e.g. radians to degrees), or where its reading (`read`, the loader's own
 /// conversion) misses `v` by a rounding, the nearest double around it that `read` maps onto `v`.
 /// Each conversion rounds once, so `read(write(v))` can be a unit in the last place off, and a
-/// model saved and loaded again would predict a little differently from the one calibrated. A
-/// reading that shrinks (degrees to radians, deg/kN·m to rad/N·m) reaches every double, so the
-/// search finds one within a few steps; `write(v)` when none is found.
+/// model saved and loaded again would predict a little differently from the one calibrated.
+/// Not every double is reached: degrees to radians maps neighbouring doubles more than a unit
+/// apart where the radian's binade is finer (about one angle in ten has no number in degrees
+/// that reads back onto it); then `write(v)`, a unit in the last place off, and the caller that
+/// needs the file and the model to agree takes the model as read back.
 pub fn file_value(v: f64, write: impl Fn(f64) -> f64, read: impl Fn(f64) -> f64) -> f64 {
     let u = write(v);
     if read(u) == v || !u.is_finite() {

@@ -1096,7 +1096,7 @@ fn reachable(v: f64, write: impl Fn(f64) -> f64, read: impl Fn(f64) -> f64) -> b
 /// A saved table and joint-error file read back bit for bit wherever the file's units allow:
 /// each conversion (radians to degrees, rad/N·m to deg/kN·m) rounds, and some doubles have no
 /// number in degrees that reads back onto them — those (about one in ten) come back within one
-/// unit in the last place; every other one exactly (written as computed, about one in ten of
+/// unit in the last place; every other one exactly (written as computed, about one in twenty of
 /// those came back a unit off).
 #[test]
 fn saved_tables_and_joint_errors_read_back_bit_for_bit() {
