@@ -15,7 +15,12 @@
 //!   [`Backlash`]): on the flank of its approach from home (`+b_i` at or above the home reading,
 //!   `−b_i` below), or on the flank its gravity torque presses (the sign of a linear function of
 //!   the joint's gravity-torque features: the link weights', the payload's and a constant
-//!   preload, [`Flank::Torque`]).
+//!   preload, [`Flank::Torque`]);
+//! - **tilting compliance**: a joint's bearing and reducer tilt, about the joint's origin and
+//!   across its axis, by a compliance times the gravity moment across the axis of the payload
+//!   and of the links' weights beyond it ([`Tilt`]). Not a turn of the joint: the parts beyond
+//!   it turn about an axis perpendicular to the joint's, so the point moves by
+//!   `t × (p − a)` (`t` the tilt, rad, `a` the joint's origin) after the joint angles' errors.
 //!
 //! A joint whose gear and bearings give under torque turns by `compliance × torque`. The torque
 //! that changes with the payload is gravity's on the payload's centre of mass,
@@ -77,6 +82,56 @@ pub struct JointErrors {
     /// joint deflects by its compliance (`values`) times the gravity torque of the payload and
     /// of these weights.
     pub link_weights: Vec<LinkWeight>,
+    /// Tilting compliances: the turn of the parts beyond a joint across its axis under the
+    /// gravity moment there.
+    pub tilts: Vec<Tilt>,
+}
+
+/// One joint's tilting compliance: the parts beyond joint `joint` turn about its origin by
+/// `value × M⊥`, with `M⊥` the gravity moment (N·m, world frame) about the joint's origin of the
+/// payload and of the links' weights beyond it ([`JointErrors::link_weights`]; none: the
+/// payload's alone), less its component along the joint's axis (which turns the joint:
+/// [`JointErrors::values`]). A bearing is round: one compliance for every direction across the
+/// axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tilt {
+    /// 0-based joint.
+    pub joint: usize,
+    /// Tilting compliance, rad/(N·m).
+    pub value: f64,
+}
+
+/// The small turns (rad, world frame) of the parts beyond each tilting joint, each with the
+/// point it turns about (the joint's origin, mm).
+pub type Turns = Vec<(Vector3<f64>, Vector3<f64>)>;
+
+/// What one row of an identification needs at one command and load
+/// ([`JointErrors::row_terms`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RowTerms {
+    /// The joint angles the arm really takes, rad.
+    pub deflected: Vec<f64>,
+    /// Entries `(k, joint, value)`: coefficient `k` turns `joint` by `value` per unit.
+    pub basis: Vec<(usize, usize, f64)>,
+    /// The tilting joints' turns.
+    pub turns: Turns,
+    /// Entries `(k, origin, turn)`: coefficient `k` turns the parts beyond a tilting joint about
+    /// its `origin` (mm) by `turn` (rad, world frame) per unit.
+    pub turn_basis: Vec<(usize, Vector3<f64>, Vector3<f64>)>,
+}
+
+/// `p` (mm) moved by `turns`, to first order (the turns are micro-radians): `p + Σ t × (p − a)`.
+pub fn turned(turns: &[(Vector3<f64>, Vector3<f64>)], p: Vector3<f64>) -> Vector3<f64> {
+    turns.iter().fold(p, |moved, (t, a)| moved + t.cross(&(p - a)))
+}
+
+/// The rotation of every turn of `turns` together (the identity without any).
+pub fn turn_rotation(turns: &[(Vector3<f64>, Vector3<f64>)]) -> Matrix3<f64> {
+    if turns.is_empty() {
+        return Matrix3::identity();
+    }
+    let sum: Vector3<f64> = turns.iter().map(|(t, _)| t).sum();
+    nalgebra::Rotation3::new(sum).into_inner()
 }
 
 /// The former name of [`JointErrors`], when it held payload compliances only.
@@ -263,8 +318,6 @@ pub struct LinkWeight {
     pub value: f64,
 }
 
-/// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
-/// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²).
 /// What every gravity term reads at one command: each joint's axis (unit, and a point on it,
 /// mm), every link frame {1}..{n} (the last is the flange's) and gravity (m/s²), world frame.
 struct Pose<'a> {
@@ -294,6 +347,30 @@ impl PoseCache<'_> {
     }
 }
 
+/// The gravity moment (N·m per unit, world frame) about the point `a` (mm) of the unit quantity
+/// `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²): the vector whose component
+/// along an axis through `a` is [`unit_torque`].
+fn unit_moment(
+    a: &Vector3<f64>,
+    (r, o): &(Matrix3<f64>, Vector3<f64>),
+    g: &Vector3<f64>,
+    part: MomentPart,
+) -> Vector3<f64> {
+    match part {
+        MomentPart::Mass => (o - a).cross(g) * 1e-3,
+        MomentPart::X => r.column(0).cross(g),
+        MomentPart::Y => r.column(1).cross(g),
+        MomentPart::Z => r.column(2).cross(g),
+    }
+}
+
+/// `m` less its component along the unit vector `w`.
+fn across(w: &Vector3<f64>, m: Vector3<f64>) -> Vector3<f64> {
+    m - w * w.dot(&m)
+}
+
+/// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
+/// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²).
 fn unit_torque(
     (w, a): &(Vector3<f64>, Vector3<f64>),
     (r, o): &(Matrix3<f64>, Vector3<f64>),
@@ -384,6 +461,11 @@ pub fn backlash_name(joint: usize) -> String {
     format!("j{}.backlash", joint + 1)
 }
 
+/// The name of a joint's tilting compliance: `j2.tilt`.
+pub fn tilt_name(joint: usize) -> String {
+    format!("j{}.tilt", joint + 1)
+}
+
 /// One coefficient of a [`JointErrors`] model, as an unknown of an identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ErrorParam {
@@ -403,6 +485,8 @@ pub enum ErrorParam {
     /// mm: it moves the payload's gravity torque on every joint, each deflecting by its
     /// compliance.
     PayloadCom(usize),
+    /// The tilting compliance of `tilts[i]`.
+    Tilt(usize),
 }
 
 impl Robot {
@@ -459,6 +543,19 @@ pub struct RawCompliance {
     /// The links' shared weights.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub link_weight: Vec<RawLinkWeight>,
+    /// Tilting compliances.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tilt: Vec<RawTilt>,
+}
+
+/// `[[tilt]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTilt {
+    /// Joint, counted from 1.
+    pub joint: usize,
+    /// Tilting compliance, deg per kN·m of the gravity moment across the joint's axis.
+    pub compliance: f64,
 }
 
 /// `[[link_weight]]` as written.
@@ -541,6 +638,7 @@ impl JointErrors {
             self_weight: Vec::new(),
             backlash: Vec::new(),
             link_weights: Vec::new(),
+            tilts: Vec::new(),
         }
     }
 
@@ -550,6 +648,7 @@ impl JointErrors {
             || !self.self_weight.is_empty()
             || !self.backlash.is_empty()
             || !self.link_weights.is_empty()
+            || !self.tilts.is_empty()
     }
 
     /// The value of one coefficient (internal units).
@@ -562,6 +661,7 @@ impl JointErrors {
             ErrorParam::Backlash(i) => self.backlash[i].value,
             ErrorParam::LinkWeight(i) => self.link_weights[i].value,
             ErrorParam::PayloadCom(axis) => self.payload_com[axis],
+            ErrorParam::Tilt(i) => self.tilts[i].value,
         }
     }
 
@@ -575,6 +675,7 @@ impl JointErrors {
             ErrorParam::Backlash(i) => self.backlash[i].value = v,
             ErrorParam::LinkWeight(i) => self.link_weights[i].value = v,
             ErrorParam::PayloadCom(axis) => self.payload_com[axis] = v,
+            ErrorParam::Tilt(i) => self.tilts[i].value = v,
         }
     }
 
@@ -588,6 +689,7 @@ impl JointErrors {
             ErrorParam::Backlash(i) => self.backlash[i].joint,
             ErrorParam::LinkWeight(i) => self.link_weights[i].body,
             ErrorParam::PayloadCom(_) => self.values.len().saturating_sub(1),
+            ErrorParam::Tilt(i) => self.tilts[i].joint,
         }
     }
 
@@ -610,12 +712,14 @@ impl JointErrors {
                 link_weight_name(w.body, w.part)
             }
             ErrorParam::PayloadCom(axis) => payload_com_name(axis),
+            ErrorParam::Tilt(i) => tilt_name(self.tilts[i].joint),
         }
     }
 
     /// Every coefficient of the model, in order: compliances of every joint, then each
     /// harmonic's sine and cosine, then the self-weight terms, then the backlash terms, then the
-    /// link weights (the payload's centre of mass, a setting unless identified, is not listed).
+    /// link weights, then the tilting compliances (the payload's centre of mass, a setting unless
+    /// identified, is not listed).
     pub fn params(&self) -> Vec<ErrorParam> {
         let mut out: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
         for i in 0..self.harmonics.len() {
@@ -625,6 +729,95 @@ impl JointErrors {
         out.extend((0..self.self_weight.len()).map(ErrorParam::SelfWeight));
         out.extend((0..self.backlash.len()).map(ErrorParam::Backlash));
         out.extend((0..self.link_weights.len()).map(ErrorParam::LinkWeight));
+        out.extend((0..self.tilts.len()).map(ErrorParam::Tilt));
+        out
+    }
+
+    /// Adds tilting compliances (0) for `joints`.
+    pub fn with_tilts(mut self, joints: &[usize]) -> Self {
+        self.tilts
+            .extend(joints.iter().map(|&joint| Tilt { joint, value: 0.0 }));
+        self
+    }
+
+    /// The gravity moment (N·m, world frame) about joint `joint`'s origin of the payload and of
+    /// the links' weights beyond it, less its component along the joint's axis, at the command
+    /// `pose` holds under `load` kg.
+    fn moment_across(&self, pose: &PoseCache, load: f64, joint: usize) -> Vector3<f64> {
+        let Pose { axes, frames, g } = pose.get();
+        let (w, a) = &axes[joint];
+        let mut m = Vector3::zeros();
+        if load != 0.0 {
+            let (r, o) = frames.last().expect("an arm has a joint");
+            let com = o + r * self.payload_com;
+            m += (com - a).cross(&(g * load)) * 1e-3;
+        }
+        for lw in self.link_weights.iter().filter(|lw| lw.body >= joint) {
+            m += lw.value * unit_moment(a, &frames[lw.body], g, lw.part);
+        }
+        across(w, m)
+    }
+
+    /// The turns of the tilting joints at the command `pose` holds under `load` kg.
+    fn turns_at(&self, pose: &PoseCache, load: f64) -> Turns {
+        if self.tilts.is_empty() {
+            return Vec::new();
+        }
+        (self.tilts.iter())
+            .map(|t| {
+                let origin = pose.get().axes[t.joint].1;
+                (t.value * self.moment_across(pose, load, t.joint), origin)
+            })
+            .collect()
+    }
+
+    /// The turns of the tilting joints (rad, world frame, each with the joint's origin it turns
+    /// about, mm) at command `q` (rad) under `load` kg: empty without tilting compliances.
+    pub fn turns(&self, robot: &Robot, q: &[f64], load: f64) -> Turns {
+        self.turns_at(&self.pose(robot, q), load)
+    }
+
+    /// For each of `params` (by position `k`) that turns the parts beyond a tilting joint, the
+    /// turn per unit (rad, world frame) and the joint's origin it turns about, as entries
+    /// `(k, origin, turn)`: a tilting compliance its moment across the axis; a link weight and
+    /// a coordinate of the payload's centre of mass, for every tilting joint they load, the
+    /// joint's compliance times the moment across its axis of the unit quantity.
+    fn turn_basis_at(
+        &self,
+        pose: &PoseCache,
+        load: f64,
+        params: &[ErrorParam],
+    ) -> Vec<(usize, Vector3<f64>, Vector3<f64>)> {
+        let mut out = Vec::new();
+        if self.tilts.is_empty() {
+            return out;
+        }
+        let Pose { axes, frames, g } = pose.get();
+        for (k, &p) in params.iter().enumerate() {
+            match p {
+                ErrorParam::Tilt(i) => {
+                    let joint = self.tilts[i].joint;
+                    out.push((k, axes[joint].1, self.moment_across(pose, load, joint)));
+                }
+                ErrorParam::LinkWeight(i) => {
+                    let lw = &self.link_weights[i];
+                    for t in self.tilts.iter().filter(|t| t.joint <= lw.body) {
+                        let (w, a) = &axes[t.joint];
+                        let unit = unit_moment(a, &frames[lw.body], g, lw.part);
+                        out.push((k, *a, t.value * across(w, unit)));
+                    }
+                }
+                ErrorParam::PayloadCom(axis) if load != 0.0 => {
+                    let (r, _) = frames.last().expect("an arm has a joint");
+                    let unit = r.column(axis).cross(&(g * load)) * 1e-3;
+                    for t in &self.tilts {
+                        let (w, a) = &axes[t.joint];
+                        out.push((k, *a, t.value * across(w, unit)));
+                    }
+                }
+                _ => {}
+            }
+        }
         out
     }
 
@@ -908,7 +1101,8 @@ impl JointErrors {
                             out.push((k, j, self.values[j] * phi));
                         }
                     }
-                }
+                }                // A tilt turns no joint: [`Self::turn_basis_at`].
+                ErrorParam::Tilt(_) => {}
             }
         }
         out
@@ -989,26 +1183,32 @@ impl JointErrors {
             .collect()
     }
 
-    /// The joint angles the arm really takes for command `q` (rad) under `load` kg
-    /// ([`Self::deflected`]) and the basis of `params` there ([`Self::basis`]), the arm's frames
-    /// at `q` computed once for both.
-    pub fn deflected_and_basis(
+    /// What one row of an identification needs at command `q` (rad) under `load` kg, the arm's
+    /// frames at `q` computed once for all: the joint angles the arm really takes
+    /// ([`Self::deflected`]), the basis of `params` there ([`Self::basis`]), the tilting joints'
+    /// turns ([`Self::turns`]) and the turns of `params` per unit.
+    pub fn row_terms(
         &self,
         robot: &Robot,
         q: &[f64],
         load: f64,
         params: &[ErrorParam],
-    ) -> (Vec<f64>, Vec<(usize, usize, f64)>) {
+    ) -> RowTerms {
         let pose = self.pose(robot, q);
-        (
-            self.deflected_at(&pose, load),
-            self.basis_at(&pose, load, params),
-        )
+        RowTerms {
+            deflected: self.deflected_at(&pose, load),
+            basis: self.basis_at(&pose, load, params),
+            turns: self.turns_at(&pose, load),
+            turn_basis: self.turn_basis_at(&pose, load, params),
+        }
     }
 
     /// Jacobian of the point with respect to each of `params` (mm per internal unit), and the
     /// point, at command `q` under `load`: column `k` is the sum, over the joints the coefficient
-    /// turns, of the joint Jacobian's column at the deflected angles times its basis value there.
+    /// turns, of the joint Jacobian's column at the deflected angles times its basis value there,
+    /// plus, over the tilting joints it turns the parts beyond, `t × (p − a)` (`t` its turn per
+    /// unit, `a` the joint's origin; the tilts' own effect on the other columns, micro-radians
+    /// times the column, is left out).
     pub fn param_jacobian(
         &self,
         robot: &Robot,
@@ -1016,21 +1216,26 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> (Vector3<f64>, Matrix3xX<f64>) {
-        let pose = self.pose(robot, q);
-        let qd = self.deflected_at(&pose, load);
-        let joint = robot.joint_jacobian(&qd);
+        let row = self.row_terms(robot, q, load, params);
+        let joint = robot.joint_jacobian(&row.deflected);
+        let p = robot.point(&row.deflected);
         let mut jac = Matrix3xX::zeros(params.len());
-        for (k, j, phi) in self.basis_at(&pose, load, params) {
+        for (k, j, phi) in row.basis {
             let mut column = jac.column_mut(k);
             column += joint.column(j) * phi;
         }
-        (robot.point(&qd), jac)
+        for (k, a, t) in row.turn_basis {
+            let mut column = jac.column_mut(k);
+            column += t.cross(&(p - a));
+        }
+        (turned(&row.turns, p), jac)
     }
 
     /// Jacobian of the tool frame's orientation with respect to each of `params` (rad per
     /// internal unit, world-frame rotation vectors), and the tool frame's rotation, at command
     /// `q` under `load`: column `k` is the sum, over the joints the coefficient turns, of the
-    /// joint's axis at the deflected angles times its basis value there.
+    /// joint's axis at the deflected angles times its basis value there, plus its turns per unit
+    /// of the tilting joints.
     pub fn orientation_param_jacobian(
         &self,
         robot: &Robot,
@@ -1038,25 +1243,41 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> (Matrix3<f64>, Matrix3xX<f64>) {
-        let pose = self.pose(robot, q);
-        let qd = self.deflected_at(&pose, load);
-        let axes = robot.joint_axes(&qd);
+        let row = self.row_terms(robot, q, load, params);
+        let axes = robot.joint_axes(&row.deflected);
         let mut jac = Matrix3xX::zeros(params.len());
-        for (k, j, phi) in self.basis_at(&pose, load, params) {
+        for (k, j, phi) in row.basis {
             let mut column = jac.column_mut(k);
             column += axes.axes[j].0 * phi;
         }
-        (axes.flange_rotation * robot.tool_frame_rotation(), jac)
+        for (k, _, t) in row.turn_basis {
+            let mut column = jac.column_mut(k);
+            column += t;
+        }
+        (
+            turn_rotation(&row.turns) * axes.flange_rotation * robot.tool_frame_rotation(),
+            jac,
+        )
     }
 
     /// The tool frame's orientation for command `q` (rad) under `load` kg, world frame.
     pub fn rotation(&self, robot: &Robot, q: &[f64], load: f64) -> Matrix3<f64> {
-        robot.tool_rotation(&self.deflected(robot, q, load))
+        let pose = self.pose(robot, q);
+        let r = robot.tool_rotation(&self.deflected_at(&pose, load));
+        if self.tilts.is_empty() {
+            return r;
+        }
+        turn_rotation(&self.turns_at(&pose, load)) * r
     }
 
     /// The model's target point for command `q` (rad) under `load` kg, mm, world frame.
     pub fn point(&self, robot: &Robot, q: &[f64], load: f64) -> Vector3<f64> {
-        robot.point(&self.deflected(robot, q, load))
+        let pose = self.pose(robot, q);
+        let p = robot.point(&self.deflected_at(&pose, load));
+        if self.tilts.is_empty() {
+            return p;
+        }
+        turned(&self.turns_at(&pose, load), p)
     }
 
     /// Jacobian of the point with respect to each joint's compliance (mm per rad/(N·m)), and
@@ -1225,6 +1446,29 @@ impl JointErrors {
                 value: w.value,
             });
         }
+        let mut tilts: Vec<Tilt> = Vec::with_capacity(raw.tilt.len());
+        for (i, t) in raw.tilt.iter().enumerate() {
+            let key = format!("tilt[{}]", i + 1);
+            if !(1..=dof).contains(&t.joint) {
+                return Err(invalid(
+                    &key,
+                    format!("joint {} of a robot with {dof} joints", t.joint),
+                ));
+            }
+            if tilts.iter().any(|other| other.joint == t.joint - 1) {
+                return Err(invalid(
+                    &key,
+                    format!("joint {} has a tilting compliance already", t.joint),
+                ));
+            }
+            if !t.compliance.is_finite() {
+                return Err(invalid(&key, "compliance must be a finite number".into()));
+            }
+            tilts.push(Tilt {
+                joint: t.joint - 1,
+                value: t.compliance * DEG_PER_KNM,
+            });
+        }
         Ok(Self {
             values: raw.compliance.iter().map(|c| c * DEG_PER_KNM).collect(),
             gravity: Vector3::from(raw.gravity),
@@ -1233,6 +1477,7 @@ impl JointErrors {
             self_weight,
             backlash,
             link_weights,
+            tilts,
         })
     }
 
@@ -1250,12 +1495,11 @@ impl JointErrors {
     pub fn to_toml_string(&self) -> String {
         // Every number as the one that reads back exactly (the loader's conversions inverted).
         let deg = |v: f64| file_value(v, f64::to_degrees, f64::to_radians);
+        let knm = |c: f64| file_value(c, |c| c / DEG_PER_KNM, |c| c * DEG_PER_KNM);
         let raw = RawCompliance {
             gravity: self.gravity.into(),
             payload_com: self.payload_com.into(),
-            compliance: (self.values.iter())
-                .map(|&c| file_value(c, |c| c / DEG_PER_KNM, |c| c * DEG_PER_KNM))
-                .collect(),
+            compliance: self.values.iter().map(|&c| knm(c)).collect(),
             harmonic: (self.harmonics.iter())
                 .map(|h| RawHarmonic {
                     joint: h.joint + 1,
@@ -1291,6 +1535,12 @@ impl JointErrors {
                     value: w.value,
                 })
                 .collect(),
+            tilt: (self.tilts.iter())
+                .map(|t| RawTilt {
+                    joint: t.joint + 1,
+                    compliance: knm(t.value),
+                })
+                .collect(),
         };
         let body = toml::to_string(&raw).unwrap_or_default();
         let more = if self.has_configuration_terms() {
@@ -1308,7 +1558,10 @@ impl JointErrors {
              # link_weight: the weight of link `body` shared by every joint up to it: its mass\n\
              # (part = mass, kg, at the link frame's origin) or first moment (x, y, z: kg·m along\n\
              # the link frame's axes); each joint deflects by its compliance × the gravity torque\n\
-             # of the payload and of these weights.\n"
+             # of the payload and of these weights.\n\
+             # tilt: the parts beyond the joint turn about its origin, across its axis, by\n\
+             # compliance (deg per kN·m) × the gravity moment across the axis of the payload and\n\
+             # of the link weights beyond it.\n"
         } else {
             ""
         };

@@ -36,9 +36,9 @@ pub mod table;
 
 pub use compliance::{
     Backlash, Compliance, DEG_PER_KNM, ErrorParam, Flank, HARMONIC_REACH, Harmonic, JointErrors,
-    LinkWeight, MomentPart, RawCompliance, SelfWeight, TORQUE_FEATURES_PER_LINK, backlash_name,
-    compliance_name, harmonic_name, link_weight_name, payload_com_name, payload_mass_feature,
-    self_weight_name, torque_side,
+    LinkWeight, MomentPart, RawCompliance, RowTerms, SelfWeight, TORQUE_FEATURES_PER_LINK, Tilt,
+    Turns, backlash_name, compliance_name, harmonic_name, link_weight_name, payload_com_name,
+    payload_mass_feature, self_weight_name, tilt_name, torque_side, turn_rotation, turned,
 };
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};

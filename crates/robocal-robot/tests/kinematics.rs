@@ -558,11 +558,14 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     .with_harmonics(&[0, 1, 3], 2)
     .with_self_weight(&[1, 2], 6)
     .with_backlash(&[0, 3])
-    .with_link_weights(&[1, 2, 4, 5]);
+    .with_link_weights(&[1, 2, 4, 5])
+    .with_tilts(&[0, 1, 2, 4]);
     for (k, p) in e.params().into_iter().enumerate() {
         let v = match p {
             // Links of kilograms, first moments of a fraction of a kg·m.
             ErrorParam::LinkWeight(_) => 3.0 - 0.7 * (k % 5) as f64,
+            // Tilting compliances a few times stiffer than the joints turn.
+            ErrorParam::Tilt(_) => (0.02 + 0.01 * (k % 3) as f64) * DEG_PER_KNM,
             _ => e.param(p) + 1e-4 * ((k % 7) as f64 - 3.0),
         };
         e.set_param(p, v);
@@ -657,30 +660,44 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         );
     }
     // The payload's centre of mass moves the payload's torque on every joint: its columns
-    // (small, a compliance times a load times a lever) against central differences, tightly.
+    // (small, a compliance times a load times a lever) against central differences, tightly
+    // with rigid bearings; with tilting ones to the order of the tilts (the columns leave out
+    // the tilts' turn of the joints' deflections, micro-radians of them).
     let com: Vec<ErrorParam> = (0..3).map(ErrorParam::PayloadCom).collect();
-    let (_, cjac) = e.param_jacobian(&robot, &q, load, &com);
-    let (_, cojac) = e.orientation_param_jacobian(&probe, &q, load, &com);
-    for (k, &param) in com.iter().enumerate() {
-        let h = 1e-2;
-        let (mut up, mut down) = (e.clone(), e.clone());
-        up.set_param(param, e.param(param) + h);
-        down.set_param(param, e.param(param) - h);
-        let fd = (up.point(&robot, &q, load) - down.point(&robot, &q, load)) / (2.0 * h);
-        assert!(
-            fd.norm() > 1e-5 && (fd - cjac.column(k)).norm() < 1e-6 * fd.norm(),
-            "{}: {fd} vs {}",
-            e.param_name(param),
-            cjac.column(k)
-        );
-        let fd = orientation_fd(&up, &down, h);
-        assert!(
-            (fd - cojac.column(k)).norm() < 1e-6 * fd.norm(),
-            "orientation {}: {fd} vs {}",
-            e.param_name(param),
-            cojac.column(k)
-        );
+    let rigid_bearings = JointErrors {
+        tilts: Vec::new(),
+        ..e.clone()
+    };
+    for (e, tolerance) in [(&rigid_bearings, 1e-6), (&e, 5e-4)] {
+        let (_, cjac) = e.param_jacobian(&robot, &q, load, &com);
+        let (_, cojac) = e.orientation_param_jacobian(&probe, &q, load, &com);
+        for (k, &param) in com.iter().enumerate() {
+            let h = 1e-2;
+            let (mut up, mut down) = (e.clone(), e.clone());
+            up.set_param(param, e.param(param) + h);
+            down.set_param(param, e.param(param) - h);
+            let fd = (up.point(&robot, &q, load) - down.point(&robot, &q, load)) / (2.0 * h);
+            assert!(
+                fd.norm() > 1e-5 && (fd - cjac.column(k)).norm() < tolerance * fd.norm(),
+                "{}: {fd} vs {}",
+                e.param_name(param),
+                cjac.column(k)
+            );
+            let fd = orientation_fd(&up, &down, h);
+            assert!(
+                (fd - cojac.column(k)).norm() < tolerance * fd.norm(),
+                "orientation {}: {fd} vs {}",
+                e.param_name(param),
+                cojac.column(k)
+            );
+        }
     }
+    // The tilts' part of those columns matters: without it they would miss the differences
+    // by several times the tolerance.
+    let (_, without) = rigid_bearings.param_jacobian(&robot, &q, load, &com);
+    let (_, with) = e.param_jacobian(&robot, &q, load, &com);
+    let ratio = (with - &without).norm() / without.norm();
+    assert!(ratio > 2e-3, "{ratio}");
     assert_eq!(e.param_name(ErrorParam::PayloadCom(2)), "payload_com.z");
     // Without a load the payload's centre of mass moves nothing.
     let (_, unloaded) = e.param_jacobian(&robot, &q, 0.0, &com);
@@ -718,6 +735,7 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             && text.contains("[[self_weight]]")
             && text.contains("[[backlash]]")
             && text.contains("[[link_weight]]")
+            && text.contains("[[tilt]]")
     );
     let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
     assert_eq!(back.params(), e.params());
@@ -744,6 +762,59 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         err.contains("link_weight[1]") && err.contains("body 7"),
         "{err}"
     );
+}
+
+/// A tilting compliance, by hand: a vertical joint holding 10 kg one metre out feels 98 N·m
+/// across its axis (none about it); at 1e-5 rad/(N·m) the arm tilts about its origin by
+/// 0.98 mrad, so the point sinks by 0.98 mm, with no load not at all, and the tool frame turns
+/// by the same angle about the horizontal across the arm. The links' weights add their moment
+/// (a 2 kg link half-way out: 9.8 N·m more); a joint's own turn (its compliance about the
+/// axis) meets none of this moment. The file keeps it; a second tilt of one joint is refused.
+#[test]
+fn a_tilting_joint_sinks_by_its_compliance_times_the_moment_across_its_axis() {
+    use robocal_robot::{ErrorParam, JointErrors, LinkWeight, MomentPart};
+    let robot = Robot::from_toml_str(
+        "name = \"arm\"\n[base]\nxyz = [0, 0, 0]\nrpy = [0, 0, 0]\n[tool]\nxyz = [1000, 0, 0]\n\
+         rpy = [0, 0, 0]\n[[joint]]\na = 0\nalpha = 0\nd = 0\ntheta = 0\n",
+        "arm.toml",
+    )
+    .unwrap();
+    let g = Vector3::new(0.0, 0.0, -9.80665);
+    let payload = Vector3::new(1000.0, 0.0, 0.0);
+    let mut e = JointErrors::new(vec![0.0], g, payload).with_tilts(&[0]);
+    e.set_param(ErrorParam::Tilt(0), 1e-5);
+    let q = [0.3];
+    let rigid = robot.point(&q);
+    let sag = rigid.z - e.point(&robot, &q, 10.0).z;
+    assert!((sag - 0.980665).abs() < 1e-9, "{sag}");
+    assert!((e.point(&robot, &q, 10.0).xy() - rigid.xy()).norm() < 1e-9);
+    assert_eq!(e.point(&robot, &q, 0.0), rigid);
+    // The tool frame turns by 0.98 mrad about the horizontal across the arm.
+    let turn = robocal_robot::rotation_vector(
+        &(e.rotation(&robot, &q, 10.0) * robot.tool_rotation(&q).transpose()),
+    );
+    let across = Vector3::new(-q[0].sin(), q[0].cos(), 0.0);
+    assert!((turn - across * 9.80665e-4).norm() < 1e-12, "{turn}");
+    // A 2 kg link whose weight acts 500 mm out (its first moment along its frame's x).
+    e.link_weights.push(LinkWeight {
+        body: 0,
+        part: MomentPart::X,
+        value: 1.0,
+    });
+    let sag = rigid.z - e.point(&robot, &q, 10.0).z;
+    assert!((sag - 1.0787315).abs() < 1e-9, "{sag}");
+    // A compliance about the axis: gravity has no torque about a vertical axis.
+    e.values[0] = 1e-3;
+    assert!((rigid.z - e.point(&robot, &q, 10.0).z - 1.0787315).abs() < 1e-9);
+    let text = e.to_toml_string();
+    assert!(text.contains("[[tilt]]\njoint = 1\n"), "{text}");
+    let back = JointErrors::from_toml_str(&text, "c.toml", 1).unwrap();
+    assert_eq!(back.tilts, e.tilts);
+    let twice = format!("{text}\n[[tilt]]\njoint = 1\ncompliance = 0.1\n");
+    let err = JointErrors::from_toml_str(&twice, "m/c.toml", 1)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("m/c.toml") && err.contains("tilt[2]"), "{err}");
 }
 
 /// Backlash on the flank of the approach from home: `+value` at or above home, `−value` below,
