@@ -128,6 +128,11 @@ pub struct JointErrorSettings {
     pub backlash_torque: bool,
     /// Each joint's flank, when already chosen (the second run).
     pub flanks: Option<Vec<Flank>>,
+    /// The tilting compliance of every joint ([`robocal_robot::Tilt`]: the parts beyond it turn
+    /// across its axis under the gravity moment of the payload and of the links' weights; a
+    /// joint whose tilt the poses do not separate from the rest is held rigid, and so is one
+    /// that comes out negative or no larger than its σ).
+    pub tilt: bool,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
     pub gravity: Vector3<f64>,
@@ -144,6 +149,7 @@ impl Default for JointErrorSettings {
             backlash_home: None,
             backlash_torque: true,
             flanks: None,
+            tilt: false,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
     }
@@ -394,6 +400,10 @@ pub struct KinematicReport {
     /// What the user should know about the data's ability to determine the parameters.
     pub warnings: Vec<String>,
 }
+
+/// The tilting compliances' start, as a share of the joints' compliances ([`JointErrorSettings::tilt`]):
+/// reducer and bearing catalogues give moment stiffnesses several times the torsional one.
+pub const TILT_START_SHARE: f64 = 0.2;
 
 /// Largest amplitude (deg) a transmission harmonic may take: gear reducers' kinematic errors
 /// are hundredths of a degree; a harmonic identified beyond this is held at zero.
@@ -713,6 +723,7 @@ fn joint_error_reports(
                     ErrorParam::SelfWeight(_) => "deg per basis unit",
                     ErrorParam::LinkWeight(i) => model.link_weights[i].part.weight_unit(),
                     ErrorParam::PayloadCom(_) => "mm",
+                    ErrorParam::Tilt(_) => "deg per kN·m",
                     _ => "deg",
                 },
                 value: in_file_unit(p, model.param(p)),
@@ -724,10 +735,12 @@ fn joint_error_reports(
 }
 
 /// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m and
-/// the payload's centre of mass's mm as they are, the rest from radians to degrees.
+/// the payload's centre of mass's mm as they are, a tilting compliance in deg per kN·m, the rest
+/// from radians to degrees.
 fn in_file_unit(p: ErrorParam, value: f64) -> f64 {
     match p {
         ErrorParam::LinkWeight(_) | ErrorParam::PayloadCom(_) => value,
+        ErrorParam::Tilt(_) => value / DEG_PER_KNM,
         _ => value.to_degrees(),
     }
 }
@@ -809,6 +822,11 @@ fn joint_error_start(
             }
             params.extend((first..model.backlash.len()).map(ErrorParam::Backlash));
         }
+        if je.tilt {
+            let first = model.tilts.len();
+            model = model.with_tilts(&(0..dof).collect::<Vec<_>>());
+            params.extend((first..model.tilts.len()).map(ErrorParam::Tilt));
+        }
         start = Some(model);
     }
     // The compliances a first fit found, and the payload's centre of mass, which moves nothing
@@ -823,6 +841,18 @@ fn joint_error_start(
         }
         if c.identify_payload_com {
             params.extend((0..3).map(ErrorParam::PayloadCom));
+        }
+        // The tilts start at a share of the compliances (a bearing is stiffer across its axis
+        // than its reducer about it), each joint without one at their mean: at zero tilt the
+        // links' weights would tilt nothing, and the identifiability analysis, made at the
+        // start, would hold a weight the geometry absorbs for the torsion alone at zero.
+        let positive: Vec<f64> = model.values.iter().copied().filter(|v| *v > 0.0).collect();
+        if !positive.is_empty() && c.start.is_some() {
+            let mean = positive.iter().sum::<f64>() / positive.len() as f64;
+            for t in &mut model.tilts {
+                let own = model.values[t.joint];
+                t.value = TILT_START_SHARE * if own > 0.0 { own } else { mean };
+            }
         }
     }
     Ok((start, params))
@@ -885,13 +915,17 @@ fn solve_gated(
             None
         };
         let implausible = |p: usize| -> Option<String> {
-            let Column::Compliance(j) = kept[p] else {
-                return None;
+            let value = match kept[p] {
+                Column::Compliance(j) => model.values[j],
+                Column::Tilt(j) => (model.tilts.iter())
+                    .find(|t| t.joint == j)
+                    .map_or(0.0, |t| t.value),
+                _ => return None,
             };
             if !gate {
                 return None;
             }
-            let value = model.values[j] / DEG_PER_KNM;
+            let value = value / DEG_PER_KNM;
             let std = std_u
                 .as_ref()
                 .map(|s| (s[p] * problem.scale()[p] / DEG_PER_KNM).abs());
@@ -938,6 +972,10 @@ fn solve_gated(
                 Column::PayloadCom(axis) => format!(
                     "held at its start: it came out at {:.0} mm, beyond the {PAYLOAD_COM_BOUND} mm from the flange a payload's centre of mass can lie (an effect it does not model, or loads that barely determine it)",
                     model.payload_com[axis]
+                ),
+                Column::Tilt(_) => format!(
+                    "implausible: its tilting compliance {}; held rigid",
+                    implausible(p).unwrap_or_default()
                 ),
                 _ => format!(
                     "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), held rigid",
@@ -1070,6 +1108,7 @@ pub fn calibrate_kinematics(
     // whole model) gives the compliances the one with them starts from (at zero compliance they
     // move nothing, and the identifiability analysis would hold them at zero).
     let link_weights = (settings.joint_errors.as_ref()).is_some_and(|je| je.link_weights);
+    let tilt = (settings.joint_errors.as_ref()).is_some_and(|je| je.tilt);
     if link_weights && settings.compliance.is_none() {
         return Err(IdentError::Compliance(
             "link weights act through the joint compliances: identify the compliances too".into(),
@@ -1077,7 +1116,7 @@ pub fn calibrate_kinematics(
     }
     if let Some(c) = &settings.compliance
         && c.start.is_none()
-        && (link_weights || c.identify_payload_com)
+        && (link_weights || tilt || c.identify_payload_com)
     {
         let mut first = settings.clone();
         first
@@ -1088,6 +1127,7 @@ pub fn calibrate_kinematics(
         if let Some(je_first) = first.joint_errors.as_mut() {
             je_first.link_weights = false;
             je_first.backlash = false;
+            je_first.tilt = false;
             if !(je_first.harmonics > 0 || je_first.self_weight) {
                 first.joint_errors = None;
             }

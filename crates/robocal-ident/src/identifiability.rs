@@ -6,7 +6,7 @@ use faer::Mat;
 use faer::linalg::solvers::Solve;
 use robocal_robot::{
     ErrorParam, JointErrors, JointField, MomentPart, ParamId, backlash_name, compliance_name,
-    harmonic_name, link_weight_name, payload_com_name, self_weight_name,
+    harmonic_name, link_weight_name, payload_com_name, self_weight_name, tilt_name,
 };
 
 /// Result of [`analyse`].
@@ -59,6 +59,8 @@ pub enum Column {
     },
     /// A coordinate (0: x, 1: y, 2: z) of the payload's centre of mass in the flange frame.
     PayloadCom(usize),
+    /// The tilting compliance of a joint (0-based).
+    Tilt(usize),
 }
 
 impl Column {
@@ -82,6 +84,7 @@ impl Column {
                 part: errors.link_weights[i].part,
             },
             ErrorParam::PayloadCom(axis) => Self::PayloadCom(axis),
+            ErrorParam::Tilt(i) => Self::Tilt(errors.tilts[i].joint),
         }
     }
 }
@@ -106,6 +109,7 @@ impl std::fmt::Display for Column {
             Self::Backlash(j) => f.write_str(&backlash_name(*j)),
             Self::LinkWeight { body, part } => f.write_str(&link_weight_name(*body, *part)),
             Self::PayloadCom(axis) => f.write_str(&payload_com_name(*axis)),
+            Self::Tilt(j) => f.write_str(&tilt_name(*j)),
         }
     }
 }
@@ -126,6 +130,7 @@ fn priority(column: Column) -> (usize, usize, usize) {
         Column::Backlash(j) => return (6, j, 0),
         Column::LinkWeight { body, part } => return (7, body, part as usize),
         Column::PayloadCom(axis) => return (8, axis, 0),
+        Column::Tilt(j) => return (9, j, 0),
     };
     match id {
         ParamId::Base(a) => (0, 0, a),

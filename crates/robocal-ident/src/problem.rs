@@ -13,7 +13,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use robocal_data::MeasurementSet;
 use robocal_robot::{
     Compliance, ErrorParam, JointErrors, JointField, ParamId, Robot, left_jacobian_inverse,
-    rotation_vector, rpy_to_matrix,
+    rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
 /// Measured points with their joint readings and loads.
@@ -322,14 +322,22 @@ impl<'a> CalibrationProblem<'a> {
             let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
             let p = match compliance {
                 Some(c) => {
-                    let (deflected, basis) = c.deflected_and_basis(robot, q, load, params);
-                    let p = robot.write_param_jacobian_at(&deflected, t, &mut full, 3 * i);
-                    for (k, j, phi) in basis {
+                    let row = c.row_terms(robot, q, load, params);
+                    let p = robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * i);
+                    for (k, j, phi) in row.basis {
                         for a in 0..3 {
                             cjac[(3 * i + a, k)] += full[(3 * i + a, theta[j])] * phi;
                         }
                     }
-                    p
+                    // A tilt turns the parts beyond its joint about the joint's origin (the
+                    // geometry's columns leave out the micro-radians it turns them by).
+                    for (k, origin, turn) in row.turn_basis {
+                        let column = turn.cross(&(p - origin));
+                        for a in 0..3 {
+                            cjac[(3 * i + a, k)] += column[a];
+                        }
+                    }
+                    turned(&row.turns, p)
                 }
                 None => robot.write_param_jacobian_at(q, t, &mut full, 3 * i),
             };
@@ -344,7 +352,12 @@ impl<'a> CalibrationProblem<'a> {
                     let (_, jac) = c.orientation_param_jacobian(robot, q, load, params);
                     cjac.view_mut((row, 0), (3, params.len())).copy_from(&jac);
                     let deflected = c.deflected(robot, q, load);
-                    robot.write_orientation_jacobian(&deflected, &mut full, row)
+                    let rot = robot.write_orientation_jacobian(&deflected, &mut full, row);
+                    if c.tilts.is_empty() {
+                        rot
+                    } else {
+                        turn_rotation(&c.turns(robot, q, load)) * rot
+                    }
                 }
                 None => robot.write_orientation_jacobian(q, &mut full, row),
             };

@@ -326,9 +326,12 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         .collect();
     // Nominal, kinematic, compliance; each joint-error block alone, then (once one was kept)
     // each remaining one added to the kept ones, for as long as one is kept: at most 2 + 1;
-    // the two residual models.
+    // then the tilting compliances on the chosen physics (it holds the compliances: the twin
+    // has six loads); the two residual models.
     let physical = names.len() - 2;
-    assert!((6..=9).contains(&physical), "{names:?}");
+    assert!((7..=10).contains(&physical), "{names:?}");
+    let tilt = physical - 1;
+    assert!(names[tilt].ends_with(" + tilt"), "{names:?}");
     assert_eq!(names[1], "kinematic");
     let blocks = |name: &str| {
         [" + harmonics 2", " + self-weight", " + backlash"]
@@ -339,9 +342,27 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     assert!(names[3].ends_with("compliance + harmonics 2"), "{names:?}");
     assert!(names[4].ends_with("compliance + self-weight"), "{names:?}");
     assert!(names[5].ends_with("compliance + backlash"), "{names:?}");
-    for name in &names[6..physical] {
+    for name in &names[6..tilt] {
         assert!(blocks(name) >= 2, "{names:?}");
     }
+    // The tilt is tried on the physics the chain had chosen without it.
+    let before = names[tilt].trim_end_matches(" + tilt");
+    let tilt_decision = (selection.decisions.iter())
+        .find(|d| d.stage == "tilt")
+        .unwrap();
+    assert_eq!(
+        tilt_decision.held_out_with,
+        selection.candidates[tilt].score,
+        "{tilt_decision:?}"
+    );
+    assert_eq!(
+        tilt_decision.held_out_without,
+        (selection.candidates.iter())
+            .find(|c| c.name == before)
+            .unwrap()
+            .score,
+        "{names:?}"
+    );
     assert!(
         names[physical].ends_with("+ gp") && names[physical + 1].ends_with("+ somm"),
         "{names:?}"
@@ -434,7 +455,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     );
     let errors = decision("joint_errors");
     assert!(
-        (selection.candidates[3..physical].iter()).any(|c| c.score == errors.held_out_with),
+        (selection.candidates[3..tilt].iter()).any(|c| c.score == errors.held_out_with),
         "{errors:?}"
     );
     assert!(chosen[0].score <= selection.candidates[1].score);
@@ -449,17 +470,22 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     // What was chosen is what the model holds, fitted on every row.
     let with_compliance = chosen[0].name.contains("compliance");
     let with_errors = blocks(&chosen[0].name) > 0;
+    let with_tilt = chosen[0].name.contains(" + tilt");
     assert_eq!(
         built.kinematic.compliance.is_some(),
         with_compliance || with_errors
     );
     assert_eq!(built.kinematic.report.compliance.is_some(), with_compliance);
-    assert_eq!(!built.kinematic.report.joint_errors.is_empty(), with_errors);
+    assert_eq!(
+        !built.kinematic.report.joint_errors.is_empty(),
+        with_errors || with_tilt
+    );
     let terms =
         |kind: &str| (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind));
     assert_eq!(terms(".h"), chosen[0].name.contains("harmonics"));
     assert_eq!(terms(".sw"), chosen[0].name.contains("self-weight"));
     assert_eq!(terms(".backlash"), chosen[0].name.contains("backlash"));
+    assert_eq!(terms(".tilt"), with_tilt);
     let residual = chosen[0].name.ends_with("gp") || chosen[0].name.ends_with("somm");
     assert_eq!(built.residual.is_some(), residual);
     let kept = |stage: &str| {
@@ -470,6 +496,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     };
     assert_eq!(kept("residual"), residual);
     assert_eq!(kept("joint_errors"), with_errors);
+    assert_eq!(kept("tilt"), with_tilt);
     assert_eq!(kept("compliance"), with_compliance);
     if with_compliance {
         assert_eq!(built.kinematic.report.points, rows.len());

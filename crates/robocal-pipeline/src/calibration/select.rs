@@ -103,6 +103,10 @@ pub struct AutoSettings {
     /// Backlash tried with the geometry (each joint on the flank of its approach from home or on
     /// the one its torque presses).
     pub backlash: bool,
+    /// Tilting compliances tried last, on the chosen physics when it holds the compliances: the
+    /// parts beyond each joint turning across its axis under the gravity moment of the payload
+    /// and of the links' weights (when identified).
+    pub tilt: bool,
     /// The residual models tried, each on top of the best physical model.
     pub residuals: Vec<ResidualStage>,
     /// Seconds the selection may take: a candidate whose folds would run past it (projected
@@ -140,6 +144,7 @@ impl Default for AutoSettings {
             harmonics: 2,
             self_weight: true,
             backlash: true,
+            tilt: true,
             residuals: vec![
                 ResidualStage {
                     settings: ResidualSettings::gp(seed),
@@ -172,6 +177,8 @@ struct Physics {
     /// Backlash (each joint on the flank of its approach from home or on the one its torque
     /// presses).
     backlash: bool,
+    /// Tilting compliances.
+    tilt: bool,
 }
 
 impl Physics {
@@ -181,6 +188,7 @@ impl Physics {
         harmonics: 0,
         self_weight: false,
         backlash: false,
+        tilt: false,
     };
     const RIGID: Self = Self {
         aligned: false,
@@ -204,12 +212,15 @@ impl Physics {
         if self.backlash {
             name += " + backlash";
         }
+        if self.tilt {
+            name += " + tilt";
+        }
         name
     }
 
     /// Whether it holds any joint-error block.
     fn has_joint_errors(self) -> bool {
-        self.harmonics > 0 || self.self_weight || self.backlash
+        self.harmonics > 0 || self.self_weight || self.backlash || self.tilt
     }
 
     /// Every block of `self` and of `other`.
@@ -218,6 +229,7 @@ impl Physics {
             harmonics: self.harmonics.max(other.harmonics),
             self_weight: self.self_weight || other.self_weight,
             backlash: self.backlash || other.backlash,
+            tilt: self.tilt || other.tilt,
             ..self
         }
     }
@@ -239,6 +251,9 @@ impl Physics {
         }
         if self.backlash {
             parts.push("backlash (each joint on the flank of its approach from home or on the one its torque presses)".to_string());
+        }
+        if self.tilt {
+            parts.push("tilting compliances (the parts beyond each joint turning across its axis under the gravity moment there)".to_string());
         }
         let parts = match parts.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
@@ -275,6 +290,7 @@ impl Physics {
                 self_weight: self.self_weight && !self.compliance,
                 link_weights: self.self_weight && self.compliance,
                 backlash: self.backlash,
+                tilt: self.tilt,
                 gravity,
                 ..JointErrorSettings::default()
             }),
@@ -582,6 +598,7 @@ fn physics_chain(
         harmonics: 0,
         self_weight: false,
         backlash: false,
+        tilt: false,
         ..base
     };
     let blocks: Vec<Physics> = [
@@ -645,6 +662,17 @@ fn physics_chain(
         chain.take("joint_errors", tried[best], groups);
         kept = (chain.current == tried[best]).then(|| chain.scored[tried[best]].physics);
         remaining.remove(best);
+    }
+    // Last, the bearings' tilt on the chosen physics (with the compliances: the payload's moment
+    // and, where the links' weights were kept, theirs): one candidate more, kept only if it
+    // lowers the held-out errors significantly.
+    let current = chain.scored[chain.current].physics;
+    if settings.tilt && current.compliance && !current.aligned {
+        let tilted = Physics {
+            tilt: true,
+            ..current
+        };
+        chain.step("tilt", score(tilted), groups);
     }
     debug_assert!(
         (chain.scored.iter().zip(candidates.iter())).all(|(s, c)| s.physics.name() == c.name)
@@ -807,7 +835,7 @@ fn decision(
     }
 }
 
-/// One decision per stage — kinematic, compliance, joint errors, residual — each comparing the
+/// One decision per stage — kinematic, compliance, joint errors, tilt, residual — each comparing the
 /// model the stage was tried on with the model with it.
 fn decisions(
     settings: &AutoSettings,
@@ -865,7 +893,7 @@ fn decisions(
                 })
         })
         .copied();
-    let has_errors = chosen.has_joint_errors();
+    let has_errors = chosen.harmonics > 0 || chosen.self_weight || chosen.backlash;
     out.push(match (joint_errors.first(), with) {
         (Some(first), Some(step)) => decision(
             "joint_errors",
@@ -886,6 +914,26 @@ fn decisions(
             None,
             None,
             "not tried (no harmonics, self-weight or backlash in the settings), or every fit failed",
+        ),
+    });
+    out.push(match steps("tilt").first() {
+        Some(step) => decision(
+            "tilt",
+            chosen.tilt,
+            score(step.base),
+            score(step.next),
+            "tilting compliances identified with the geometry: the parts beyond each joint turning across its axis under the gravity moment of the payload and of the links' weights",
+        ),
+        None => decision(
+            "tilt",
+            false,
+            None,
+            None,
+            if settings.tilt {
+                "not tried: the chosen physics holds no compliances"
+            } else {
+                "not tried (not in the settings)"
+            },
         ),
     });
     let physics_mean = score(chain.current).unwrap_or(f64::INFINITY);
