@@ -125,7 +125,9 @@ impl Pool {
                         Unit::Mm => ("mm", 1.0),
                         Unit::Rad => ("deg", 180.0 / std::f64::consts::PI),
                     },
-                    Column::Compliance(_) => ("deg/kN·m", 180.0 / std::f64::consts::PI * 1000.0),
+                    Column::Compliance(_) | Column::Tilt(_) => {
+                        ("deg/kN·m", 180.0 / std::f64::consts::PI * 1000.0)
+                    }
                     Column::Harmonic { .. } | Column::Backlash(_) => {
                         ("deg", 180.0 / std::f64::consts::PI)
                     }
