@@ -146,6 +146,7 @@ pub fn run(
             .into_iter()
             .chain(backlash_lines(errors))
             .chain(link_weight_lines(errors))
+            .chain(tilt_lines(errors))
         {
             eprintln!("robocal: {line}");
         }
@@ -262,6 +263,20 @@ fn link_weight_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                 "link {} weight (through the joints' compliances): {}",
                 parts[0].body + 1,
                 values.join(", ")
+            )
+        })
+        .collect()
+}
+
+/// One line per joint with an identified tilting compliance.
+fn tilt_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+    (errors.tilts.iter())
+        .filter(|t| t.value != 0.0)
+        .map(|t| {
+            format!(
+                "joint {} tilting compliance {:.4} deg/kN·m (the parts beyond it turning across its axis under the gravity moment there)",
+                t.joint + 1,
+                t.value / robocal_robot::DEG_PER_KNM
             )
         })
         .collect()

@@ -319,6 +319,11 @@ fn every_command_refuses_bad_input_cleanly() {
             "[residual]\nmodel = \"somm\"\n[residual.x]\nhidden = [3]\nactivation = \"tanh\"\nlearning_rate = -1.0\n",
             &["stage-rate.toml", "residual.x.learning_rate"],
         ),
+        (
+            "stage-tilt.toml",
+            "[kinematic]\nsolver = \"lm\"\n[joint_errors]\nharmonics = 0\ntilt = true\n",
+            &["stage-tilt.toml", "joint_errors.tilt", "[compliance]"],
+        ),
     ];
     for (name, text, needles) in stage_cases {
         let config = write(d, name, text);

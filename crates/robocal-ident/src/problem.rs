@@ -422,12 +422,22 @@ impl<'a> CalibrationProblem<'a> {
     /// parameters, then the compliances), keeping their scales: no new Jacobian is computed.
     pub fn restricted(&self, positions: &[usize]) -> Self {
         let ng = self.selected.len();
-        let compliance = self.compliance.as_ref().map(|c| ComplianceFit {
-            start: c.start.clone(),
-            params: (positions.iter())
+        let compliance = self.compliance.as_ref().map(|c| {
+            let params: Vec<ErrorParam> = (positions.iter())
                 .filter(|&&p| p >= ng)
                 .map(|&p| c.params[p - ng])
-                .collect(),
+                .collect();
+            // A tilt left out is rigid: it starts above zero only so that the identifiability
+            // analysis sees the links' weights tilt the joints.
+            let mut start = c.start.clone();
+            for &p in &c.params {
+                if let ErrorParam::Tilt(i) = p
+                    && !params.contains(&p)
+                {
+                    start.tilts[i].value = 0.0;
+                }
+            }
+            ComplianceFit { start, params }
         });
         let mut order: Vec<usize> = positions.iter().copied().filter(|&p| p < ng).collect();
         order.extend(positions.iter().copied().filter(|&p| p >= ng));

@@ -198,6 +198,8 @@ pub struct RawJointErrorStage {
     /// The readings (deg, one per joint) the measurement program moved the joints out from to
     /// every pose; absent: 0 for every joint. Only with `backlash = true`.
     pub backlash_home: Option<Vec<f64>>,
+    /// Tilting compliances of every joint (default false; needs `[compliance]`).
+    pub tilt: Option<bool>,
 }
 
 /// Highest harmonic order a stage may ask for.
@@ -222,6 +224,7 @@ impl RawJointErrorStage {
         s.self_weight = self.self_weight.unwrap_or(false);
         s.link_weights = self.link_weights.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
+        s.tilt = self.tilt.unwrap_or(false);
         // The backlash settings mean nothing without backlash.
         for (key, given) in [
             (
@@ -263,6 +266,7 @@ impl RawJointErrorStage {
             backlash_torque: Some(settings.backlash_torque),
             backlash_home: (settings.backlash_home.as_ref())
                 .map(|h| h.iter().map(|h| h.to_degrees()).collect()),
+            tilt: settings.tilt.then_some(true),
         }
     }
 }

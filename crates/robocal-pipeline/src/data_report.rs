@@ -168,6 +168,9 @@ fn parts(model: &CalibratedModel) -> Vec<String> {
         if !e.backlash.is_empty() {
             blocks.push("backlash");
         }
+        if !e.tilts.is_empty() {
+            blocks.push("tilting compliance");
+        }
         parts.push(format!("joint errors: {}", blocks.join(", ")));
     }
     if let Some(r) = &model.residual {

@@ -70,6 +70,16 @@ impl RawStages {
                 "the links' weights act through the joint compliances: add [compliance]",
             ));
         }
+        if kinematic
+            .joint_errors
+            .as_ref()
+            .is_some_and(|je| je.tilt && kinematic.compliance.is_none())
+        {
+            return Err(Invalid::new(
+                "joint_errors.tilt",
+                "the tilts start from the joint compliances and meet the same moments: add [compliance]",
+            ));
+        }
         let residual = match &self.residual {
             None => None,
             Some(raw) => {

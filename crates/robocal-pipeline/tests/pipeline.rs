@@ -298,6 +298,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let settings = AutoSettings {
         folds: 3,
         min_residual_configurations: 10,
+        tilt: true,
         residuals: vec![
             ResidualStage {
                 settings: gp,
@@ -351,8 +352,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         .find(|d| d.stage == "tilt")
         .unwrap();
     assert_eq!(
-        tilt_decision.held_out_with,
-        selection.candidates[tilt].score,
+        tilt_decision.held_out_with, selection.candidates[tilt].score,
         "{tilt_decision:?}"
     );
     assert_eq!(

@@ -122,7 +122,9 @@ pub struct RowTerms {
 
 /// `p` (mm) moved by `turns`, to first order (the turns are micro-radians): `p + Σ t × (p − a)`.
 pub fn turned(turns: &[(Vector3<f64>, Vector3<f64>)], p: Vector3<f64>) -> Vector3<f64> {
-    turns.iter().fold(p, |moved, (t, a)| moved + t.cross(&(p - a)))
+    turns
+        .iter()
+        .fold(p, |moved, (t, a)| moved + t.cross(&(p - a)))
 }
 
 /// The rotation of every turn of `turns` together (the identity without any).
@@ -1101,7 +1103,7 @@ impl JointErrors {
                             out.push((k, j, self.values[j] * phi));
                         }
                     }
-                }                // A tilt turns no joint: [`Self::turn_basis_at`].
+                } // A tilt turns no joint: [`Self::turn_basis_at`].
                 ErrorParam::Tilt(_) => {}
             }
         }
