@@ -103,10 +103,12 @@ pub fn compensate(
         position_tolerance: options.tolerance * 1e-2,
         ..IkOptions::default()
     };
-    // The residual and the deflection at the current command, evaluated once per iteration:
-    // they set the next aim and, with the kinematics, the model's error there.
+    // The residual (with the bearings' tilts, which move the point but turn no joint) and the
+    // deflection at the current command, evaluated once per iteration: they set the next aim
+    // and, with the kinematics, the model's error there.
+    let offset = |q: &[f64]| model.residual_at(q, load) + model.turn_offset(q, load);
     let mut q = seed;
-    let mut r = model.residual_at(&q, load);
+    let mut r = offset(&q);
     let mut bend = model.deflection(&q, load);
     let mut error = f64::INFINITY;
     for iteration in 1..=options.max_iterations {
@@ -136,7 +138,7 @@ pub fn compensate(
             });
         }
         q = next;
-        r = model.residual_at(&q, load);
+        r = offset(&q);
         bend = model.deflection(&q, load);
         error = (robot.point(&add(&q, &bend)) + r - target).norm();
         if error < options.tolerance {

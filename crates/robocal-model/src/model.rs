@@ -70,6 +70,19 @@ impl CalibratedModel {
             .point_under_load(self.joint_errors.as_ref(), q, load)
     }
 
+    /// What the joint errors move the point by besides the joint angles at command `q` (rad)
+    /// under `load`, mm, world frame: the bearings' tilts ([`robocal_robot::Tilt`]; zero
+    /// without any) — the physical point less the table's at the deflected angles.
+    pub fn turn_offset(&self, q: &[f64], load: f64) -> Vector3<f64> {
+        match &self.joint_errors {
+            Some(e) if !e.tilts.is_empty() => {
+                let deflected = e.deflected(&self.robot, q, load);
+                self.physical_point(q, load) - self.robot.point(&deflected)
+            }
+            _ => Vector3::zeros(),
+        }
+    }
+
     /// The residual model's predicted error at command `q` (rad) and `load`, mm (zero without
     /// one).
     pub fn residual_at(&self, q: &[f64], load: f64) -> Vector3<f64> {
