@@ -1211,6 +1211,17 @@ fn calibrate_prints_and_saves_the_harmonics_reach() {
     assert!(printed >= 3, "{stderr}");
 }
 
+/// The bundled twin at 40 configurations, 0 and 20 kg, with only its joints' compliance on
+/// (geometry errors, no noise).
+fn compliance_only_twin() -> String {
+    crate::common::bundled_twin(40, "")
+        .replace("enabled = true", "enabled = false")
+        .replace(
+            "[compliance]\nenabled = false",
+            "[compliance]\nenabled = true",
+        )
+}
+
 /// A stage config with tilting compliances on a twin whose bearings tilt (its `[beyond]` tilt,
 /// 5× stiffer across the axes than the joints about them; compliance on, every other effect
 /// off, noise-free, 0 and 20 kg): calibrate prints each identified tilt, saves them in
@@ -1220,12 +1231,7 @@ fn calibrate_prints_and_saves_the_harmonics_reach() {
 #[test]
 fn a_stage_config_with_tilts_identifies_prints_and_saves_them() {
     let dir = tempfile::tempdir().unwrap();
-    let twin = crate::common::bundled_twin(40, "")
-        .replace("enabled = true", "enabled = false")
-        .replace(
-            "[compliance]\nenabled = false",
-            "[compliance]\nenabled = true",
-        );
+    let twin = compliance_only_twin();
     let twin = format!(
         "{twin}\n[beyond]\nenabled = true\ntilt_stiffness = [2.0e7, 3.75e6, 2.1e6, 7.5e5, 6.0e5, 5.0e5]\n\
          wobble = [0, 0, 0, 0, 0, 0]\nwobble_phase = [0, 0, 0, 0, 0, 0]\nharmonic_3 = [0, 0, 0, 0, 0, 0]\n\
@@ -1293,12 +1299,7 @@ fn a_stage_config_with_tilts_identifies_prints_and_saves_them() {
 #[test]
 fn calibrate_identifies_prints_and_saves_the_payload_centre_of_mass() {
     let dir = tempfile::tempdir().unwrap();
-    let twin = crate::common::bundled_twin(40, "")
-        .replace("enabled = true", "enabled = false")
-        .replace(
-            "[compliance]\nenabled = false",
-            "[compliance]\nenabled = true",
-        );
+    let twin = compliance_only_twin();
     let twin = write(dir.path(), "twin.toml", &twin);
     let sim = dir.path().join("sim");
     simulate(s(&twin), &sim);

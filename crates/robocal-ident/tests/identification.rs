@@ -397,6 +397,43 @@ fn injected_compliance() -> Compliance {
     )
 }
 
+/// `errors` with the links' weights of links 2–6 (masses of a medium arm, first moments of
+/// centres of mass some 100 mm from the frames).
+fn with_injected_weights(errors: Compliance) -> Compliance {
+    use robocal_robot::MomentPart;
+    let mut errors = errors.with_link_weights(&[1, 2, 3, 4, 5]);
+    let masses = [0.0, 25.0, 15.0, 6.0, 3.0, 1.0];
+    for (i, w) in errors.link_weights.iter_mut().enumerate() {
+        w.value = match w.part {
+            MomentPart::Mass => masses[w.body],
+            _ => masses[w.body] * 0.1 * (1.0 + 0.3 * i as f64).sin(),
+        };
+    }
+    errors
+}
+
+/// Calibrates `obs` (noise-free points of `truth` with `errors`) with `settings`: every point
+/// to round-off, and the points of the configurations `held` at another load (12 kg) to 1e-4 mm.
+fn fits_to_round_off(
+    nominal: &Robot,
+    obs: &Observations,
+    settings: &KinematicSettings,
+    truth: &Robot,
+    errors: &Compliance,
+    held: &[Vec<f64>],
+) -> robocal_ident::KinematicCalibration {
+    let cal = calibrate_kinematics(nominal, obs, settings).unwrap();
+    assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
+    let held = observe_loaded(truth, errors, held, &[12.0]);
+    let left = held.errors_with(&cal.robot, cal.compliance.as_ref());
+    assert!(
+        left.iter().all(|e| *e < 1e-4),
+        "{:?}",
+        left.iter().fold(0.0f64, |a, b| a.max(*b))
+    );
+    cal
+}
+
 #[test]
 fn elasto_geometric_lm_recovers_injected_compliances_and_geometry() {
     let nominal = nominal();
@@ -754,19 +791,11 @@ fn elasto_geometric_lm_recovers_injected_harmonics_and_self_weight() {
 #[test]
 fn elasto_geometric_lm_recovers_injected_link_weights() {
     use robocal_ident::JointErrorSettings;
-    use robocal_robot::{ErrorParam, MomentPart};
+    use robocal_robot::ErrorParam;
     let nominal = nominal();
     let configs = configurations();
     let truth = injected(&nominal, &configs, 17);
-    let mut errors = injected_compliance().with_link_weights(&[1, 2, 3, 4, 5]);
-    let masses = [0.0, 25.0, 15.0, 6.0, 3.0, 1.0];
-    for (i, w) in errors.link_weights.iter_mut().enumerate() {
-        w.value = match w.part {
-            MomentPart::Mass => masses[w.body],
-            // A first moment: the mass times a centre of mass some 100 mm from the frame.
-            _ => masses[w.body] * 0.1 * (1.0 + 0.3 * i as f64).sin(),
-        };
-    }
+    let errors = with_injected_weights(injected_compliance());
     let obs = observe_loaded(&truth, &errors, &configs[..90], &[0.0, 10.0, 20.0]);
     let settings = with_joint_errors(
         errors.payload_com,
@@ -776,16 +805,8 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
             ..JointErrorSettings::default()
         },
     );
-    let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
-    assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
+    let cal = fits_to_round_off(&nominal, &obs, &settings, &truth, &errors, &configs[90..]);
     let found = cal.compliance.as_ref().unwrap();
-    let held = observe_loaded(&truth, &errors, &configs[90..], &[12.0]);
-    let left = held.errors_with(&cal.robot, Some(found));
-    assert!(
-        left.iter().all(|e| *e < 1e-4),
-        "{:?}",
-        left.iter().fold(0.0f64, |a, b| a.max(*b))
-    );
     for j in 1..5 {
         let (a, b) = (found.values[j], errors.values[j]);
         assert!((a - b).abs() < 1e-6 * b, "j{}: {a} vs {b}", j + 1);
@@ -827,20 +848,11 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
 #[test]
 fn elasto_geometric_lm_recovers_injected_tilts() {
     use robocal_ident::JointErrorSettings;
-    use robocal_robot::{ErrorParam, MomentPart};
+    use robocal_robot::ErrorParam;
     let nominal = nominal();
     let configs = configurations();
     let truth = injected(&nominal, &configs, 29);
-    let mut errors = injected_compliance()
-        .with_link_weights(&[1, 2, 3, 4, 5])
-        .with_tilts(&[0, 1, 2, 3, 4, 5]);
-    let masses = [0.0, 25.0, 15.0, 6.0, 3.0, 1.0];
-    for (i, w) in errors.link_weights.iter_mut().enumerate() {
-        w.value = match w.part {
-            MomentPart::Mass => masses[w.body],
-            _ => masses[w.body] * 0.1 * (1.0 + 0.3 * i as f64).sin(),
-        };
-    }
+    let mut errors = with_injected_weights(injected_compliance()).with_tilts(&[0, 1, 2, 3, 4, 5]);
     // Each far from where the tilts start (a fiftieth of the compliances).
     let tilts = [0.01, 0.03, 0.05, 0.15, 0.2, 0.3];
     for (t, c) in errors.tilts.iter_mut().zip(tilts) {
@@ -856,16 +868,8 @@ fn elasto_geometric_lm_recovers_injected_tilts() {
             ..JointErrorSettings::default()
         },
     );
-    let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
-    assert!(cal.report.after.max < 1e-5, "{:?}", cal.report.after);
+    let cal = fits_to_round_off(&nominal, &obs, &settings, &truth, &errors, &configs[90..]);
     let found = cal.compliance.as_ref().unwrap();
-    let held = observe_loaded(&truth, &errors, &configs[90..], &[12.0]);
-    let left = held.errors_with(&cal.robot, Some(found));
-    assert!(
-        left.iter().all(|e| *e < 1e-4),
-        "{:?}",
-        left.iter().fold(0.0f64, |a, b| a.max(*b))
-    );
     let reported: Vec<_> = (cal.report.joint_errors.iter())
         .filter(|t| t.name.ends_with(".tilt"))
         .collect();

@@ -60,25 +60,24 @@ impl RawStages {
         if let (Some(je), Some(c)) = (&mut kinematic.joint_errors, &kinematic.compliance) {
             je.gravity = c.gravity;
         }
-        if kinematic
-            .joint_errors
-            .as_ref()
-            .is_some_and(|je| je.link_weights && kinematic.compliance.is_none())
-        {
-            return Err(Invalid::new(
-                "joint_errors.link_weights",
-                "the links' weights act through the joint compliances: add [compliance]",
-            ));
-        }
-        if kinematic
-            .joint_errors
-            .as_ref()
-            .is_some_and(|je| je.tilt && kinematic.compliance.is_none())
-        {
-            return Err(Invalid::new(
-                "joint_errors.tilt",
-                "the tilts start from the joint compliances and meet the same moments: add [compliance]",
-            ));
+        // Terms that act through, or start from, the joint compliances.
+        if let (Some(je), None) = (&kinematic.joint_errors, &kinematic.compliance) {
+            for (asked, key, why) in [
+                (
+                    je.link_weights,
+                    "joint_errors.link_weights",
+                    "the links' weights act through the joint compliances: add [compliance]",
+                ),
+                (
+                    je.tilt,
+                    "joint_errors.tilt",
+                    "the tilts start from the joint compliances and meet the same moments: add [compliance]",
+                ),
+            ] {
+                if asked {
+                    return Err(Invalid::new(key, why));
+                }
+            }
         }
         let residual = match &self.residual {
             None => None,
