@@ -29,7 +29,7 @@
 //! table's point at `q + compliance ∘ τ(q, m)`: with no load it is the rigid table.
 //!
 //! Every term is evaluated at the command `q`, and the model's point is the rigid table's at
-//! `q + Δq(q, m)`.
+//! `q + Δq(q, m)`, moved by the tilts where there are any.
 //!
 //! ```
 //! use robocal_robot::{Compliance, Robot};
@@ -372,7 +372,9 @@ fn across(w: &Vector3<f64>, m: Vector3<f64>) -> Vector3<f64> {
 }
 
 /// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
-/// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²).
+/// the unit quantity `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²): `w ·`
+/// [`unit_moment`], kept in its own order of operations so that the torques, and every model
+/// identified before the tilts, stay the same to the last bit.
 fn unit_torque(
     (w, a): &(Vector3<f64>, Vector3<f64>),
     (r, o): &(Matrix3<f64>, Vector3<f64>),
