@@ -66,6 +66,11 @@ pub enum Command {
         /// would run past it are skipped or abandoned and named in report.json [default: 120]
         #[arg(long, value_name = "SECONDS")]
         budget: Option<f64>,
+        /// The default calibration (no `--config`) also tries the bearings' tilt under the
+        /// gravity moment (a tilting compliance per joint), last, on the physics it chose;
+        /// kept only where it lowers the held-out error
+        #[arg(long)]
+        tilt: bool,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

@@ -16,7 +16,7 @@ use super::terminal::Terminal;
 
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
 /// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
-/// `budget` (s) bounds the default calibration's time.
+/// `budget` (s) bounds the default calibration's time; `tilt` has it try the bearings' tilt.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     robot: &Path,
@@ -28,6 +28,7 @@ pub fn run(
     pictures: Option<&Path>,
     angle_weight: Option<f64>,
     budget: Option<f64>,
+    tilt: bool,
 ) -> Result<()> {
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
@@ -49,6 +50,7 @@ pub fn run(
         checks,
         angle_weight,
         budget_seconds: budget,
+        tilt,
     };
     let Calibration {
         model,

@@ -32,6 +32,7 @@ pub fn run(cli: Cli) -> Result<()> {
             report,
             angle_weight,
             budget,
+            tilt,
         } => calibrate::run(
             &robot,
             &data,
@@ -45,6 +46,7 @@ pub fn run(cli: Cli) -> Result<()> {
             report.as_deref(),
             angle_weight,
             budget,
+            tilt,
         ),
         Command::Report { model, data, out } => report::run(&model, &data, &out),
         Command::Predict {

@@ -1227,7 +1227,7 @@ fn compliance_only_twin() -> String {
 /// off, noise-free, 0 and 20 kg): calibrate prints each identified tilt, saves them in
 /// compliance.toml (`[[tilt]]`), names them in report.json with their unit, and the saved
 /// model, read back by `evaluate`, leaves a fraction of what the same stages without tilts
-/// leave.
+/// leave. The default calibration with `--tilt` tries them and keeps them.
 #[test]
 fn a_stage_config_with_tilts_identifies_prints_and_saves_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -1289,6 +1289,35 @@ fn a_stage_config_with_tilts_identifies_prints_and_saves_them() {
         with < 0.2 * without && without > 0.005,
         "{with} vs {without}"
     );
+    // The default with `--tilt` tries them last, on the physics it chose, and keeps them only
+    // where the held-out error says so: here, where they are the one effect left, it does.
+    let chosen = dir.path().join("default");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/pmc6va030.toml",
+        "--data",
+        s(&truth),
+        "--out",
+        s(&chosen),
+        "--tilt",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let r = report(&chosen);
+    let tried: Vec<&str> = (r["selection"]["candidates"].as_array().unwrap().iter())
+        .map(|c| c["name"].as_str().unwrap())
+        .filter(|n| n.ends_with(" + tilt"))
+        .collect();
+    assert_eq!(tried.len(), 1, "{stderr}");
+    let (kept, reason) = decision(&r, "tilt");
+    assert!(kept && reason.contains("tilting compliances"), "{reason}");
+    assert!(
+        stderr.contains(&format!("chosen: {}", tried[0])),
+        "{stderr}"
+    );
+    let c = robocal_robot::Compliance::load(chosen.join("compliance.toml"), 6).unwrap();
+    assert!(!c.tilts.is_empty());
 }
 
 /// calibrate with `identify_payload_com` (a stage config) on the bundled twin with only its

@@ -419,6 +419,24 @@ fn every_command_refuses_bad_input_cleanly() {
         }
         fails(name, &args, needles, &outs);
     }
+    // The bearings' tilt is the default's to try; a stage config asks for it itself.
+    fails(
+        "tilt with a stage config",
+        &[
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(&good),
+            "--out",
+            s(&model_out),
+            "--tilt",
+            "--config",
+            s(&compliance),
+        ],
+        &["`--tilt`", "compliance.toml", "tilt = true"],
+        &outs,
+    );
 
     // --- Model directories.
     let copy = |name: &str| -> PathBuf {

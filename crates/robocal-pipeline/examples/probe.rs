@@ -113,6 +113,7 @@ fn run(
                         },
                         angle_weight: None,
                         budget_seconds: None,
+                        tilt: false,
                     },
                     &Silent,
                 )?;

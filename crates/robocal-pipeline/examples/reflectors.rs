@@ -120,6 +120,7 @@ fn run(
                         },
                         angle_weight: None,
                         budget_seconds: None,
+                        tilt: false,
                     },
                     &Silent,
                 )?;

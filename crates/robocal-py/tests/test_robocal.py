@@ -227,6 +227,9 @@ def test_errors_carry_the_cli_s_messages():
         robocal.calibrate(robot, q, load, xyz, budget=0.0)
     with pytest.raises(robocal.RobocalError, match="takes none"):
         robocal.calibrate(robot, q, load, xyz, budget=60.0, config=ROOT / "configs/stages/kinematic-lm.toml")
+    # The bearings' tilt is the default's to try; a stage config asks for it in [joint_errors].
+    with pytest.raises(robocal.RobocalError, match="tilt = true"):
+        robocal.calibrate(robot, q, load, xyz, tilt=True, config=ROOT / "configs/stages/kinematic-lm.toml")
     # RobocalError is a ValueError.
     assert issubclass(robocal.RobocalError, ValueError)
 

@@ -86,6 +86,9 @@ pub struct CalibrationInput<'a> {
     /// The default calibration's time budget, s (`None`: [`DEFAULT_BUDGET_SECONDS`]); a stage
     /// config runs what it asks for and takes none.
     pub budget_seconds: Option<f64>,
+    /// Whether the default calibration also tries the bearings' tilt, last, on the physics it
+    /// chose ([`AutoSettings::tilt`]); a stage config asks for it in `[joint_errors]`.
+    pub tilt: bool,
 }
 
 /// A calibration's result.
@@ -123,6 +126,12 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 file.display()
             )));
         }
+    }
+    if let (true, Some((_, file))) = (input.tilt, input.stages) {
+        return Err(PipelineError::Stage(format!(
+            "`--tilt` (or `tilt=True` in Python) is the default calibration's; {} runs the stages it names: add `tilt = true` to its [joint_errors]",
+            file.display()
+        )));
     }
     let names = input.nominal.point_names();
     for set in std::iter::once(input.data).chain(input.validation) {
@@ -164,6 +173,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 outliers: Some(outliers),
                 angle_weight: input.angle_weight,
                 budget_seconds: input.budget_seconds.unwrap_or(DEFAULT_BUDGET_SECONDS),
+                tilt: input.tilt,
                 ..AutoSettings::default()
             };
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
