@@ -1562,17 +1562,21 @@ impl JointErrors {
              # link_weight: the weight of link `body` shared by every joint up to it: its mass\n\
              # (part = mass, kg, at the link frame's origin) or first moment (x, y, z: kg·m along\n\
              # the link frame's axes); each joint deflects by its compliance × the gravity torque\n\
-             # of the payload and of these weights.\n\
-             # tilt: the parts beyond the joint turn about its origin, across its axis, by\n\
-             # compliance (deg per kN·m) × the gravity moment across the axis of the payload and\n\
-             # of the link weights beyond it.\n"
+             # of the payload and of these weights.\n"
         } else {
             ""
+        };
+        let tilt = if self.tilts.is_empty() {
+            ""
+        } else {
+            "# tilt: the parts beyond the joint turn about its origin, across its axis, by\n\
+             # compliance (deg per kN·m) × the gravity moment across the axis of the payload and\n\
+             # of the link weights beyond it.\n"
         };
         format!(
             "# Joint compliance under the payload, identified by robocal: joint deflection =\n\
              # compliance × gravity torque of the payload (deg per kN·m, one per joint; 0 = rigid).\n\
-             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{body}"
+             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{tilt}{body}"
         )
     }
 }

@@ -934,7 +934,7 @@ fn decisions(
             if settings.tilt {
                 "not tried: the chosen physics holds no compliances"
             } else {
-                "not tried (not in the settings)"
+                "not tried (`calibrate --tilt`, or tilt=True in Python, tries it)"
             },
         ),
     });
