@@ -130,8 +130,9 @@ pub struct JointErrorSettings {
     pub flanks: Option<Vec<Flank>>,
     /// The tilting compliance of every joint ([`robocal_robot::Tilt`]: the parts beyond it turn
     /// across its axis under the gravity moment of the payload and of the links' weights; a
-    /// joint whose tilt the poses do not separate from the rest is held rigid, and so is one
-    /// that comes out negative or no larger than its σ).
+    /// joint whose tilt the poses do not separate from the rest is held rigid, and, where the
+    /// compliance settings ask for plausible values only, so is one that comes out negative or
+    /// no larger than its σ; elsewhere a negative one is warned of).
     pub tilt: bool,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
