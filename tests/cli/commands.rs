@@ -1211,6 +1211,17 @@ fn calibrate_prints_and_saves_the_harmonics_reach() {
     assert!(printed >= 3, "{stderr}");
 }
 
+/// The names of a calibration report's joint-error terms given in `unit`, in order.
+fn joint_error_names<'a>(report: &'a serde_json::Value, unit: &str) -> Vec<&'a str> {
+    (report["kinematic"]["joint_errors"]
+        .as_array()
+        .unwrap()
+        .iter())
+    .filter(|t| t["unit"] == unit)
+    .map(|t| t["name"].as_str().unwrap())
+    .collect()
+}
+
 /// The bundled twin at 40 configurations, 0 and 20 kg, with only its joints' compliance on
 /// (geometry errors, no noise).
 fn compliance_only_twin() -> String {
@@ -1261,10 +1272,7 @@ fn a_stage_config_with_tilts_identifies_prints_and_saves_them() {
         "{stderr}"
     );
     let r = report(&model);
-    let tilts: Vec<&str> = (r["kinematic"]["joint_errors"].as_array().unwrap().iter())
-        .filter(|t| t["unit"] == "deg per kN·m")
-        .map(|t| t["name"].as_str().unwrap())
-        .collect();
+    let tilts = joint_error_names(&r, "deg per kN·m");
     assert_eq!(
         tilts,
         [
@@ -1368,9 +1376,6 @@ fn calibrate_identifies_prints_and_saves_the_payload_centre_of_mass() {
         "{line}"
     );
     let r = report(&model);
-    let names: Vec<&str> = (r["kinematic"]["joint_errors"].as_array().unwrap().iter())
-        .filter(|t| t["unit"] == "mm")
-        .map(|t| t["name"].as_str().unwrap())
-        .collect();
+    let names = joint_error_names(&r, "mm");
     assert_eq!(names, ["payload_com.x", "payload_com.y", "payload_com.z"]);
 }

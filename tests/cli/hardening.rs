@@ -382,25 +382,32 @@ fn every_command_refuses_bad_input_cleanly() {
         &outs,
     );
     // The default calibration's time budget: a positive number of seconds, and not for a
-    // stage config (which runs what it names).
-    for (name, budget, config, needles) in [
+    // stage config (which runs what it names); the bearings' tilt is the default's to try too
+    // (a stage config asks for it itself).
+    for (name, option, config, needles) in [
         (
             "zero budget",
-            "0",
+            &["--budget", "0"][..],
             None,
             &["`--budget`", "0 is not a positive number"][..],
         ),
         (
             "NaN budget",
-            "NaN",
+            &["--budget", "NaN"][..],
             None,
             &["`--budget`", "NaN is not a positive"][..],
         ),
         (
             "budget with a stage config",
-            "60",
+            &["--budget", "60"][..],
             Some(s(&compliance)),
             &["`--budget`", "compliance.toml", "takes none"][..],
+        ),
+        (
+            "tilt with a stage config",
+            &["--tilt"][..],
+            Some(s(&compliance)),
+            &["`--tilt`", "compliance.toml", "tilt = true"][..],
         ),
     ] {
         let mut args = vec![
@@ -411,32 +418,13 @@ fn every_command_refuses_bad_input_cleanly() {
             s(&good),
             "--out",
             s(&model_out),
-            "--budget",
-            budget,
         ];
+        args.extend(option);
         if let Some(c) = config {
             args.extend(["--config", c]);
         }
         fails(name, &args, needles, &outs);
     }
-    // The bearings' tilt is the default's to try; a stage config asks for it itself.
-    fails(
-        "tilt with a stage config",
-        &[
-            "calibrate",
-            "--robot",
-            ROBOT,
-            "--data",
-            s(&good),
-            "--out",
-            s(&model_out),
-            "--tilt",
-            "--config",
-            s(&compliance),
-        ],
-        &["`--tilt`", "compliance.toml", "tilt = true"],
-        &outs,
-    );
 
     // --- Model directories.
     let copy = |name: &str| -> PathBuf {

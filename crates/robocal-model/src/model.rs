@@ -72,12 +72,13 @@ impl CalibratedModel {
 
     /// What the joint errors move the point by besides the joint angles at command `q` (rad)
     /// under `load`, mm, world frame: the bearings' tilts ([`robocal_robot::Tilt`]; zero
-    /// without any) — the physical point less the table's at the deflected angles.
+    /// without any) — the physical point less the table's at the deflected angles, computed
+    /// without evaluating the table there twice.
     pub fn turn_offset(&self, q: &[f64], load: f64) -> Vector3<f64> {
         match &self.joint_errors {
             Some(e) if !e.tilts.is_empty() => {
-                let deflected = e.deflected(&self.robot, q, load);
-                self.physical_point(q, load) - self.robot.point(&deflected)
+                let p = self.robot.point(&e.deflected(&self.robot, q, load));
+                robocal_robot::turned(&e.turns(&self.robot, q, load), p) - p
             }
             _ => Vector3::zeros(),
         }

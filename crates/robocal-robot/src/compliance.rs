@@ -1322,15 +1322,32 @@ impl JointErrors {
         if raw.gravity.iter().all(|g| *g == 0.0) {
             return Err(invalid("gravity", "must not be zero".into()));
         }
+        // Entry `key`'s joint (counted from 1) as 0-based, when the robot has it.
+        let joint_of = |key: &str, joint: usize| -> Result<usize> {
+            if (1..=dof).contains(&joint) {
+                Ok(joint - 1)
+            } else {
+                Err(invalid(
+                    key,
+                    format!("joint {joint} of a robot with {dof} joints"),
+                ))
+            }
+        };
+        // A term a joint may have once: refused for `joint` (0-based) when it has one `already`.
+        let once = |key: &str, joint: usize, already: bool, what: &str| -> Result<()> {
+            if !already {
+                Ok(())
+            } else {
+                Err(invalid(
+                    key,
+                    format!("joint {} has {what} already", joint + 1),
+                ))
+            }
+        };
         let mut harmonics = Vec::with_capacity(raw.harmonic.len());
         for (i, h) in raw.harmonic.iter().enumerate() {
             let key = format!("harmonic[{}]", i + 1);
-            if !(1..=dof).contains(&h.joint) {
-                return Err(invalid(
-                    &key,
-                    format!("joint {} of a robot with {dof} joints", h.joint),
-                ));
-            }
+            let joint = joint_of(&key, h.joint)?;
             if !(1..=MAX_HARMONIC_ORDER).contains(&h.order) {
                 return Err(invalid(
                     &key,
@@ -1351,7 +1368,7 @@ impl JointErrors {
                 ));
             }
             harmonics.push(Harmonic {
-                joint: h.joint - 1,
+                joint,
                 order: h.order,
                 sin: h.sin.to_radians(),
                 cos: h.cos.to_radians(),
@@ -1383,22 +1400,17 @@ impl JointErrors {
         let mut backlash: Vec<Backlash> = Vec::with_capacity(raw.backlash.len());
         for (i, b) in raw.backlash.iter().enumerate() {
             let key = format!("backlash[{}]", i + 1);
-            if !(1..=dof).contains(&b.joint) {
-                return Err(invalid(
-                    &key,
-                    format!("joint {} of a robot with {dof} joints", b.joint),
-                ));
-            }
-            if backlash.iter().any(|other| other.joint == b.joint - 1) {
-                return Err(invalid(
-                    &key,
-                    format!("joint {} has a backlash term already", b.joint),
-                ));
-            }
+            let joint = joint_of(&key, b.joint)?;
+            once(
+                &key,
+                joint,
+                backlash.iter().any(|b| b.joint == joint),
+                "a backlash term",
+            )?;
             if !b.value.is_finite() {
                 return Err(invalid(&key, "value must be a finite number".into()));
             }
-            let features = Self::torque_feature_count(dof, b.joint - 1);
+            let features = Self::torque_feature_count(dof, joint);
             let flank = match (b.home, &b.torque) {
                 (Some(home), None) if home.is_finite() => Flank::Approach {
                     home: home.to_radians(),
@@ -1427,7 +1439,7 @@ impl JointErrors {
                 }
             };
             backlash.push(Backlash {
-                joint: b.joint - 1,
+                joint,
                 flank,
                 value: b.value.to_radians(),
             });
@@ -1453,23 +1465,18 @@ impl JointErrors {
         let mut tilts: Vec<Tilt> = Vec::with_capacity(raw.tilt.len());
         for (i, t) in raw.tilt.iter().enumerate() {
             let key = format!("tilt[{}]", i + 1);
-            if !(1..=dof).contains(&t.joint) {
-                return Err(invalid(
-                    &key,
-                    format!("joint {} of a robot with {dof} joints", t.joint),
-                ));
-            }
-            if tilts.iter().any(|other| other.joint == t.joint - 1) {
-                return Err(invalid(
-                    &key,
-                    format!("joint {} has a tilting compliance already", t.joint),
-                ));
-            }
+            let joint = joint_of(&key, t.joint)?;
+            once(
+                &key,
+                joint,
+                tilts.iter().any(|t| t.joint == joint),
+                "a tilting compliance",
+            )?;
             if !t.compliance.is_finite() {
                 return Err(invalid(&key, "compliance must be a finite number".into()));
             }
             tilts.push(Tilt {
-                joint: t.joint - 1,
+                joint,
                 value: t.compliance * DEG_PER_KNM,
             });
         }

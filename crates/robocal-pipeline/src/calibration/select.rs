@@ -220,9 +220,14 @@ impl Physics {
         name
     }
 
-    /// Whether it holds any joint-error block.
+    /// Whether it holds any of the joint-error blocks of the stepwise selection.
+    fn has_blocks(self) -> bool {
+        self.harmonics > 0 || self.self_weight || self.backlash
+    }
+
+    /// Whether it holds any joint-error term (a block or the tilts).
     fn has_joint_errors(self) -> bool {
-        self.harmonics > 0 || self.self_weight || self.backlash || self.tilt
+        self.has_blocks() || self.tilt
     }
 
     /// Every block of `self` and of `other`.
@@ -895,7 +900,7 @@ fn decisions(
                 })
         })
         .copied();
-    let has_errors = chosen.harmonics > 0 || chosen.self_weight || chosen.backlash;
+    let has_errors = chosen.has_blocks();
     out.push(match (joint_errors.first(), with) {
         (Some(first), Some(step)) => decision(
             "joint_errors",
