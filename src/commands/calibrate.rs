@@ -153,6 +153,11 @@ pub fn run(
             eprintln!("robocal: {line}");
         }
     }
+    if let Some(spread) = r.harmonic_prior_deg {
+        eprintln!(
+            "robocal: transmission harmonics under a prior of spread {spread:.4}° (chosen by marginal likelihood: a harmonic the poses barely determine is drawn toward it)"
+        );
+    }
     if !r.identified_by_reflectors.is_empty() {
         eprintln!(
             "robocal: identified thanks to the extra reflectors (the default one alone would hold them fixed): {}",

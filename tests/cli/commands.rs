@@ -1209,6 +1209,43 @@ fn calibrate_prints_and_saves_the_harmonics_reach() {
         }
     }
     assert!(printed >= 3, "{stderr}");
+    // The harmonics' prior: its spread printed as report.json keeps it.
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(model.join("report.json")).unwrap()).unwrap();
+    let spread = report["kinematic"]["harmonic_prior_deg"].as_f64().unwrap();
+    assert!(
+        spread > 0.0 && spread < robocal_ident::HARMONIC_BOUND_DEG,
+        "{spread}"
+    );
+    let line = format!("robocal: transmission harmonics under a prior of spread {spread:.4}°");
+    assert!(stderr.contains(&line), "{line} not in {stderr}");
+    // Without it: no spread, no line; asked for without harmonics: refused, naming the key.
+    for (name, text, ok) in [
+        (
+            "free.toml",
+            "[joint_errors]\nharmonics = 2\nharmonic_prior = false\n",
+            true,
+        ),
+        (
+            "none.toml",
+            "[joint_errors]\nharmonics = 0\nharmonic_prior = true\n",
+            false,
+        ),
+    ] {
+        let other = dir.path().join(name.replace(".toml", ""));
+        let o = calibrate_with(&data, &other, &write(dir.path(), name, text));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.success(), ok, "{stderr}");
+        assert!(!stderr.contains("under a prior"), "{stderr}");
+        if ok {
+            let report: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(other.join("report.json")).unwrap()).unwrap();
+            assert!(report["kinematic"].get("harmonic_prior_deg").is_none());
+        } else {
+            assert!(stderr.contains("joint_errors.harmonic_prior"), "{stderr}");
+            assert!(!other.exists());
+        }
+    }
 }
 
 /// The names of a calibration report's joint-error terms given in `unit`, in order.

@@ -134,6 +134,10 @@ pub struct JointErrorSettings {
     /// compliance settings ask for plausible values only, so is one that comes out negative or
     /// no larger than its σ; elsewhere a negative one is warned of).
     pub tilt: bool,
+    /// The transmission harmonics under a zero-mean Gaussian prior whose spread the data choose
+    /// (marginal likelihood over the harmonics of the fit without it; empirical Bayes): a
+    /// harmonic the poses barely determine is drawn toward the spread of the others (LM only).
+    pub harmonic_prior: bool,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
     pub gravity: Vector3<f64>,
@@ -151,6 +155,7 @@ impl Default for JointErrorSettings {
             backlash_torque: true,
             flanks: None,
             tilt: false,
+            harmonic_prior: true,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
     }
@@ -398,6 +403,10 @@ pub struct KinematicReport {
     /// Transmission harmonics and self-weight terms, when identified with the geometry.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub joint_errors: Vec<ErrorTermReport>,
+    /// The spread (standard deviation, deg) of the harmonics' prior the data chose
+    /// ([`JointErrorSettings::harmonic_prior`]), when the harmonics were identified under one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub harmonic_prior_deg: Option<f64>,
     /// What the user should know about the data's ability to determine the parameters.
     pub warnings: Vec<String>,
 }
@@ -879,6 +888,7 @@ fn solve_gated(
     settings: &KinematicSettings,
 ) -> Result<(Vec<f64>, u64, String)> {
     let mut iterations = 0;
+    let mut prior_tried = false;
     Ok(loop {
         let u0 = vec![0.0; problem.unknowns()];
         let mut solved = if kept.is_empty() {
@@ -961,6 +971,20 @@ fn solve_gated(
                 && implausible(p).is_none()
         });
         if drop.is_empty() {
+            // The harmonics' prior, once the gate holds none of them: its spread comes from the
+            // plausible ones (a term beyond a gear's bound is no gear's), and every coefficient
+            // is solved again under it from zero, like any other re-solve.
+            if !prior_tried
+                && !problem.has_prior()
+                && settings.solver == SolverKind::Lm
+                && (settings.joint_errors.as_ref()).is_some_and(|je| je.harmonic_prior)
+            {
+                prior_tried = true;
+                if let Some((prior, spread)) = harmonic_prior(problem, &solved.0) {
+                    problem.set_prior(prior, Some(spread));
+                    continue;
+                }
+            }
             break solved;
         }
         for &p in &drop {
@@ -996,6 +1020,73 @@ fn solve_gated(
         *kept = keep.iter().map(|&p| kept[p]).collect();
     })
 }
+
+/// Zero-mean Gaussian priors on the transmission harmonics' coefficients (empirical Bayes), their
+/// variance `τ²` by marginal likelihood over the coefficients of the fit without them at `u`
+/// (each estimate `â ~ N(0, τ² + s²)`, `s` its standard error; [`prior_spread`]): a coefficient
+/// the poses determine well keeps its value, one they barely determine (a harmonic of a joint
+/// seen over a narrow window, trading with the geometry) is drawn toward the spread of the rest
+/// instead of growing to whatever fits. Each prior's row weight is the fit's residual σ over
+/// `τ`. Returns the priors and `τ` (rad); none with fewer than two coefficients.
+fn harmonic_prior(
+    problem: &CalibrationProblem<'_>,
+    u: &[f64],
+) -> Option<(Vec<(ErrorParam, f64)>, f64)> {
+    let ng = problem.selected().len();
+    let params = problem.error_params().to_vec();
+    let harmonic: Vec<usize> = (0..params.len())
+        .filter(|&k| {
+            matches!(
+                params[k],
+                ErrorParam::HarmonicSin(_) | ErrorParam::HarmonicCos(_)
+            )
+        })
+        .collect();
+    if harmonic.len() < 2 {
+        return None;
+    }
+    let (r, jac) = problem.residuals_and_jacobian(u);
+    let std = standard_deviations(&jac, &r)?;
+    let dof = r.len().checked_sub(jac.ncols()).filter(|&d| d > 0)?;
+    let sigma = (r.iter().map(|v| v * v).sum::<f64>() / dof as f64).sqrt();
+    let model = problem.compliance_at(u)?;
+    let est: Vec<(f64, f64)> = (harmonic.iter())
+        .map(|&k| {
+            let s = std[ng + k] * problem.scale()[ng + k];
+            (model.param(params[k]), s * s)
+        })
+        .collect();
+    let tau = prior_spread(&est).max(HARMONIC_PRIOR_FLOOR);
+    let prior = harmonic.iter().map(|&k| (params[k], sigma / tau)).collect();
+    Some((prior, tau))
+}
+
+/// The spread `τ` that maximises the marginal likelihood of estimates `â_j ~ N(0, τ² + s_j²)`,
+/// given as `(â_j, s_j²)`: the root of `Σ w_j² (â_j² − s_j² − τ²) = 0`, `w_j = 1/(τ² + s_j²)`, by
+/// its fixed-point iteration from the estimates' mean square (0 where the estimates spread no
+/// more than their own errors).
+pub fn prior_spread(estimates: &[(f64, f64)]) -> f64 {
+    let n = estimates.len().max(1) as f64;
+    let mut tau2 = estimates.iter().map(|(a, _)| a * a).sum::<f64>() / n;
+    for _ in 0..500 {
+        let (num, den) = estimates.iter().fold((0.0, 0.0), |(n, d), (a, s2)| {
+            let w = 1.0 / (tau2 + s2);
+            (n + w * w * (a * a - s2), d + w * w)
+        });
+        let next = if den > 0.0 { (num / den).max(0.0) } else { 0.0 };
+        let done = (next - tau2).abs() <= 1e-12 * tau2;
+        tau2 = next;
+        if done || tau2 == 0.0 {
+            break;
+        }
+    }
+    tau2.sqrt()
+}
+
+/// The smallest spread of the harmonics' prior, rad (a thousandth of a degree, 17 µm a metre
+/// out): where the harmonics spread no more than their own errors the prior holds them near
+/// zero, not at it.
+const HARMONIC_PRIOR_FLOOR: f64 = 1e-3 * std::f64::consts::PI / 180.0;
 
 /// The parameters `ident` identifies that the rows of the default reflector alone (`jac`'s rows
 /// of observations without a target) would not: what the extra reflectors buy. Empty when no
@@ -1427,6 +1518,7 @@ fn identify(
             observability_index: ident.observability_index,
             compliance: compliance_report,
             joint_errors,
+            harmonic_prior_deg: problem.prior_spread().map(f64::to_degrees),
             warnings,
         },
     })

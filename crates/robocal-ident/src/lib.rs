@@ -28,7 +28,7 @@ pub use calibrate::{
     JointCompliance, JointErrorSettings, KinematicCalibration, KinematicReport, KinematicSettings,
     Loss, MOUNTING_ANGLE_DEG, OrientationReport, PAYLOAD_COM_BOUND, POOR_FIT, ParameterReport,
     SolverKind, TORQUE_SHARE, align, calibrate_kinematics, default_compliance_joints,
-    far_from_nominal, tracker_down,
+    far_from_nominal, prior_spread, tracker_down,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{Column, Identifiability, analyse, standard_deviations};

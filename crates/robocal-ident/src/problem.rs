@@ -234,6 +234,11 @@ pub struct CalibrationProblem<'a> {
     /// Square roots of the points' weights (none: every point weighs 1); the iteratively
     /// reweighted least squares of a robust loss set them.
     root_weights: Option<Vec<f64>>,
+    /// Zero-mean Gaussian priors on joint-error coefficients: `(coefficient, weight)`, each a
+    /// residual row `weight × value` (mm-equivalent) that the least-squares view appends.
+    prior: Vec<(ErrorParam, f64)>,
+    /// The priors' spread (their standard deviation, internal units), when they share one.
+    prior_spread: Option<f64>,
 }
 
 /// The joint-error part of a problem.
@@ -276,6 +281,8 @@ impl<'a> CalibrationProblem<'a> {
             obs,
             oriented: obs.oriented(),
             root_weights: None,
+            prior: Vec::new(),
+            prior_spread: None,
         };
         let (_, full, _) = problem.full_jacobian(robot, None);
         let m = obs.len().max(1) as f64;
@@ -453,7 +460,61 @@ impl<'a> CalibrationProblem<'a> {
             obs: self.obs,
             oriented: self.oriented.clone(),
             root_weights: self.root_weights.clone(),
+            prior: (self.prior.iter())
+                .filter(|(p, _)| {
+                    positions
+                        .iter()
+                        .any(|&q| q >= ng && self.error_param(q) == Some(*p))
+                })
+                .copied()
+                .collect(),
+            prior_spread: self.prior_spread,
         }
+    }
+
+    /// The joint-error coefficient of unknown `position` (none for a geometric one).
+    fn error_param(&self, position: usize) -> Option<ErrorParam> {
+        let ng = self.selected.len();
+        (self.compliance.as_ref()).and_then(|c| position.checked_sub(ng).map(|k| c.params[k]))
+    }
+
+    /// Sets zero-mean Gaussian priors on joint-error coefficients, `(coefficient, weight)`: the
+    /// least-squares view ([`LeastSquares`]) appends a row `weight × value` for each (a prior of
+    /// standard deviation `τ` against residuals of standard deviation `σ`: weight `σ / τ`);
+    /// coefficients not identified are left out. `spread` is the priors' `τ` when they share one
+    /// (reported).
+    pub fn set_prior(&mut self, prior: Vec<(ErrorParam, f64)>, spread: Option<f64>) {
+        let params = self.error_params().to_vec();
+        self.prior = prior
+            .into_iter()
+            .filter(|(p, _)| params.contains(p))
+            .collect();
+        self.prior_spread = spread;
+    }
+
+    /// Whether the problem has priors.
+    pub fn has_prior(&self) -> bool {
+        !self.prior.is_empty()
+    }
+
+    /// The priors' shared spread, internal units ([`Self::set_prior`]).
+    pub fn prior_spread(&self) -> Option<f64> {
+        self.prior_spread.filter(|_| self.has_prior())
+    }
+
+    /// The priors' rows at `u`, and for each its unknown's position and derivative.
+    fn prior_rows(&self, u: &[f64]) -> Vec<(f64, usize, f64)> {
+        let ng = self.selected.len();
+        let Some(c) = self.compliance.as_ref() else {
+            return Vec::new();
+        };
+        (self.prior.iter())
+            .filter_map(|&(p, w)| {
+                let k = c.params.iter().position(|&q| q == p)?;
+                let value = c.start.param(p) + self.scale[ng + k] * u[ng + k];
+                Some((w * value, ng + k, w * self.scale[ng + k]))
+            })
+            .collect()
     }
 
     /// Weights each point's residual by `weights` (one per point, ≥ 0): least squares on
@@ -654,7 +715,9 @@ impl Operator for LeastSquares<'_, '_> {
     type Param = Vec<f64>;
     type Output = Vec<f64>;
     fn apply(&self, u: &Vec<f64>) -> Result<Vec<f64>, ArgminError> {
-        Ok(self.0.residuals(u))
+        let mut r = self.0.residuals(u);
+        r.extend(self.0.prior_rows(u).iter().map(|row| row.0));
+        Ok(r)
     }
 }
 
@@ -662,7 +725,20 @@ impl Jacobian for LeastSquares<'_, '_> {
     type Param = Vec<f64>;
     type Jacobian = Mat<f64>;
     fn jacobian(&self, u: &Vec<f64>) -> Result<Mat<f64>, ArgminError> {
-        Ok(self.0.residuals_and_jacobian(u).1)
+        let jac = self.0.residuals_and_jacobian(u).1;
+        let rows = self.0.prior_rows(u);
+        if rows.is_empty() {
+            return Ok(jac);
+        }
+        let n = jac.nrows();
+        Ok(Mat::from_fn(n + rows.len(), jac.ncols(), |i, j| {
+            if i < n {
+                jac[(i, j)]
+            } else {
+                let (_, k, d) = rows[i - n];
+                if j == k { d } else { 0.0 }
+            }
+        }))
     }
 }
 

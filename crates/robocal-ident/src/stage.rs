@@ -200,6 +200,9 @@ pub struct RawJointErrorStage {
     pub backlash_home: Option<Vec<f64>>,
     /// Tilting compliances of every joint (default false; needs `[compliance]`).
     pub tilt: Option<bool>,
+    /// The harmonics under a Gaussian prior whose spread the data choose (default true; only
+    /// with harmonics and the `lm` solver).
+    pub harmonic_prior: Option<bool>,
 }
 
 /// Highest harmonic order a stage may ask for.
@@ -225,6 +228,15 @@ impl RawJointErrorStage {
         s.link_weights = self.link_weights.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
         s.tilt = self.tilt.unwrap_or(false);
+        if let Some(prior) = self.harmonic_prior {
+            if s.harmonics == 0 {
+                return Err(Invalid::new(
+                    "joint_errors.harmonic_prior",
+                    "is given, but no harmonics are identified: set harmonics = 1 or more",
+                ));
+            }
+            s.harmonic_prior = prior;
+        }
         // The backlash settings mean nothing without backlash.
         for (key, given) in [
             (
@@ -267,6 +279,7 @@ impl RawJointErrorStage {
             backlash_home: (settings.backlash_home.as_ref())
                 .map(|h| h.iter().map(|h| h.to_degrees()).collect()),
             tilt: settings.tilt.then_some(true),
+            harmonic_prior: (settings.harmonics > 0 && !settings.harmonic_prior).then_some(false),
         }
     }
 }

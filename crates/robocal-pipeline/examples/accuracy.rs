@@ -380,6 +380,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?,
         None => Effects::EVERY.to_vec(),
     };
+    // Which splits (`--splits configurations,q1`; default both).
+    let splits: Vec<Split> = match value("--splits") {
+        Some(list) => list
+            .split(',')
+            .map(|k| match k {
+                "configurations" => Ok(Split::Configurations),
+                "q1" => Ok(Split::Extrapolation),
+                _ => Err(format!(
+                    "--splits: unknown split `{k}` (configurations, q1)"
+                )),
+            })
+            .collect::<Result<_, _>>()?,
+        None => vec![Split::Configurations, Split::Extrapolation],
+    };
     let mut landings: Vec<(String, u64, Landing)> = Vec::new();
     let arms: Vec<String> = match value("--arms") {
         Some(list) => list.split(',').map(str::to_string).collect(),
@@ -424,7 +438,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let data = twin.generate()?;
                 let truth = truth_of(&data);
                 let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
-                for how in [Split::Configurations, Split::Extrapolation] {
+                for &how in &splits {
                     let (train, test) = split(&rows, how, seed);
                     if let Some(dir) = &export {
                         export_case(
