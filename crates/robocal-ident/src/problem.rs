@@ -707,7 +707,8 @@ impl<'a> CalibrationProblem<'a> {
     }
 }
 
-/// Least squares view (residual vector and its Jacobian) for Levenberg–Marquardt.
+/// Least squares view (residual vector and its Jacobian) for Levenberg–Marquardt: the problem's
+/// residuals, then one row per prior ([`CalibrationProblem::set_prior`]).
 #[derive(Debug, Clone)]
 pub struct LeastSquares<'p, 'a>(pub &'p CalibrationProblem<'a>);
 
