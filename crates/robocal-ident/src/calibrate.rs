@@ -888,7 +888,6 @@ fn solve_gated(
     settings: &KinematicSettings,
 ) -> Result<(Vec<f64>, u64, String)> {
     let mut iterations = 0;
-    let mut prior_tried = false;
     Ok(loop {
         let u0 = vec![0.0; problem.unknowns()];
         let mut solved = if kept.is_empty() {
@@ -922,12 +921,20 @@ fn solve_gated(
             .compliance
             .as_ref()
             .is_some_and(|c| c.plausible_only);
-        let std_u = if gate {
+        // The harmonics' prior, on an LM fit that has none yet.
+        let prior_wanted = !problem.has_prior()
+            && settings.solver == SolverKind::Lm
+            && (settings.joint_errors.as_ref()).is_some_and(|je| je.harmonic_prior);
+        // The fit's residuals and standard deviations, once, for the gate and the prior.
+        let fitted = (gate || prior_wanted).then(|| {
             let (r, jac) = problem.residuals_and_jacobian(&solved.0);
-            standard_deviations(&jac, &r)
-        } else {
-            None
-        };
+            let std = standard_deviations(&jac, &r);
+            (r, std)
+        });
+        let std_u = fitted
+            .as_ref()
+            .filter(|_| gate)
+            .and_then(|(_, std)| std.as_ref());
         let implausible = |p: usize| -> Option<String> {
             let value = match kept[p] {
                 Column::Compliance(j) => model.values[j],
@@ -974,16 +981,11 @@ fn solve_gated(
             // The harmonics' prior, once the gate holds none of them: its spread comes from the
             // plausible ones (a term beyond a gear's bound is no gear's), and every coefficient
             // is solved again under it from zero, like any other re-solve.
-            if !prior_tried
-                && !problem.has_prior()
-                && settings.solver == SolverKind::Lm
-                && (settings.joint_errors.as_ref()).is_some_and(|je| je.harmonic_prior)
+            if let Some((r, Some(std))) = fitted.as_ref().filter(|_| prior_wanted)
+                && let Some((prior, spread)) = harmonic_prior(problem, &model, r, std)
             {
-                prior_tried = true;
-                if let Some((prior, spread)) = harmonic_prior(problem, &solved.0) {
-                    problem.set_prior(prior, Some(spread));
-                    continue;
-                }
+                problem.set_prior(prior, Some(spread));
+                continue;
             }
             break solved;
         }
@@ -1027,10 +1029,13 @@ fn solve_gated(
 /// the poses determine well keeps its value, one they barely determine (a harmonic of a joint
 /// seen over a narrow window, trading with the geometry) is drawn toward the spread of the rest
 /// instead of growing to whatever fits. Each prior's row weight is the fit's residual σ over
-/// `τ`. Returns the priors and `τ` (rad); none with fewer than two coefficients.
+/// `τ`. `model`, `r` and `std` are the fit's joint errors, residuals and unknowns' standard
+/// deviations. Returns the priors and `τ` (rad); none with fewer than two coefficients.
 fn harmonic_prior(
     problem: &CalibrationProblem<'_>,
-    u: &[f64],
+    model: &Compliance,
+    r: &[f64],
+    std: &[f64],
 ) -> Option<(Vec<(ErrorParam, f64)>, f64)> {
     let ng = problem.selected().len();
     let params = problem.error_params().to_vec();
@@ -1045,11 +1050,8 @@ fn harmonic_prior(
     if harmonic.len() < 2 {
         return None;
     }
-    let (r, jac) = problem.residuals_and_jacobian(u);
-    let std = standard_deviations(&jac, &r)?;
-    let dof = r.len().checked_sub(jac.ncols()).filter(|&d| d > 0)?;
+    let dof = (r.len().checked_sub(problem.unknowns())).filter(|&d| d > 0)?;
     let sigma = (r.iter().map(|v| v * v).sum::<f64>() / dof as f64).sqrt();
-    let model = problem.compliance_at(u)?;
     let est: Vec<(f64, f64)> = (harmonic.iter())
         .map(|&k| {
             let s = std[ng + k] * problem.scale()[ng + k];

@@ -446,6 +446,11 @@ impl<'a> CalibrationProblem<'a> {
             }
             ComplianceFit { start, params }
         });
+        // The priors of the coefficients still identified.
+        let prior = (self.prior.iter())
+            .filter(|(p, _)| compliance.as_ref().is_some_and(|c| c.params.contains(p)))
+            .copied()
+            .collect();
         let mut order: Vec<usize> = positions.iter().copied().filter(|&p| p < ng).collect();
         order.extend(positions.iter().copied().filter(|&p| p >= ng));
         Self {
@@ -460,22 +465,9 @@ impl<'a> CalibrationProblem<'a> {
             obs: self.obs,
             oriented: self.oriented.clone(),
             root_weights: self.root_weights.clone(),
-            prior: (self.prior.iter())
-                .filter(|(p, _)| {
-                    positions
-                        .iter()
-                        .any(|&q| q >= ng && self.error_param(q) == Some(*p))
-                })
-                .copied()
-                .collect(),
+            prior,
             prior_spread: self.prior_spread,
         }
-    }
-
-    /// The joint-error coefficient of unknown `position` (none for a geometric one).
-    fn error_param(&self, position: usize) -> Option<ErrorParam> {
-        let ng = self.selected.len();
-        (self.compliance.as_ref()).and_then(|c| position.checked_sub(ng).map(|k| c.params[k]))
     }
 
     /// Sets zero-mean Gaussian priors on joint-error coefficients, `(coefficient, weight)`: the
