@@ -1424,8 +1424,9 @@ fn identify(
             negative.join(", ")
         ));
     }
-    let (r, jac) = problem.residuals_and_jacobian(&u);
-    let std_u = standard_deviations(&jac, &r);
+    // Under the harmonics' prior, the posterior's: a coefficient the poses barely determine is
+    // as sure as the prior makes it, not as unsure as the data alone leave it.
+    let std_u = problem.standard_deviations(&u);
     // Standard deviation of the unknown for `column`, internal units.
     let std_of = |column: Column| {
         let p = kept.iter().position(|&k| k == column)?;

@@ -224,13 +224,30 @@ pub fn analyse<C: Copy + Into<Column>>(
 /// Standard deviations of the parameters (in `u` units) from the covariance `σ² (JᵀJ)⁻¹`, with
 /// `σ² = Σr² / (3m − k)`. `None` when there are no degrees of freedom left or JᵀJ is singular.
 pub fn standard_deviations(jac: &Mat<f64>, residuals: &[f64]) -> Option<Vec<f64>> {
+    posterior_standard_deviations(jac, residuals, &[])
+}
+
+/// Standard deviations under zero-mean Gaussian priors on some unknowns: the posterior's
+/// covariance `σ² (JᵀJ + Σ dⱼ² eⱼeⱼᵀ)⁻¹`, where each prior `(j, dⱼ)` is a row `dⱼ uⱼ` appended to
+/// the least squares (`dⱼ = σ/τⱼ` in `u` units) and `σ² = Σr² / (3m − k)` is the data's residuals'
+/// (`jac` and `residuals` without the priors' rows). Without priors, [`standard_deviations`].
+pub fn posterior_standard_deviations(
+    jac: &Mat<f64>,
+    residuals: &[f64],
+    prior: &[(usize, f64)],
+) -> Option<Vec<f64>> {
     let (rows, k) = (jac.nrows(), jac.ncols());
     if rows <= k || k == 0 {
         return None;
     }
     let ssr: f64 = residuals.iter().map(|r| r * r).sum();
     let sigma2 = ssr / (rows - k) as f64;
-    let a: Mat<f64> = jac.transpose() * jac;
+    let mut a: Mat<f64> = jac.transpose() * jac;
+    for &(j, d) in prior {
+        if j < k {
+            a[(j, j)] += d * d;
+        }
+    }
     let llt = a.llt(faer::Side::Lower).ok()?;
     let inv = llt.solve(Mat::<f64>::identity(k, k));
     let std: Vec<f64> = (0..k)

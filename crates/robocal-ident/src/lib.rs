@@ -31,7 +31,9 @@ pub use calibrate::{
     far_from_nominal, prior_spread, tracker_down,
 };
 pub use error::{IdentError, Result};
-pub use identifiability::{Column, Identifiability, analyse, standard_deviations};
+pub use identifiability::{
+    Column, Identifiability, analyse, posterior_standard_deviations, standard_deviations,
+};
 pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm};
 pub use problem::{
     BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, MeanDistance,

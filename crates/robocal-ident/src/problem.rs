@@ -16,6 +16,8 @@ use robocal_robot::{
     rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
+use crate::identifiability::posterior_standard_deviations;
+
 /// Measured points with their joint readings and loads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observations {
@@ -507,6 +509,17 @@ impl<'a> CalibrationProblem<'a> {
                 Some((w * value, ng + k, w * self.scale[ng + k]))
             })
             .collect()
+    }
+
+    /// The unknowns' standard deviations at `u` (`u` units): the posterior's under the priors
+    /// where there are any ([`posterior_standard_deviations`]: the data's `σ`, the priors' rows
+    /// added to `JᵀJ`), else the data's alone. `None` as [`crate::standard_deviations`].
+    pub fn standard_deviations(&self, u: &[f64]) -> Option<Vec<f64>> {
+        let (r, jac) = self.residuals_and_jacobian(u);
+        let prior: Vec<(usize, f64)> = (self.prior_rows(u).iter())
+            .map(|&(_, j, d)| (j, d))
+            .collect();
+        posterior_standard_deviations(&jac, &r, &prior)
     }
 
     /// Weights each point's residual by `weights` (one per point, ≥ 0): least squares on

@@ -1741,6 +1741,50 @@ fn the_harmonic_prior_spread_maximises_the_marginal_likelihood() {
     assert_eq!(prior_spread(&within), 0.0);
 }
 
+/// The posterior's standard deviations under priors on some unknowns, against the closed form
+/// where the Jacobian's columns are orthogonal: `σ² / (|Jⱼ|² + dⱼ²)`, `σ² = Σr² / (rows − k)`;
+/// without a prior, the data's alone.
+#[test]
+fn posterior_standard_deviations_match_the_closed_form_of_orthogonal_columns() {
+    use faer::Mat;
+    use robocal_ident::{posterior_standard_deviations, standard_deviations};
+    // Three unknowns, each seen by its own rows (12 rows: 5, 4, 3).
+    let owner = |i: usize| match i {
+        0..5 => 0,
+        5..9 => 1,
+        _ => 2,
+    };
+    let jac = Mat::from_fn(12, 3, |i, j| {
+        if owner(i) == j {
+            0.5 + 0.1 * i as f64
+        } else {
+            0.0
+        }
+    });
+    let r: Vec<f64> = (0..12).map(|i| 0.3 * ((i * 7 % 5) as f64 - 2.0)).collect();
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / 9.0;
+    let norm2 = |j: usize| (0..12).map(|i| jac[(i, j)].powi(2)).sum::<f64>();
+    let prior = [(0, 2.0), (2, 0.5)];
+    let post = posterior_standard_deviations(&jac, &r, &prior).unwrap();
+    let data = standard_deviations(&jac, &r).unwrap();
+    for j in 0..3 {
+        let d2 = prior.iter().find(|p| p.0 == j).map_or(0.0, |p| p.1 * p.1);
+        let expected = (sigma2 / (norm2(j) + d2)).sqrt();
+        assert!(
+            (post[j] - expected).abs() < 1e-12,
+            "{j}: {} vs {expected}",
+            post[j]
+        );
+        let alone = (sigma2 / norm2(j)).sqrt();
+        assert!(
+            (data[j] - alone).abs() < 1e-12,
+            "{j}: {} vs {alone}",
+            data[j]
+        );
+    }
+    assert_eq!(post[1], data[1]);
+}
+
 /// The prior's rows (`weight × coefficient`, appended by the least-squares view) and their
 /// Jacobian columns, against central differences of the view's own residuals.
 #[test]
@@ -1845,12 +1889,33 @@ fn the_harmonic_prior_keeps_a_narrow_windows_harmonics_from_trading_with_the_geo
             .sum::<f64>()
             .sqrt()
             .to_degrees();
-        (left, off, cal.report.harmonic_prior_deg)
+        // The identified harmonics' reported standard deviations, deg.
+        let std: Vec<f64> = (cal.report.joint_errors.iter())
+            .filter(|t| t.name.contains(".h") && t.identified)
+            .map(|t| {
+                t.std
+                    .expect("an identified harmonic has a standard deviation")
+            })
+            .collect();
+        (left, off, cal.report.harmonic_prior_deg, std)
     };
-    let (free, free_off, none) = fit(false);
-    let (drawn, drawn_off, spread) = fit(true);
+    let (free, free_off, none, free_std) = fit(false);
+    let (drawn, drawn_off, spread, drawn_std) = fit(true);
     assert_eq!(none, None);
     let spread = spread.expect("the prior's spread is reported");
+    // Under the prior the report gives the posterior's: never wider than the prior alone (its
+    // spread, up to the ratio of the residuals' σ after the prior to the σ that weighed it), and
+    // the coefficients the window barely determines are surer than the data alone
+    // make them.
+    assert!(drawn_std.len() >= 6 && free_std.len() >= 6);
+    assert!(
+        drawn_std.iter().all(|s| *s <= spread * 1.05),
+        "{drawn_std:?} against the spread {spread}°"
+    );
+    assert!(
+        free_std.iter().any(|s| *s > spread),
+        "without the prior: {free_std:?}"
+    );
     let truth_rms = ((errors.harmonics.iter())
         .map(|h| h.sin * h.sin + h.cos * h.cos)
         .sum::<f64>()

@@ -14,6 +14,7 @@ use rand_chacha::ChaCha8Rng;
 use robocal_data::Invalid;
 use robocal_data::Observer;
 use serde::{Deserialize, Serialize};
+use std::sync::{Mutex, PoisonError};
 
 /// The activation between hidden layers (the output layer is linear).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -215,6 +216,17 @@ impl Mlp {
         Self { layers, activation }
     }
 
+    /// Draws every weight and bias now, layer by layer, weight before bias (as a first forward
+    /// pass would), instead of lazily at their first use.
+    fn initialise(&self) {
+        for layer in &self.layers {
+            let _ = layer.weight.val();
+            if let Some(bias) = &layer.bias {
+                let _ = bias.val();
+            }
+        }
+    }
+
     /// Forward pass, `[batch, inputs] → [batch, outputs]`.
     pub fn forward(&self, x: Tensor<2>) -> Tensor<2> {
         let last = self.layers.len() - 1;
@@ -378,8 +390,12 @@ fn mse(pred: &[f32], y: &[f32]) -> f64 {
         / y.len() as f64
 }
 
+/// Held while burn's process-wide generator is seeded and a network's weights are drawn.
+static SEEDED_DRAWS: Mutex<()> = Mutex::new(());
+
 /// Trains a network on `train`, early-stopping on `validation`; returns the best epoch's network
-/// (inference device) and the report. Deterministic for a given `seed` on the CPU backend.
+/// (inference device) and the report. Deterministic for a given `seed` on the CPU backend, with
+/// other trainings running at once or not.
 pub fn train(
     settings: &NetSettings,
     inputs: usize,
@@ -390,14 +406,24 @@ pub fn train(
     progress: &dyn Observer,
 ) -> (Mlp, TrainReport) {
     let device = Device::flex().autodiff();
-    device.seed(seed);
-    let mut model = Mlp::new(
-        inputs,
-        &settings.hidden,
-        outputs,
-        settings.activation,
-        &device,
-    );
+    let mut model = {
+        // burn's CPU backend keeps one seeded generator for the whole process and draws a
+        // network's weights from it lazily, at their first use: trainings running at once (the
+        // cross-validation's folds, one per core) would interleave their draws and each get
+        // weights that depend on the other's timing. Seeding and every draw happen under one
+        // lock, in the order a first forward pass takes them (the same weights as before).
+        let _draws = SEEDED_DRAWS.lock().unwrap_or_else(PoisonError::into_inner);
+        device.seed(seed);
+        let model = Mlp::new(
+            inputs,
+            &settings.hidden,
+            outputs,
+            settings.activation,
+            &device,
+        );
+        model.initialise();
+        model
+    };
     let mut optim = AdamConfig::new()
         .with_weight_decay(
             (settings.weight_decay > 0.0)

@@ -102,8 +102,49 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
         }
     }
     // A different seed gives a different model.
-    let c = ResidualModel::fit(&ResidualSettings { seed: 12, ..s }, &train, &val, &Silent).unwrap();
-    assert_ne!(c.predict(&val), pa);
+    let c = ResidualModel::fit(
+        &ResidualSettings {
+            seed: 12,
+            ..s.clone()
+        },
+        &train,
+        &val,
+        &Silent,
+    )
+    .unwrap();
+    let pc = c.predict(&val);
+    assert_ne!(pc, pa);
+    // Trainings at once (as the cross-validation's folds run, one per core), the two seeds
+    // interleaved: each gives the model its seed gives alone (burn's generator is one for the
+    // whole process).
+    for round in 0..3 {
+        let at_once: Vec<_> = std::thread::scope(|scope| {
+            let runs: Vec<_> = (0..6)
+                .map(|i| {
+                    let seeded = ResidualSettings {
+                        seed: 11 + (i % 2),
+                        ..s.clone()
+                    };
+                    let (train, val) = (&train, &val);
+                    scope.spawn(move || {
+                        ResidualModel::fit(&seeded, train, val, &Silent)
+                            .unwrap()
+                            .predict(val)
+                    })
+                })
+                .collect();
+            runs.into_iter().map(|r| r.join().unwrap()).collect()
+        });
+        for (i, p) in at_once.iter().enumerate() {
+            let alone = if i % 2 == 0 { &pa } else { &pc };
+            assert_eq!(
+                p,
+                alone,
+                "round {round}, training {i} (seed {})",
+                11 + i % 2
+            );
+        }
+    }
 }
 
 #[test]
