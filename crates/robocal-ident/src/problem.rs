@@ -10,6 +10,7 @@ use std::rc::Rc;
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Operator};
 use faer::Mat;
 use nalgebra::{DMatrix, Matrix3, Vector3};
+use rayon::prelude::*;
 use robocal_data::MeasurementSet;
 use robocal_robot::{
     Compliance, ErrorParam, JointErrors, JointField, ParamId, Robot, left_jacobian_inverse,
@@ -17,6 +18,10 @@ use robocal_robot::{
 };
 
 use crate::identifiability::posterior_standard_deviations;
+
+/// Rows of a residual or Jacobian evaluation per parallel task: enough that a task outweighs
+/// its scheduling, few enough that the rows of one fit spread over the cores.
+const ROWS_PER_TASK: usize = 64;
 
 /// Measured points with their joint readings and loads.
 #[derive(Debug, Clone, PartialEq)]
@@ -327,30 +332,50 @@ impl<'a> CalibrationProblem<'a> {
                 _ => None,
             })
             .collect();
-        for (i, &t) in targets.iter().enumerate() {
-            let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
-            let p = match compliance {
-                Some(c) => {
-                    let row = c.row_terms(robot, q, load, params);
-                    let p = robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * i);
-                    for (k, j, phi) in row.basis {
-                        for a in 0..3 {
-                            cjac[(3 * i + a, k)] += full[(3 * i + a, theta[j])] * phi;
+        // The points' rows, a block of them per task on every core (each row's entries are its
+        // own: the same matrices on any number of cores), copied into place in order.
+        let blocks: Vec<_> = (targets.par_chunks(ROWS_PER_TASK).enumerate())
+            .map(|(b, block)| {
+                let first = b * ROWS_PER_TASK;
+                let mut full = DMatrix::zeros(3 * block.len(), robot.param_count());
+                let mut cjac = DMatrix::zeros(3 * block.len(), params.len());
+                let mut r = Vec::with_capacity(3 * block.len());
+                for (l, &t) in block.iter().enumerate() {
+                    let i = first + l;
+                    let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
+                    let p = match compliance {
+                        Some(c) => {
+                            let row = c.row_terms(robot, q, load, params);
+                            let p =
+                                robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * l);
+                            for (k, j, phi) in row.basis {
+                                for a in 0..3 {
+                                    cjac[(3 * l + a, k)] += full[(3 * l + a, theta[j])] * phi;
+                                }
+                            }
+                            // A tilt turns the parts beyond its joint about the joint's origin
+                            // (the geometry's columns leave out the micro-radians it turns them
+                            // by).
+                            for (k, origin, turn) in row.turn_basis {
+                                let column = turn.cross(&(p - origin));
+                                for a in 0..3 {
+                                    cjac[(3 * l + a, k)] += column[a];
+                                }
+                            }
+                            turned(&row.turns, p)
                         }
-                    }
-                    // A tilt turns the parts beyond its joint about the joint's origin (the
-                    // geometry's columns leave out the micro-radians it turns them by).
-                    for (k, origin, turn) in row.turn_basis {
-                        let column = turn.cross(&(p - origin));
-                        for a in 0..3 {
-                            cjac[(3 * i + a, k)] += column[a];
-                        }
-                    }
-                    turned(&row.turns, p)
+                        None => robot.write_param_jacobian_at(q, t, &mut full, 3 * l),
+                    };
+                    r.extend_from_slice((p - self.obs.points[i]).as_slice());
                 }
-                None => robot.write_param_jacobian_at(q, t, &mut full, 3 * i),
-            };
-            r.extend_from_slice((p - self.obs.points[i]).as_slice());
+                (r, full, cjac)
+            })
+            .collect();
+        for (b, (block_r, block_full, block_cjac)) in blocks.into_iter().enumerate() {
+            let first = 3 * b * ROWS_PER_TASK;
+            (full.view_mut((first, 0), block_full.shape())).copy_from(&block_full);
+            (cjac.view_mut((first, 0), block_cjac.shape())).copy_from(&block_cjac);
+            r.extend(block_r);
         }
         let w = self.obs.angle_weight;
         for (k, &i) in self.oriented.iter().enumerate() {
@@ -537,7 +562,10 @@ impl<'a> CalibrationProblem<'a> {
     pub fn point_errors(&self, u: &[f64]) -> Vec<nalgebra::Vector3<f64>> {
         let robot = self.robot_at(u);
         let compliance = self.compliance_at(u);
+        // Every core's share of the rows (each point its own: the same errors on any number).
         (0..self.obs.len())
+            .into_par_iter()
+            .with_min_len(ROWS_PER_TASK)
             .map(|i| self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i])
             .collect()
     }

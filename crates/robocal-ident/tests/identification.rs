@@ -582,6 +582,79 @@ fn elastic_jacobian_matches_central_differences() {
     }
 }
 
+/// The residuals and the Jacobian are evaluated a block of rows per task on every core: on
+/// more rows than two blocks (and not a whole number of them), with every kind of joint-error
+/// term, each row is that observation's alone — its error from the model's own point, its
+/// Jacobian row from a problem holding only it (column by column in the same units) — and one
+/// core gives the same to the bit.
+#[test]
+fn rows_evaluated_in_parallel_blocks_are_each_rows_alone() {
+    let nominal = nominal();
+    let configs = configurations();
+    let mut errors = with_injected_weights(injected_compliance())
+        .with_harmonics(&[1, 3], 2)
+        .with_backlash(&[0, 3]);
+    for (k, h) in errors.harmonics.iter_mut().enumerate() {
+        (h.sin, h.cos) = (1e-4 * (k + 1) as f64, -2e-4);
+    }
+    for b in &mut errors.backlash {
+        b.value = 3e-4;
+    }
+    // 75 configurations at two loads: 150 rows, blocks of 64, 64 and 22.
+    let obs = observe_loaded(&nominal, &errors, &configs[..75], &[0.0, 15.0]);
+    let all: Vec<usize> = (0..nominal.param_count()).collect();
+    let problem = CalibrationProblem::new(&nominal, all.clone(), &obs)
+        .with_joint_errors(errors.clone(), errors.params());
+    let k = problem.unknowns();
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let u: Vec<f64> = (0..k).map(|_| rng.random_range(-0.5..0.5)).collect();
+    let (r, jac) = problem.residuals_and_jacobian(&u);
+    assert_eq!((r.len(), jac.nrows()), (3 * obs.len(), 3 * obs.len()));
+    let robot = problem.robot_at(&u);
+    let model = problem.compliance_at(&u).unwrap();
+    let residuals = problem.residuals(&u);
+    for i in 0..obs.len() {
+        let e = model.point(&robot, obs.joints(i), obs.loads[i]) - obs.points[i];
+        for a in 0..3 {
+            assert!((r[3 * i + a] - e[a]).abs() < 1e-9, "row {i}");
+            assert!((residuals[3 * i + a] - e[a]).abs() < 1e-9, "row {i}");
+        }
+    }
+    for i in [0, 1, 63, 64, 65, 127, 128, 149] {
+        let mut alone = Observations::new(6);
+        alone.q.extend_from_slice(obs.joints(i));
+        alone.loads.push(obs.loads[i]);
+        alone.points.push(obs.points[i]);
+        let single = CalibrationProblem::new(&nominal, all.clone(), &alone)
+            .with_joint_errors(errors.clone(), errors.params());
+        // The same parameters in the single problem's scaling.
+        let (s, s1) = (problem.scale(), single.scale());
+        let u1: Vec<f64> = (0..k).map(|c| u[c] * s[c] / s1[c]).collect();
+        let (_, jac1) = single.residuals_and_jacobian(&u1);
+        for a in 0..3 {
+            for c in 0..k {
+                let (x, y) = (jac[(3 * i + a, c)] / s[c], jac1[(a, c)] / s1[c]);
+                assert!(
+                    (x - y).abs() <= 1e-9 * x.abs().max(1.0),
+                    "row {i}, axis {a}, column {c}: {x} vs {y} alone"
+                );
+            }
+        }
+    }
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let (r1, jac1) = one.install(|| problem.residuals_and_jacobian(&u));
+    assert_eq!(r1, r);
+    assert_eq!(one.install(|| problem.residuals(&u)), residuals);
+    for row in 0..jac.nrows() {
+        for c in 0..k {
+            assert_eq!(jac1[(row, c)].to_bits(), jac[(row, c)].to_bits());
+        }
+    }
+}
+
 #[test]
 fn the_report_warns_when_the_data_cannot_determine_or_do_not_fit_the_model() {
     let nominal = nominal();

@@ -328,6 +328,18 @@ struct Pose<'a> {
     g: &'a Vector3<f64>,
 }
 
+/// The terms of one row that the deflection and the basis share ([`JointErrors::row_terms`]).
+struct RowShared {
+    /// The gravity torque about every joint (N·m) that the compliances meet.
+    torques: Vec<f64>,
+    /// Each link weight's unit torque about every joint up to its link's.
+    links: Vec<Vec<f64>>,
+    /// The basis value of every self-weight term.
+    self_weight: Vec<f64>,
+    /// The flank (`±1`) of every backlash term.
+    flanks: Vec<f64>,
+}
+
 /// The arm's joint axes and link frames at command `q`, computed on first use and once: the
 /// payload's torques, the links' weights, the self-weight terms, the torque flanks and the
 /// centre of mass's columns of one row share them.
@@ -1024,41 +1036,41 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> Vec<(usize, usize, f64)> {
+        self.basis_from(pose, load, params, &self.shared_at(pose, load))
+    }
+
+    /// What the deflection and the basis at the command `pose` holds under `load` kg share,
+    /// each computed once: the gravity torques the compliances meet, the links' unit torques,
+    /// the self-weight basis and the backlash flanks.
+    fn shared_at(&self, pose: &PoseCache, load: f64) -> RowShared {
+        let links = self.link_weight_basis(pose);
+        let torques = self.with_link_torques(
+            self.torques_at(pose, load),
+            links.iter().map(|u| u.iter().copied()),
+        );
+        RowShared {
+            torques,
+            links,
+            self_weight: self.self_weight_basis(pose),
+            flanks: self.flanks(pose, load),
+        }
+    }
+
+    /// [`Self::basis`] at the command `pose` holds, from its `shared` terms.
+    fn basis_from(
+        &self,
+        pose: &PoseCache,
+        load: f64,
+        params: &[ErrorParam],
+        shared: &RowShared,
+    ) -> Vec<(usize, usize, f64)> {
         let q = pose.q;
-        let compliance = params
-            .iter()
-            .any(|p| matches!(p, ErrorParam::Compliance(_)));
-        // The links' unit torques serve the compliances' torques and the weights' own columns.
-        let links = if compliance
-            || params
-                .iter()
-                .any(|p| matches!(p, ErrorParam::LinkWeight(_)))
-        {
-            self.link_weight_basis(pose)
-        } else {
-            Vec::new()
-        };
-        let torques = if compliance {
-            self.with_link_torques(
-                self.torques_at(pose, load),
-                links.iter().map(|u| u.iter().copied()),
-            )
-        } else {
-            Vec::new()
-        };
-        let sw = if params
-            .iter()
-            .any(|p| matches!(p, ErrorParam::SelfWeight(_)))
-        {
-            self.self_weight_basis(pose)
-        } else {
-            Vec::new()
-        };
-        let flanks = if params.iter().any(|p| matches!(p, ErrorParam::Backlash(_))) {
-            self.flanks(pose, load)
-        } else {
-            Vec::new()
-        };
+        let RowShared {
+            torques,
+            links,
+            self_weight: sw,
+            flanks,
+        } = shared;
         // The payload's torque per mm of its centre of mass along each flange axis, on every
         // joint (none without a load).
         let com = if load != 0.0
@@ -1156,16 +1168,28 @@ impl JointErrors {
 
     /// [`Self::deflection`] at the command `pose` holds.
     fn deflection_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
-        let q = pose.q;
-        let t = self.load_torques_at(pose, load);
-        let mut d: Vec<f64> = self.values.iter().zip(&t).map(|(c, t)| c * t).collect();
+        self.deflection_of(
+            pose.q,
+            &self.load_torques_at(pose, load),
+            &self.self_weight_basis(pose),
+            &self.flanks(pose, load),
+        )
+    }
+
+    /// How far each joint turns from command `q` (rad): compliance × the gravity `torques`,
+    /// plus the harmonics, the self-weight terms on their basis `sw` and the backlash on its
+    /// `flanks`.
+    fn deflection_of(&self, q: &[f64], torques: &[f64], sw: &[f64], flanks: &[f64]) -> Vec<f64> {
+        let mut d: Vec<f64> = (self.values.iter().zip(torques))
+            .map(|(c, t)| c * t)
+            .collect();
         for h in &self.harmonics {
             d[h.joint] += h.value(q[h.joint]);
         }
-        for (t, phi) in self.self_weight.iter().zip(self.self_weight_basis(pose)) {
+        for (t, phi) in self.self_weight.iter().zip(sw) {
             d[t.joint] += t.value * phi;
         }
-        for (b, s) in self.backlash.iter().zip(self.flanks(pose, load)) {
+        for (b, s) in self.backlash.iter().zip(flanks) {
             d[b.joint] += b.value * s;
         }
         d
@@ -1178,13 +1202,15 @@ impl JointErrors {
 
     /// [`Self::deflected`] at the command `pose` holds.
     fn deflected_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
-        let q = pose.q;
         if load == 0.0 && !self.has_configuration_terms() {
-            return q.to_vec();
+            return pose.q.to_vec();
         }
-        (q.iter().zip(self.deflection_at(pose, load)))
-            .map(|(q, d)| q + d)
-            .collect()
+        self.deflected_by(pose.q, self.deflection_at(pose, load))
+    }
+
+    /// `q` (rad) turned by the deflection `d` (rad).
+    fn deflected_by(&self, q: &[f64], d: Vec<f64>) -> Vec<f64> {
+        (q.iter().zip(d)).map(|(q, d)| q + d).collect()
     }
 
     /// What one row of an identification needs at command `q` (rad) under `load` kg, the arm's
@@ -1199,9 +1225,21 @@ impl JointErrors {
         params: &[ErrorParam],
     ) -> RowTerms {
         let pose = self.pose(robot, q);
+        let shared = self.shared_at(&pose, load);
+        let deflected = if load == 0.0 && !self.has_configuration_terms() {
+            q.to_vec()
+        } else {
+            let RowShared {
+                torques,
+                self_weight,
+                flanks,
+                ..
+            } = &shared;
+            self.deflected_by(q, self.deflection_of(q, torques, self_weight, flanks))
+        };
         RowTerms {
-            deflected: self.deflected_at(&pose, load),
-            basis: self.basis_at(&pose, load, params),
+            deflected,
+            basis: self.basis_from(&pose, load, params, &shared),
             turns: self.turns_at(&pose, load),
             turn_basis: self.turn_basis_at(&pose, load, params),
         }

@@ -4,6 +4,8 @@
 //! point `p` by `w × (p − o) ds`; a translation along `w` moves it by `w ds`. One forward pass
 //! gives the point, a second pass writes every column, so nothing is allocated per entry.
 
+use std::cell::Cell;
+
 use nalgebra::{DMatrix, IsometryMatrix3, Matrix3, Matrix3xX, Rotation3, Translation3, Vector3};
 
 use crate::table::{Joint, Robot};
@@ -30,11 +32,41 @@ fn rot_z(c: f64, s: f64) -> Matrix3<f64> {
     Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 }
 
+/// [`table_sin_cos`]'s memo holds `2^SIN_COS_BITS` angles.
+const SIN_COS_BITS: u32 = 6;
+
+thread_local! {
+    /// [`table_sin_cos`]'s memo: per slot, an angle's bits and its sine and cosine.
+    static SIN_COS: [Cell<(u64, f64, f64)>; 1 << SIN_COS_BITS] =
+        const { [const { Cell::new((u64::MAX, f64::NAN, f64::NAN)) }; 1 << SIN_COS_BITS] };
+}
+
+/// `angle.sin_cos()` for an angle of the table (α, β, the base's and the tool's angles), which
+/// every configuration of a fit meets again: remembered per thread by the angle's bits, so that
+/// the many configurations of one evaluation compute each once (the same values: a hit returns
+/// what `sin_cos` gave for the same bits). The joints' angles vary and are not remembered.
+#[inline]
+fn table_sin_cos(angle: f64) -> (f64, f64) {
+    let bits = angle.to_bits();
+    // Fibonacci hashing of the bits to a slot. An empty slot holds a NaN's bits with NaN for
+    // its sine and cosine: what that NaN's `sin_cos` gives.
+    let slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - SIN_COS_BITS)) as usize;
+    SIN_COS.with(|memo| {
+        let (b, s, c) = memo[slot].get();
+        if b == bits {
+            return (s, c);
+        }
+        let (s, c) = angle.sin_cos();
+        memo[slot].set((bits, s, c));
+        (s, c)
+    })
+}
+
 /// `R = RotZ(yaw) * RotY(pitch) * RotX(roll)` from `rpy = [roll, pitch, yaw]`, rad.
 pub fn rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
-    let (sr, cr) = rpy.x.sin_cos();
-    let (sp, cp) = rpy.y.sin_cos();
-    let (sy, cy) = rpy.z.sin_cos();
+    let (sr, cr) = table_sin_cos(rpy.x);
+    let (sp, cp) = table_sin_cos(rpy.y);
+    let (sy, cy) = table_sin_cos(rpy.z);
     rot_z(cy, sy) * rot_y(cp, sp) * rot_x(cr, sr)
 }
 
@@ -102,12 +134,12 @@ struct JointStep {
 
 #[inline]
 fn step(r0: Matrix3<f64>, o0: Vector3<f64>, joint: &Joint, q: f64) -> JointStep {
-    let (sa, ca) = joint.alpha.sin_cos();
+    let (sa, ca) = table_sin_cos(joint.alpha);
     let r1 = r0 * rot_x(ca, sa);
     let o2 = o0 + r0.column(0) * joint.a;
     let r3 = match joint.beta {
         Some(beta) => {
-            let (sb, cb) = beta.sin_cos();
+            let (sb, cb) = table_sin_cos(beta);
             r1 * rot_y(cb, sb)
         }
         None => r1,
@@ -154,6 +186,12 @@ impl Iterator for Steps<'_> {
         self.r = s.r;
         self.o = s.o;
         Some(s)
+    }
+
+    /// Exact (the joints left), so that what collects the steps allocates once.
+    #[inline]
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.joints.size_hint()
     }
 }
 
@@ -257,7 +295,7 @@ impl Robot {
         for axis in 0..3 {
             put(col + axis, Vector3::ith(axis, 1.0));
         }
-        let (sy, cy) = self.base.rpy.z.sin_cos();
+        let (sy, cy) = table_sin_cos(self.base.rpy.z);
         put(col + 3, rb.column(0).cross(&rel)); // roll about R x̂
         put(col + 4, Vector3::new(-sy, cy, 0.0).cross(&rel)); // pitch about Rz(yaw) ŷ
         put(col + 5, Vector3::z().cross(&rel)); // yaw about world ẑ
@@ -335,7 +373,7 @@ impl Robot {
         for axis in 0..3 {
             put(col + axis, Vector3::zeros());
         }
-        let (sy, cy) = self.base.rpy.z.sin_cos();
+        let (sy, cy) = table_sin_cos(self.base.rpy.z);
         put(col + 3, rb.column(0).into_owned());
         put(col + 4, Vector3::new(-sy, cy, 0.0));
         put(col + 5, Vector3::z());
@@ -346,7 +384,7 @@ impl Robot {
         col += 3 * (self.points.len() + 1);
         let tool = self.tool_frame_rotation();
         if let Some(rpy) = self.tool_rpy {
-            let (sy, cy) = rpy.z.sin_cos();
+            let (sy, cy) = table_sin_cos(rpy.z);
             put(col, flange * tool.column(0)); // roll about the tool frame's own x̂
             put(col + 1, flange * Vector3::new(-sy, cy, 0.0)); // pitch about Rz(yaw) ŷ
             put(col + 2, flange.column(2).into_owned()); // yaw about the flange's ẑ
@@ -428,6 +466,48 @@ impl Robot {
             axes,
             flange_rotation: r,
             point: o + r * self.tool,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The memo gives `sin_cos`'s own bits: for many more angles than it has slots (so that
+    /// slots are shared and overwritten), each asked several times in turns, for zeros of both
+    /// signs, infinities and NaNs (the all-ones NaN an empty slot holds among them).
+    #[test]
+    fn table_sin_cos_is_sin_cos_to_the_bit() {
+        let mut angles: Vec<f64> = (0..500)
+            .map(|k| -7.0 + 0.0281 * k as f64 + 1e-9 * (k % 7) as f64)
+            .collect();
+        angles.extend([
+            0.0,
+            -0.0,
+            std::f64::consts::FRAC_PI_2,
+            -std::f64::consts::FRAC_PI_2,
+            f64::INFINITY,
+            f64::NAN,
+            f64::from_bits(u64::MAX),
+            f64::from_bits(0x7ff0_0000_0000_0001),
+        ]);
+        let same = |a: (f64, f64), b: (f64, f64)| {
+            a.0.to_bits() == b.0.to_bits() && a.1.to_bits() == b.1.to_bits()
+                || (a.0.is_nan() && b.0.is_nan() && a.1.is_nan() && b.1.is_nan())
+        };
+        for round in 0..3 {
+            for (k, &angle) in angles.iter().enumerate() {
+                // Every other angle twice in a row: a hit straight after its miss.
+                for _ in 0..1 + (k + round) % 2 {
+                    let (s, c) = table_sin_cos(angle);
+                    assert!(
+                        same((s, c), angle.sin_cos()),
+                        "{angle} ({:#x}): {s}, {c}",
+                        angle.to_bits()
+                    );
+                }
+            }
         }
     }
 }
