@@ -1129,8 +1129,9 @@ pub fn calibrate_kinematics(
     obs: &Observations,
     settings: &KinematicSettings,
 ) -> Result<KinematicCalibration> {
+    let memo = AlignMemo::default();
     let Some(je) = settings.joint_errors.as_ref().filter(|je| je.tilt) else {
-        return identify(nominal, obs, settings);
+        return identify(nominal, obs, settings, &memo);
     };
     let mut upright = settings.clone();
     upright.joint_errors = Some(JointErrorSettings {
@@ -1144,11 +1145,32 @@ pub fn calibrate_kinematics(
     {
         upright.joint_errors = None;
     }
-    let without = identify(nominal, obs, &upright)?;
-    Ok(match identify(nominal, obs, settings) {
+    let without = identify(nominal, obs, &upright, &memo)?;
+    Ok(match identify(nominal, obs, settings, &memo) {
         Ok(with) if with.report.after.rms <= without.report.after.rms => with,
         _ => without,
     })
+}
+
+/// The alignment ([`align`]) of the last table and rows it was asked for: the identifications
+/// one calibration runs on the same ones (the first fit of the links' weights, the backlash
+/// flank rounds, the comparison of the tilts) align them once.
+#[derive(Default)]
+struct AlignMemo(std::cell::RefCell<Option<(Robot, Observations, Robot)>>);
+
+impl AlignMemo {
+    /// [`align`]`(robot, obs)`, remembered.
+    fn align(&self, robot: &Robot, obs: &Observations) -> Result<Robot> {
+        if let Some((r, o, aligned)) = &*self.0.borrow()
+            && r == robot
+            && o == obs
+        {
+            return Ok(aligned.clone());
+        }
+        let aligned = align(robot, obs)?;
+        *self.0.borrow_mut() = Some((robot.clone(), obs.clone(), aligned.clone()));
+        Ok(aligned)
+    }
 }
 
 /// [`calibrate_kinematics`] without its comparison of the tilts: the identification itself.
@@ -1156,6 +1178,7 @@ fn identify(
     nominal: &Robot,
     obs: &Observations,
     settings: &KinematicSettings,
+    memo: &AlignMemo,
 ) -> Result<KinematicCalibration> {
     if obs.dof != nominal.dof() {
         return Err(IdentError::JointCountMismatch {
@@ -1206,15 +1229,16 @@ fn identify(
         };
         let (down, angle) = tracker_down(nominal, obs, &c.gravity)?;
         if angle <= MOUNTING_ANGLE_DEG {
-            return identify(nominal, obs, &given);
+            return identify(nominal, obs, &given, memo);
         }
-        let upright = identify(nominal, obs, &given);
+        let upright = identify(nominal, obs, &given, memo);
         // The registration's base is a first guess of the base's rotation: once more with the
         // identified one.
-        let tracker = identify(nominal, obs, &with_gravity(given.clone(), down)).and_then(|fit| {
-            let levelled = with_gravity(given.clone(), down_of(&fit.robot));
-            identify(nominal, obs, &levelled)
-        });
+        let tracker =
+            identify(nominal, obs, &with_gravity(given.clone(), down), memo).and_then(|fit| {
+                let levelled = with_gravity(given.clone(), down_of(&fit.robot));
+                identify(nominal, obs, &levelled, memo)
+            });
         return match (upright, tracker) {
             (Ok(u), Ok(mut t)) if t.report.after.rms < u.report.after.rms => {
                 let g = t.compliance.as_ref().map_or(down, |c| c.gravity);
@@ -1262,13 +1286,13 @@ fn identify(
                 first.joint_errors = None;
             }
         }
-        let fit = identify(nominal, obs, &first)?;
+        let fit = identify(nominal, obs, &first, memo)?;
         let Some(values) = fit.compliance.as_ref().map(|c| c.values.clone()) else {
             return Ok(fit);
         };
         let mut next = settings.clone();
         next.compliance.as_mut().expect("compliance").start = Some(values);
-        return identify(nominal, obs, &next);
+        return identify(nominal, obs, &next, memo);
     }
     // Backlash that may rest on the flank its torque presses: a first identification on the
     // flanks of the approach from home, each joint's flank chosen from what it leaves, then the
@@ -1284,7 +1308,7 @@ fn identify(
         let start = round.joint_errors.as_mut().expect("joint errors");
         start.backlash_torque = false;
         let home = (start.backlash_home.clone()).unwrap_or_else(|| vec![0.0; nominal.dof()]);
-        let mut fit = identify(nominal, obs, &round)?;
+        let mut fit = identify(nominal, obs, &round, memo)?;
         // The fit on the approach flanks competes too: flanks chosen from a fit that lacked
         // them can leave more than it did (a joint's flank chosen nearly constant, its step then
         // absorbed by its offset and bent into its harmonics).
@@ -1299,7 +1323,7 @@ fn identify(
                 break;
             }
             round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
-            let next = identify(nominal, obs, &round)?;
+            let next = identify(nominal, obs, &round, memo)?;
             let now = next
                 .compliance
                 .as_ref()
@@ -1326,7 +1350,7 @@ fn identify(
             parameters: selected.len(),
         });
     }
-    let aligned = align(nominal, obs)?;
+    let aligned = memo.align(nominal, obs)?;
     let before = ErrorStats::from_errors(&obs.errors(&aligned));
     let choice = settings
         .compliance

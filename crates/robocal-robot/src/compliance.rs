@@ -333,11 +333,27 @@ struct RowShared {
     /// The gravity torque about every joint (N·m) that the compliances meet.
     torques: Vec<f64>,
     /// Each link weight's unit torque about every joint up to its link's.
-    links: Vec<Vec<f64>>,
+    links: LinkUnits,
     /// The basis value of every self-weight term.
     self_weight: Vec<f64>,
     /// The flank (`±1`) of every backlash term.
     flanks: Vec<f64>,
+}
+
+/// Each link weight's unit torque about every joint up to its link's, one after the other in
+/// one buffer ([`JointErrors::link_weights`] order).
+struct LinkUnits {
+    values: Vec<f64>,
+    /// Where each weight's torques end in `values`.
+    ends: Vec<usize>,
+}
+
+impl LinkUnits {
+    /// Link weight `i`'s unit torques (entry `j` for joint `j`).
+    fn of(&self, i: usize) -> &[f64] {
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        &self.values[start..self.ends[i]]
+    }
 }
 
 /// The arm's joint axes and link frames at command `q`, computed on first use and once: the
@@ -411,14 +427,24 @@ fn torque_features_at(
     load: f64,
 ) -> Vec<f64> {
     let mut f = Vec::with_capacity(TORQUE_FEATURES_PER_LINK * (frames.len() + 1) + 1);
-    for frame in frames {
-        f.extend(MomentPart::ALL.map(|part| unit_torque(axis, frame, g, part)));
-    }
-    if let Some(flange) = frames.last() {
-        f.extend(MomentPart::ALL.map(|part| load * unit_torque(axis, flange, g, part)));
-    }
-    f.push(1.0);
+    f.extend(torque_features_iter(axis, frames, g, load));
     f
+}
+
+/// [`torque_features_at`] one by one, without collecting them.
+fn torque_features_iter<'a>(
+    axis: &'a (Vector3<f64>, Vector3<f64>),
+    frames: &'a [(Matrix3<f64>, Vector3<f64>)],
+    g: &'a Vector3<f64>,
+    load: f64,
+) -> impl Iterator<Item = f64> + 'a {
+    let links = frames
+        .iter()
+        .flat_map(move |frame| MomentPart::ALL.map(|part| unit_torque(axis, frame, g, part)));
+    let payload = frames.last().into_iter().flat_map(move |flange| {
+        MomentPart::ALL.map(|part| load * unit_torque(axis, flange, g, part))
+    });
+    links.chain(payload).chain(std::iter::once(1.0))
 }
 
 /// `+1` for the positive flank, `−1` for the other.
@@ -429,6 +455,11 @@ fn side(positive: bool) -> f64 {
 /// The flank (`±1`) a torque flank's `weights` give for the gravity-torque `features`: `+1`
 /// where their product is at least 0.
 pub fn torque_side(weights: &[f64], features: &[f64]) -> f64 {
+    torque_side_of(weights, features.iter().copied())
+}
+
+/// [`torque_side`] of features given one by one.
+fn torque_side_of(weights: &[f64], features: impl Iterator<Item = f64>) -> f64 {
     side(
         weights
             .iter()
@@ -855,18 +886,22 @@ impl JointErrors {
     /// For each link weight ([`Self::link_weights`]), the gravity torque (N·m per kg or per
     /// kg·m) of its unit quantity about every joint axis up to its link's (entry `j` for joint
     /// `j`), at command `q` (rad); empty without any.
-    fn link_weight_basis(&self, pose: &PoseCache) -> Vec<Vec<f64>> {
+    fn link_weight_basis(&self, pose: &PoseCache) -> LinkUnits {
+        let mut units = LinkUnits {
+            values: Vec::new(),
+            ends: Vec::with_capacity(self.link_weights.len()),
+        };
         if self.link_weights.is_empty() {
-            return Vec::new();
+            return units;
         }
         let Pose { axes, frames, g } = pose.get();
-        (self.link_weights.iter())
-            .map(|w| {
-                (axes[..=w.body].iter())
-                    .map(|axis| unit_torque(axis, &frames[w.body], g, w.part))
-                    .collect()
-            })
-            .collect()
+        for w in &self.link_weights {
+            (units.values).extend(
+                (axes[..=w.body].iter()).map(|axis| unit_torque(axis, &frames[w.body], g, w.part)),
+            );
+            units.ends.push(units.values.len());
+        }
+        units
     }
 
     /// The payload's gravity torques (`torques`) plus the links' weights', N·m: `units` gives,
@@ -961,8 +996,8 @@ impl JointErrors {
                 Flank::Approach { home } => side(pose.q[b.joint] >= *home),
                 Flank::Torque { weights } => {
                     let Pose { axes, frames, g } = pose.get();
-                    let f = torque_features_at(&axes[b.joint], &frames[b.joint..], g, load);
-                    torque_side(weights, &f)
+                    let f = torque_features_iter(&axes[b.joint], &frames[b.joint..], g, load);
+                    torque_side_of(weights, f)
                 }
             })
             .collect()
@@ -1046,7 +1081,7 @@ impl JointErrors {
         let links = self.link_weight_basis(pose);
         let torques = self.with_link_torques(
             self.torques_at(pose, load),
-            links.iter().map(|u| u.iter().copied()),
+            (0..links.ends.len()).map(|i| links.of(i).iter().copied()),
         );
         RowShared {
             torques,
@@ -1105,7 +1140,7 @@ impl JointErrors {
                 ErrorParam::SelfWeight(i) => out.push((k, self.self_weight[i].joint, sw[i])),
                 ErrorParam::Backlash(i) => out.push((k, self.backlash[i].joint, flanks[i])),
                 ErrorParam::LinkWeight(i) => {
-                    for (j, phi) in links[i].iter().enumerate() {
+                    for (j, phi) in links.of(i).iter().enumerate() {
                         if self.values[j] != 0.0 {
                             out.push((k, j, self.values[j] * phi));
                         }
