@@ -719,6 +719,12 @@ fn residual_candidates(
         .min()
         .unwrap_or(0);
     let mut scores = Vec::new();
+    // The final training of the residual model that may be chosen, kept out of what the later
+    // candidates may spend (about one chunk of its folds: one training per core, each on a
+    // fold's rows, against one on every row with the axes on the cores); and the pace of the
+    // last candidate's chunks, which a new one is expected to take for its first.
+    let mut pending_final: f64 = 0.0;
+    let mut last_chunk: f64 = 0.0;
     for stage in &settings.residuals {
         let mut c = Candidate {
             name: format!(
@@ -738,7 +744,7 @@ fn residual_candidates(
                 "skipped: {fewest} configurations to train on; a residual model needs at least {}",
                 settings.min_residual_configurations
             );
-        } else if over_budget(0.0) {
+        } else if over_budget(pending_final + last_chunk) {
             c.status = format!(
                 "skipped: the time budget ({} s) is spent",
                 settings.budget_seconds
@@ -782,7 +788,12 @@ fn residual_candidates(
                 // The remaining folds at this chunk's pace, and the final fit (one training,
                 // as long as one of the chunk's).
                 let left = took * ((splits.len() - done) as f64 / chunk.len() as f64 + 1.0);
-                if done < splits.len() && over_budget(left) {
+                last_chunk = if done == chunk.len() {
+                    took
+                } else {
+                    last_chunk.max(took)
+                };
+                if done < splits.len() && over_budget(left + pending_final) {
                     abandoned = Some(format!(
                         "abandoned: its folds would run past the time budget ({} s)",
                         settings.budget_seconds
@@ -794,6 +805,7 @@ fn residual_candidates(
                 None => {
                     let (random, blocked, score) = held.summary();
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
+                    pending_final = pending_final.max(last_chunk);
                     significant = (chain.scored[chain.current].errors.as_ref())
                         .is_some_and(|base| improves(base, &held.all(), groups));
                     c.status = if significant {
