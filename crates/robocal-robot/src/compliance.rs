@@ -447,6 +447,11 @@ fn torque_features_iter<'a>(
     links.chain(payload).chain(std::iter::once(1.0))
 }
 
+/// `q` (rad) turned by the deflection `d` (rad).
+fn deflected_by(q: &[f64], d: Vec<f64>) -> Vec<f64> {
+    (q.iter().zip(d)).map(|(q, d)| q + d).collect()
+}
+
 /// `+1` for the positive flank, `−1` for the other.
 fn side(positive: bool) -> f64 {
     if positive { 1.0 } else { -1.0 }
@@ -1237,15 +1242,15 @@ impl JointErrors {
 
     /// [`Self::deflected`] at the command `pose` holds.
     fn deflected_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
-        if load == 0.0 && !self.has_configuration_terms() {
+        if self.holds_still(load) {
             return pose.q.to_vec();
         }
-        self.deflected_by(pose.q, self.deflection_at(pose, load))
+        deflected_by(pose.q, self.deflection_at(pose, load))
     }
 
-    /// `q` (rad) turned by the deflection `d` (rad).
-    fn deflected_by(&self, q: &[f64], d: Vec<f64>) -> Vec<f64> {
-        (q.iter().zip(d)).map(|(q, d)| q + d).collect()
+    /// Whether no joint turns under `load` kg: no load and no term that acts without one.
+    fn holds_still(&self, load: f64) -> bool {
+        load == 0.0 && !self.has_configuration_terms()
     }
 
     /// What one row of an identification needs at command `q` (rad) under `load` kg, the arm's
@@ -1261,7 +1266,7 @@ impl JointErrors {
     ) -> RowTerms {
         let pose = self.pose(robot, q);
         let shared = self.shared_at(&pose, load);
-        let deflected = if load == 0.0 && !self.has_configuration_terms() {
+        let deflected = if self.holds_still(load) {
             q.to_vec()
         } else {
             let RowShared {
@@ -1270,7 +1275,7 @@ impl JointErrors {
                 flanks,
                 ..
             } = &shared;
-            self.deflected_by(q, self.deflection_of(q, torques, self_weight, flanks))
+            deflected_by(q, self.deflection_of(q, torques, self_weight, flanks))
         };
         RowTerms {
             deflected,

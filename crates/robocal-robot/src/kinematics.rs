@@ -64,9 +64,21 @@ fn table_sin_cos(angle: f64) -> (f64, f64) {
 
 /// `R = RotZ(yaw) * RotY(pitch) * RotX(roll)` from `rpy = [roll, pitch, yaw]`, rad.
 pub fn rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
-    let (sr, cr) = table_sin_cos(rpy.x);
-    let (sp, cp) = table_sin_cos(rpy.y);
-    let (sy, cy) = table_sin_cos(rpy.z);
+    rpy_with(rpy, f64::sin_cos)
+}
+
+/// [`rpy_to_matrix`] of the table's own angles (the base's, the tool's), their sines
+/// remembered ([`table_sin_cos`]; a measured orientation's vary and are not).
+fn table_rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
+    rpy_with(rpy, table_sin_cos)
+}
+
+/// [`rpy_to_matrix`] with the sines and cosines from `sin_cos`.
+#[inline]
+fn rpy_with(rpy: &Vector3<f64>, sin_cos: impl Fn(f64) -> (f64, f64)) -> Matrix3<f64> {
+    let (sr, cr) = sin_cos(rpy.x);
+    let (sp, cp) = sin_cos(rpy.y);
+    let (sy, cy) = sin_cos(rpy.z);
     rot_z(cy, sy) * rot_y(cp, sp) * rot_x(cr, sr)
 }
 
@@ -214,7 +226,7 @@ impl Robot {
 
     /// Rotation of the base frame in the world frame.
     pub fn base_rotation(&self) -> Matrix3<f64> {
-        rpy_to_matrix(&self.base.rpy)
+        table_rpy_to_matrix(&self.base.rpy)
     }
 
     /// Flange frame {n} in the world frame as (rotation, origin mm); `q` in rad, one per joint.
@@ -326,7 +338,7 @@ impl Robot {
     pub fn tool_frame_rotation(&self) -> Matrix3<f64> {
         self.tool_rpy
             .as_ref()
-            .map_or_else(Matrix3::identity, rpy_to_matrix)
+            .map_or_else(Matrix3::identity, table_rpy_to_matrix)
     }
 
     /// Orientation of the tool frame in the world frame (what a 6-DoF probe reports); `q` in

@@ -724,7 +724,7 @@ fn residual_candidates(
     // fold's rows, against one on every row with the axes on the cores); and the pace of the
     // last candidate's chunks, which a new one is expected to take for its first.
     let mut pending_final: f64 = 0.0;
-    let mut last_chunk: f64 = 0.0;
+    let mut last_pace: f64 = 0.0;
     for stage in &settings.residuals {
         let mut c = Candidate {
             name: format!(
@@ -744,7 +744,7 @@ fn residual_candidates(
                 "skipped: {fewest} configurations to train on; a residual model needs at least {}",
                 settings.min_residual_configurations
             );
-        } else if over_budget(pending_final + last_chunk) {
+        } else if over_budget(pending_final + last_pace) {
             c.status = format!(
                 "skipped: the time budget ({} s) is spent",
                 settings.budget_seconds
@@ -764,6 +764,8 @@ fn residual_candidates(
             // cores, taken in fold order (the same models on any number of cores).
             let at_once = rayon::current_num_threads().max(1);
             let mut done = 0;
+            // This candidate's slowest chunk.
+            let mut slowest: f64 = 0.0;
             while abandoned.is_none() && done < splits.len() {
                 let t = Instant::now();
                 let chunk = done..(done + at_once).min(splits.len());
@@ -788,11 +790,8 @@ fn residual_candidates(
                 // The remaining folds at this chunk's pace, and the final fit (one training,
                 // as long as one of the chunk's).
                 let left = took * ((splits.len() - done) as f64 / chunk.len() as f64 + 1.0);
-                last_chunk = if done == chunk.len() {
-                    took
-                } else {
-                    last_chunk.max(took)
-                };
+                slowest = slowest.max(took);
+                last_pace = slowest;
                 if done < splits.len() && over_budget(left + pending_final) {
                     abandoned = Some(format!(
                         "abandoned: its folds would run past the time budget ({} s)",
@@ -805,7 +804,7 @@ fn residual_candidates(
                 None => {
                     let (random, blocked, score) = held.summary();
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
-                    pending_final = pending_final.max(last_chunk);
+                    pending_final = pending_final.max(slowest);
                     significant = (chain.scored[chain.current].errors.as_ref())
                         .is_some_and(|base| improves(base, &held.all(), groups));
                     c.status = if significant {
