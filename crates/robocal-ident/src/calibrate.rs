@@ -1064,25 +1064,82 @@ fn harmonic_prior(
 }
 
 /// The spread `τ` that maximises the marginal likelihood of estimates `â_j ~ N(0, τ² + s_j²)`,
-/// given as `(â_j, s_j²)`: the root of `Σ w_j² (â_j² − s_j² − τ²) = 0`, `w_j = 1/(τ² + s_j²)`, by
-/// its fixed-point iteration from the estimates' mean square (0 where the estimates spread no
-/// more than their own errors).
+/// given as `(â_j, s_j²)`: `L(τ) = −½ Σ ln(τ² + s_j²) + â_j² / (τ² + s_j²)`, searched over
+/// `τ = 0` and a logarithmic grid up to twice the largest `|â_j|` (8 points per factor of two,
+/// down to 10⁻⁹ of it), the best point's bracket refined by bisection on the sign of `dL/dτ`. `L` can have a maximum
+/// at zero and one inside, or rise, fall and rise again where a few estimates are far less
+/// certain than the rest; the fixed-point iteration of `Σ w_j² (â_j² − s_j² − τ²) = 0`
+/// (`w_j = 1/(τ² + s_j²)`) used until session 24 started from the estimates' mean square, where
+/// the uncertain ones make the right side negative, jumped to zero and stopped there (ARM5's
+/// joint-1 extrapolation split: five of its first ten fits held at the floor, 0.001°, where the
+/// maximum lay near 0.005°).
 pub fn prior_spread(estimates: &[(f64, f64)]) -> f64 {
-    let n = estimates.len().max(1) as f64;
-    let mut tau2 = estimates.iter().map(|(a, _)| a * a).sum::<f64>() / n;
-    for _ in 0..500 {
-        let (num, den) = estimates.iter().fold((0.0, 0.0), |(n, d), (a, s2)| {
-            let w = 1.0 / (tau2 + s2);
-            (n + w * w * (a * a - s2), d + w * w)
-        });
-        let next = if den > 0.0 { (num / den).max(0.0) } else { 0.0 };
-        let done = (next - tau2).abs() <= 1e-12 * tau2;
-        tau2 = next;
-        if done || tau2 == 0.0 {
+    let log_likelihood = |tau: f64| -> f64 {
+        let t2 = tau * tau;
+        -0.5 * (estimates.iter())
+            .map(|(a, s2)| {
+                let v = t2 + s2;
+                if v > 0.0 {
+                    v.ln() + a * a / v
+                } else if *a == 0.0 {
+                    f64::NEG_INFINITY
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .sum::<f64>()
+    };
+    let top = 2.0 * estimates.iter().fold(0.0f64, |m, (a, _)| m.max(a.abs()));
+    if !(top.is_finite() && top > 0.0) {
+        return 0.0;
+    }
+    // τ = 0, then the grid from 10⁻⁹ of the top upward; a tie keeps the smaller spread.
+    const PER_OCTAVE: usize = 8;
+    const OCTAVES: usize = 30;
+    let grid: Vec<f64> = std::iter::once(0.0)
+        .chain(
+            (0..=PER_OCTAVE * OCTAVES)
+                .map(|i| top * (2f64).powf(i as f64 / PER_OCTAVE as f64 - OCTAVES as f64)),
+        )
+        .collect();
+    let values: Vec<f64> = grid.iter().map(|&t| log_likelihood(t)).collect();
+    let best = (0..grid.len()).fold(0, |b, i| if values[i] > values[b] { i } else { b });
+    if best == 0 && values[0].is_finite() && values[1] <= values[0] {
+        return 0.0;
+    }
+    // Between the best point's neighbours, the root of `dL/dτ = τ h(τ)`,
+    // `h(τ) = Σ (â_j² − s_j² − τ²) / (τ² + s_j²)²`, by bisection (its sign is exact where `L`'s
+    // differences are round-off).
+    let h = |tau: f64| -> f64 {
+        let t2 = tau * tau;
+        (estimates.iter())
+            .map(|(a, s2)| (a * a - s2 - t2) / ((t2 + s2) * (t2 + s2)))
+            .sum::<f64>()
+    };
+    let (mut lo, mut hi) = (
+        grid[best.saturating_sub(1)],
+        grid[(best + 1).min(grid.len() - 1)],
+    );
+    if !(h(lo) > 0.0 && h(hi) < 0.0) {
+        return grid[best];
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
             break;
         }
+        if h(mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
     }
-    tau2.sqrt()
+    let tau = 0.5 * (lo + hi);
+    if log_likelihood(tau) >= values[best] {
+        tau
+    } else {
+        grid[best]
+    }
 }
 
 /// The smallest spread of the harmonics' prior, rad (a thousandth of a degree, 17 µm a metre

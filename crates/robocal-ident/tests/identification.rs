@@ -1814,6 +1814,59 @@ fn the_harmonic_prior_spread_maximises_the_marginal_likelihood() {
     assert_eq!(prior_spread(&within), 0.0);
 }
 
+/// Where a few estimates are far less certain than the rest, the marginal likelihood's
+/// maximum lies inside while the fixed-point iteration from the estimates' mean square (the
+/// method until session 24) stepped to zero and stopped: the harmonics of one fold of ARM5's
+/// joint-1 extrapolation split (deg; `(â, s)`), whose maximum a fine search puts at 0.0049°.
+#[test]
+fn the_harmonic_prior_spread_finds_an_inner_maximum_beside_uncertain_estimates() {
+    use robocal_ident::prior_spread;
+    let estimates: Vec<(f64, f64)> = [
+        (0.03359, 0.02679),
+        (-0.04216, 0.09534),
+        (-0.00358, 0.01418),
+        (0.01249, 0.02322),
+        (0.01906, 0.06795),
+        (-0.02202, 0.06748),
+        (0.00235, 0.02609),
+        (-0.00567, 0.00541),
+        (0.00850, 0.01298),
+        (0.01902, 0.00766),
+        (0.00474, 0.00236),
+        (0.00362, 0.00417),
+        (-0.00140, 0.01534),
+        (0.01170, 0.01240),
+        (0.00879, 0.00460),
+        (-0.00217, 0.00501),
+    ]
+    .iter()
+    .map(|&(a, s)| (a, s * s))
+    .collect();
+    let log_likelihood = |tau: f64| {
+        -0.5 * (estimates.iter())
+            .map(|(a, s2)| (tau * tau + s2).ln() + a * a / (tau * tau + s2))
+            .sum::<f64>()
+    };
+    let best = (0..=100_000)
+        .map(|i| f64::from(i) * 1e-7)
+        .max_by(|a, b| log_likelihood(*a).total_cmp(&log_likelihood(*b)))
+        .unwrap();
+    assert!(best > 0.004 && best < 0.006, "{best}");
+    // What the fixed-point iteration from the mean square gives: zero at the first step.
+    let mean_square = estimates.iter().map(|(a, _)| a * a).sum::<f64>() / 16.0;
+    let first_step = {
+        let (num, den) = estimates.iter().fold((0.0, 0.0), |(n, d), (a, s2)| {
+            let w = 1.0 / (mean_square + s2);
+            (n + w * w * (a * a - s2), d + w * w)
+        });
+        num / den
+    };
+    assert!(first_step < 0.0, "{first_step}");
+    let tau = prior_spread(&estimates);
+    assert!((tau - best).abs() < 2e-7, "{tau} vs {best}");
+    assert!(log_likelihood(tau) >= log_likelihood(best) - 1e-12);
+}
+
 /// The posterior's standard deviations under priors on some unknowns, against the closed form
 /// where the Jacobian's columns are orthogonal: `σ² / (|Jⱼ|² + dⱼ²)`, `σ² = Σr² / (rows − k)`;
 /// without a prior, the data's alone.

@@ -7,7 +7,7 @@
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
 //!     [--effects all,modelled,beyond] [--budget S] [--no-compensation] [--verbose] [--networks]
-//!     [--physics full] [--export DIR]
+//!     [--physics full] [--export DIR] [--poses N]
 //! ```
 //!
 //! The effect sets: *all* (what the twin file holds: every effect robocal's physics models),
@@ -369,6 +369,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         value("--budget").map_or(Ok(DEFAULT_BUDGET_SECONDS), |s| s.parse())?;
     // Every case's files for an outside pipeline (scripts/peer), instead of the table.
     let export = value("--export").map(PathBuf::from);
+    // More configurations than the twin file's (`--poses N`): a larger member of each family,
+    // its grid made finer by the cube root of the ratio so that enough points are measurable.
+    let poses: Option<usize> = value("--poses").map(|s| s.parse()).transpose()?;
     // Which effect sets (`--effects all,modelled,beyond`; default every one).
     let effect_sets: Vec<Effects> = match value("--effects") {
         Some(list) => list
@@ -422,6 +425,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for seed in 0..seeds {
             for &effects in &effect_sets {
                 let mut twin = member(&base, seed);
+                if let Some(count) = poses {
+                    let ratio = count as f64 / twin.poses.count as f64;
+                    if ratio > 1.0 {
+                        twin.poses.step /= ratio.cbrt();
+                    }
+                    twin.poses.count = count;
+                }
                 match effects {
                     Effects::All => twin.beyond = None,
                     Effects::Modelled => {
