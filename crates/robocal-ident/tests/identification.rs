@@ -1778,6 +1778,24 @@ fn noisy_6d_rows_help_the_positions_and_fit_the_orientation() {
     );
 }
 
+/// The marginal likelihood of estimates `(â, s²)` under `â ~ N(0, τ² + s²)`, up to a constant.
+fn spread_log_likelihood(estimates: &[(f64, f64)], tau: f64) -> f64 {
+    -0.5 * (estimates.iter())
+        .map(|(a, s2)| (tau * tau + s2).ln() + a * a / (tau * tau + s2))
+        .sum::<f64>()
+}
+
+/// The spread of largest marginal likelihood among `first..=last` steps of `step`: a fine
+/// search, independent of [`robocal_ident::prior_spread`]'s.
+fn finest_spread(estimates: &[(f64, f64)], first: i32, last: i32, step: f64) -> f64 {
+    (first..=last)
+        .map(|i| f64::from(i) * step)
+        .max_by(|a, b| {
+            spread_log_likelihood(estimates, *a).total_cmp(&spread_log_likelihood(estimates, *b))
+        })
+        .unwrap()
+}
+
 /// The harmonics' prior spread is the maximum of the marginal likelihood of the estimates
 /// (`â ~ N(0, τ² + s²)`): against a fine search of that likelihood (independent of the
 /// fixed-point iteration) for unequal errors, against the closed form `τ² = mean(â²) − s²` for
@@ -1796,15 +1814,7 @@ fn the_harmonic_prior_spread_maximises_the_marginal_likelihood() {
             )
         })
         .collect();
-    let log_likelihood = |tau: f64| {
-        -0.5 * (estimates.iter())
-            .map(|(a, s2)| (tau * tau + s2).ln() + a * a / (tau * tau + s2))
-            .sum::<f64>()
-    };
-    let best = (1..=40_000)
-        .map(|i| f64::from(i) * 1e-4)
-        .max_by(|a, b| log_likelihood(*a).total_cmp(&log_likelihood(*b)))
-        .unwrap();
+    let best = finest_spread(&estimates, 1, 40_000, 1e-4);
     let tau = prior_spread(&estimates);
     assert!(tau > 0.3 && (tau - best).abs() < 2e-4, "{tau} vs {best}");
     let equal: Vec<(f64, f64)> = [0.9, -1.4, 2.2, 0.1].iter().map(|&a| (a, 0.25)).collect();
@@ -1842,15 +1852,7 @@ fn the_harmonic_prior_spread_finds_an_inner_maximum_beside_uncertain_estimates()
     .iter()
     .map(|&(a, s)| (a, s * s))
     .collect();
-    let log_likelihood = |tau: f64| {
-        -0.5 * (estimates.iter())
-            .map(|(a, s2)| (tau * tau + s2).ln() + a * a / (tau * tau + s2))
-            .sum::<f64>()
-    };
-    let best = (0..=100_000)
-        .map(|i| f64::from(i) * 1e-7)
-        .max_by(|a, b| log_likelihood(*a).total_cmp(&log_likelihood(*b)))
-        .unwrap();
+    let best = finest_spread(&estimates, 0, 100_000, 1e-7);
     assert!(best > 0.004 && best < 0.006, "{best}");
     // What the fixed-point iteration from the mean square gives: zero at the first step.
     let mean_square = estimates.iter().map(|(a, _)| a * a).sum::<f64>() / 16.0;
@@ -1864,7 +1866,9 @@ fn the_harmonic_prior_spread_finds_an_inner_maximum_beside_uncertain_estimates()
     assert!(first_step < 0.0, "{first_step}");
     let tau = prior_spread(&estimates);
     assert!((tau - best).abs() < 2e-7, "{tau} vs {best}");
-    assert!(log_likelihood(tau) >= log_likelihood(best) - 1e-12);
+    assert!(
+        spread_log_likelihood(&estimates, tau) >= spread_log_likelihood(&estimates, best) - 1e-12
+    );
 }
 
 /// The posterior's standard deviations under priors on some unknowns, against the closed form
