@@ -1066,9 +1066,9 @@ fn harmonic_prior(
 /// The spread `τ` that maximises the marginal likelihood of estimates `â_j ~ N(0, τ² + s_j²)`,
 /// given as `(â_j, s_j²)`: `L(τ) = −½ Σ ln(τ² + s_j²) + â_j² / (τ² + s_j²)`, searched over
 /// `τ = 0` and a logarithmic grid up to twice the largest `|â_j|` (8 points per factor of two,
-/// down to 10⁻⁹ of it), the best point's bracket refined by bisection on the sign of `dL/dτ`. `L` can have a maximum
-/// at zero and one inside, or rise, fall and rise again where a few estimates are far less
-/// certain than the rest; the fixed-point iteration of `Σ w_j² (â_j² − s_j² − τ²) = 0`
+/// down to 10⁻⁹ of it), the best point's bracket refined by bisection on the sign of `dL/dτ`.
+/// `L` can have a maximum at zero and one inside, or rise, fall and rise again where a few
+/// estimates are far less certain than the rest; the fixed-point iteration of `Σ w_j² (â_j² − s_j² − τ²) = 0`
 /// (`w_j = 1/(τ² + s_j²)`) used until session 24 started from the estimates' mean square, where
 /// the uncertain ones make the right side negative, jumped to zero and stopped there (ARM5's
 /// joint-1 extrapolation split: five of its first ten fits held at the floor, 0.001°, where the
@@ -1104,7 +1104,7 @@ pub fn prior_spread(estimates: &[(f64, f64)]) -> f64 {
         .collect();
     let values: Vec<f64> = grid.iter().map(|&t| log_likelihood(t)).collect();
     let best = (0..grid.len()).fold(0, |b, i| if values[i] > values[b] { i } else { b });
-    if best == 0 && values[0].is_finite() && values[1] <= values[0] {
+    if best == 0 {
         return 0.0;
     }
     // Between the best point's neighbours, the root of `dL/dτ = τ h(τ)`,
