@@ -664,7 +664,7 @@ fn far_moves<'a>(
 }
 
 /// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
-/// payload torque and why it was held rigid.
+/// payload torque and why it was held (rigid, or at a first fit's value).
 fn compliance_report(
     choice: Option<&ComplianceChoice>,
     compliance: Option<&JointErrors>,
@@ -698,7 +698,13 @@ fn compliance_report(
                     } else if identified {
                         "identified".to_string()
                     } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
-                        format!("held rigid: {}", f.reason)
+                        // Rigid, or at the first fit's value when the gate held it in the fit
+                        // that started there (its reason says which).
+                        if model.values[j] == 0.0 {
+                            format!("held rigid: {}", f.reason)
+                        } else {
+                            format!("held: {}", f.reason)
+                        }
                     } else {
                         "held rigid: not selected".to_string()
                     };
@@ -1007,8 +1013,13 @@ fn solve_gated(
                     "implausible: its tilting compliance {}; held rigid",
                     implausible(p).unwrap_or_default()
                 ),
+                Column::Compliance(j) => format!(
+                    "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), {}",
+                    implausible(p).unwrap_or_default(),
+                    held_compliance(problem, j)
+                ),
                 _ => format!(
-                    "implausible: its compliance {}; the stage was absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection), held rigid",
+                    "implausible: {}; held at its start",
                     implausible(p).unwrap_or_default()
                 ),
             };
@@ -1021,6 +1032,22 @@ fn solve_gated(
         *problem = problem.restricted(&keep);
         *kept = keep.iter().map(|&p| kept[p]).collect();
     })
+}
+
+/// Where a compliance the gate holds stays, in words: rigid where the problem starts it at zero,
+/// else at the value it starts from (the first fit's, without the links' weights, the payload's
+/// centre of mass and backlash, which a restricted problem keeps).
+fn held_compliance(problem: &CalibrationProblem<'_>, joint: usize) -> String {
+    let start =
+        (problem.compliance_at(&vec![0.0; problem.unknowns()])).map_or(0.0, |m| m.values[joint]);
+    if start == 0.0 {
+        "held rigid".to_string()
+    } else {
+        format!(
+            "held at {:.4} deg/kN·m, the value the first fit (without the links' weights, the payload's centre of mass and backlash) found",
+            start / DEG_PER_KNM
+        )
+    }
 }
 
 /// Zero-mean Gaussian priors on the transmission harmonics' coefficients (empirical Bayes), their

@@ -1476,6 +1476,30 @@ fn implausible_compliances_are_held_rigid_when_asked() {
         joints[4].reason
     );
     assert_eq!(gated.compliance.as_ref().unwrap().values[4], 0.0);
+    assert!(
+        joints[4].reason.starts_with("held rigid: implausible")
+            && joints[4].reason.ends_with("held rigid"),
+        "{}",
+        joints[4].reason
+    );
+    // Started from a first fit's compliances (as a fit with the links' weights is), a joint the
+    // gate holds stays at its start, and the report says so instead of calling it rigid.
+    let first: Vec<f64> = (0..6)
+        .map(|j| (0.1 + 0.05 * j as f64) * DEG_PER_KNM)
+        .collect();
+    let mut started = settings(true);
+    started.compliance.as_mut().unwrap().start = Some(first.clone());
+    let held = calibrate_kinematics(&nominal, &obs, &started).unwrap();
+    let held_joints = &held.report.compliance.as_ref().unwrap().joints;
+    assert!(!held_joints[4].identified, "{held_joints:?}");
+    assert_eq!(held.compliance.as_ref().unwrap().values[4], first[4]);
+    assert!(
+        held_joints[4].reason.starts_with("held: implausible")
+            && held_joints[4].reason.contains("negative")
+            && held_joints[4].reason.contains("held at 0.3000 deg/kN·m"),
+        "{}",
+        held_joints[4].reason
+    );
     // Every joint left is plausible, or held rigid for a stated reason (here joint 6 takes
     // up the effect joint 5 can no longer fit, negatively, and is held rigid too).
     for j in [1, 2, 3] {

@@ -348,6 +348,16 @@ fn export_case(
     Ok(())
 }
 
+/// The number after `flag` in `args` (none without the flag), or an error naming the flag and
+/// what it was given.
+fn number<T: std::str::FromStr>(args: &[String], flag: &str) -> Result<Option<T>, String>
+where
+    T::Err: std::fmt::Display,
+{
+    let text = (args.iter().position(|a| a == flag)).and_then(|i| args.get(i + 1));
+    (text.map(|s| s.parse().map_err(|e| format!("{flag}: `{s}`: {e}")))).transpose()
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value = |flag: &str| {
@@ -355,7 +365,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .position(|a| a == flag)
             .and_then(|i| args.get(i + 1).cloned())
     };
-    let seeds: u64 = value("--seeds").map_or(Ok(2), |s| s.parse())?;
+    let seeds: u64 = number(&args, "--seeds")?.unwrap_or(2);
     let aside = args.iter().any(|a| a == "--aside");
     let compensation = !args.iter().any(|a| a == "--no-compensation");
     let verbose = args.iter().any(|a| a == "--verbose");
@@ -365,13 +375,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // weights) instead of compliance + harmonics + per-joint self-weight.
     let full_physics = value("--physics").is_some_and(|p| p == "full");
     // The default's time budget, s (`--budget`; robocal's default otherwise).
-    let budget_seconds: f64 =
-        value("--budget").map_or(Ok(DEFAULT_BUDGET_SECONDS), |s| s.parse())?;
+    let budget_seconds: f64 = number(&args, "--budget")?.unwrap_or(DEFAULT_BUDGET_SECONDS);
     // Every case's files for an outside pipeline (scripts/peer), instead of the table.
     let export = value("--export").map(PathBuf::from);
     // More configurations than the twin file's (`--poses N`): a larger member of each family,
     // its grid made finer by the cube root of the ratio so that enough points are measurable.
-    let poses: Option<usize> = value("--poses").map(|s| s.parse()).transpose()?;
+    let poses: Option<usize> = number(&args, "--poses")?;
     // Which effect sets (`--effects all,modelled,beyond`; default every one).
     let effect_sets: Vec<Effects> = match value("--effects") {
         Some(list) => list

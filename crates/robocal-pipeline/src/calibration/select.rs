@@ -1175,7 +1175,8 @@ pub fn automatic(
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
     }
-    // Compliances the final fit found impossible and held rigid, in the decision.
+    // Compliances the final fit found impossible and held (rigid, or at the value of its first
+    // fit without the links' weights and backlash), in the decision.
     let implausible: Vec<&str> = (built.kinematic.report.fixed.iter())
         .filter(|f| f.reason.starts_with("implausible"))
         .map(|f| f.name.as_str())
@@ -1185,7 +1186,7 @@ pub fn automatic(
         && !implausible.is_empty()
     {
         let note = format!(
-            "; held rigid as implausible in the final fit (negative, beyond {} deg/kN·m, or within their own uncertainty): {}",
+            "; held (rigid, or at the first fit's value) as implausible in the final fit (negative, beyond {} deg/kN·m, or within their own uncertainty): {}",
             robocal_ident::COMPLIANCE_BOUND,
             implausible.join(", ")
         );
