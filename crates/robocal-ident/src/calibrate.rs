@@ -1213,9 +1213,23 @@ pub fn calibrate_kinematics(
     obs: &Observations,
     settings: &KinematicSettings,
 ) -> Result<KinematicCalibration> {
-    let memo = AlignMemo::default();
+    calibrate_kinematics_with(nominal, obs, settings, &FitMemo::default())
+}
+
+/// [`calibrate_kinematics`], remembering in `memo` every alignment and identification it makes
+/// and taking any `memo` already holds: callers that identify several models of the same rows
+/// (the default calibration's candidates on one fold) share their common fits — the first fit
+/// of a model with the links' weights is the fit of the same model without them, and every
+/// model starts from the same alignment. The results are those of [`calibrate_kinematics`],
+/// bit for bit (each identification is a function of its table, rows and settings).
+pub fn calibrate_kinematics_with(
+    nominal: &Robot,
+    obs: &Observations,
+    settings: &KinematicSettings,
+    memo: &FitMemo,
+) -> Result<KinematicCalibration> {
     let Some(je) = settings.joint_errors.as_ref().filter(|je| je.tilt) else {
-        return identify(nominal, obs, settings, &memo);
+        return identify(nominal, obs, settings, memo);
     };
     let mut upright = settings.clone();
     upright.joint_errors = Some(JointErrorSettings {
@@ -1229,40 +1243,129 @@ pub fn calibrate_kinematics(
     {
         upright.joint_errors = None;
     }
-    let without = identify(nominal, obs, &upright, &memo)?;
-    Ok(match identify(nominal, obs, settings, &memo) {
+    let without = identify(nominal, obs, &upright, memo)?;
+    Ok(match identify(nominal, obs, settings, memo) {
         Ok(with) if with.report.after.rms <= without.report.after.rms => with,
         _ => without,
     })
 }
 
-/// The alignment ([`align`]) of the last table and rows it was asked for: the identifications
-/// one calibration runs on the same ones (the first fit of the links' weights, the backlash
-/// flank rounds, the comparison of the tilts) align them once.
+/// Alignments ([`align`]) and identifications already made, each with the table, rows and
+/// settings it was made from ([`calibrate_kinematics_with`]): one calibration's identifications
+/// (the first fit of the links' weights, the backlash flank rounds, the comparison of the tilts)
+/// and the default calibration's candidates on one fold share them. Only what succeeded is
+/// kept; each set of rows is kept once. Safe to share between threads (the lock is held for a
+/// lookup or an insertion, never while fitting).
 #[derive(Default)]
-struct AlignMemo(std::cell::RefCell<Option<(Robot, Observations, Robot)>>);
+pub struct FitMemo(std::sync::Mutex<MemoEntries>);
 
-impl AlignMemo {
-    /// [`align`]`(robot, obs)`, remembered.
-    fn align(&self, robot: &Robot, obs: &Observations) -> Result<Robot> {
-        if let Some((r, o, aligned)) = &*self.0.borrow()
-            && r == robot
-            && o == obs
-        {
-            return Ok(aligned.clone());
-        }
-        let aligned = align(robot, obs)?;
-        *self.0.borrow_mut() = Some((robot.clone(), obs.clone(), aligned.clone()));
-        Ok(aligned)
+/// What a [`FitMemo`] holds.
+#[derive(Default)]
+struct MemoEntries {
+    /// Every set of rows an entry was made from.
+    rows: Vec<Observations>,
+    /// Alignments: the table, its rows (index into `rows`) and the aligned table.
+    aligned: Vec<(Robot, usize, Robot)>,
+    /// Identifications: the table, its rows, the settings and the result.
+    fits: Vec<(Robot, usize, KinematicSettings, KinematicCalibration)>,
+}
+
+impl MemoEntries {
+    /// The index of `obs` in `rows`, if held.
+    fn rows_of(&self, obs: &Observations) -> Option<usize> {
+        self.rows.iter().position(|o| o == obs)
+    }
+
+    /// The index of `obs` in `rows`, added if not held.
+    fn keep_rows(&mut self, obs: &Observations) -> usize {
+        self.rows_of(obs).unwrap_or_else(|| {
+            self.rows.push(obs.clone());
+            self.rows.len() - 1
+        })
     }
 }
 
-/// [`calibrate_kinematics`] without its comparison of the tilts: the identification itself.
+impl FitMemo {
+    /// Its entries, locked (a panic elsewhere while it was held leaves them usable: every
+    /// entry is pushed whole).
+    fn entries(&self) -> std::sync::MutexGuard<'_, MemoEntries> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// [`align`]`(robot, obs)`, remembered.
+    fn align(&self, robot: &Robot, obs: &Observations) -> Result<Robot> {
+        {
+            let e = self.entries();
+            if let Some(k) = e.rows_of(obs)
+                && let Some((_, _, aligned)) =
+                    (e.aligned.iter()).find(|(r, o, _)| *o == k && r == robot)
+            {
+                return Ok(aligned.clone());
+            }
+        }
+        let aligned = align(robot, obs)?;
+        let mut e = self.entries();
+        let k = e.keep_rows(obs);
+        e.aligned.push((robot.clone(), k, aligned.clone()));
+        Ok(aligned)
+    }
+
+    /// The identification of `nominal` from `obs` with `settings`, if remembered.
+    fn fit(
+        &self,
+        nominal: &Robot,
+        obs: &Observations,
+        settings: &KinematicSettings,
+    ) -> Option<KinematicCalibration> {
+        let e = self.entries();
+        let k = e.rows_of(obs)?;
+        (e.fits.iter())
+            .find(|(r, o, s, _)| *o == k && s == settings && r == nominal)
+            .map(|(_, _, _, fit)| fit.clone())
+    }
+
+    /// Remembers `fit`, the identification of `nominal` from `obs` with `settings`.
+    fn remember(
+        &self,
+        nominal: &Robot,
+        obs: &Observations,
+        settings: &KinematicSettings,
+        fit: &KinematicCalibration,
+    ) {
+        let mut e = self.entries();
+        let k = e.keep_rows(obs);
+        (e.fits).push((nominal.clone(), k, settings.clone(), fit.clone()));
+    }
+
+    /// How many identifications it remembers.
+    pub fn fits(&self) -> usize {
+        self.entries().fits.len()
+    }
+}
+
+/// [`identify_anew`], or the identification `memo` remembers for the same table, rows and
+/// settings.
 fn identify(
     nominal: &Robot,
     obs: &Observations,
     settings: &KinematicSettings,
-    memo: &AlignMemo,
+    memo: &FitMemo,
+) -> Result<KinematicCalibration> {
+    if let Some(fit) = memo.fit(nominal, obs, settings) {
+        return Ok(fit);
+    }
+    let fit = identify_anew(nominal, obs, settings, memo)?;
+    memo.remember(nominal, obs, settings, &fit);
+    Ok(fit)
+}
+
+/// [`calibrate_kinematics`] without its comparison of the tilts: the identification itself
+/// (the identifications it starts from taken from `memo` where it holds them).
+fn identify_anew(
+    nominal: &Robot,
+    obs: &Observations,
+    settings: &KinematicSettings,
+    memo: &FitMemo,
 ) -> Result<KinematicCalibration> {
     if obs.dof != nominal.dof() {
         return Err(IdentError::JointCountMismatch {

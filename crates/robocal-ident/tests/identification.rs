@@ -912,6 +912,75 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
     assert!(err.to_string().contains("compliance"), "{err}");
 }
 
+/// A memo of one set of rows' fits: the fit with the links' weights remembers its first fit
+/// (the compliances alone), the fit from there and itself; the compliances alone asked next
+/// come from the memo
+/// (nothing new remembered), and other rows are fitted anew; every result equals the one made
+/// without a memo, bit for bit.
+#[test]
+fn a_memo_shares_the_first_fit_and_changes_no_result() {
+    use robocal_ident::{FitMemo, JointErrorSettings, KinematicCalibration};
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 17);
+    let errors = with_injected_weights(injected_compliance());
+    let mut obs = observe_loaded(&truth, &errors, &configs[..60], &[0.0, 10.0, 20.0]);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let noise = Normal::new(0.0, 0.015).unwrap();
+    for p in &mut obs.points {
+        *p += Vector3::from_fn(|_, _| noise.sample(&mut rng));
+    }
+    let weights = with_joint_errors(
+        errors.payload_com,
+        JointErrorSettings {
+            harmonics: 0,
+            link_weights: true,
+            ..JointErrorSettings::default()
+        },
+    );
+    let alone = KinematicSettings {
+        joint_errors: None,
+        ..weights.clone()
+    };
+    let same = |a: &KinematicCalibration, b: &KinematicCalibration| {
+        a.robot == b.robot
+            && a.compliance == b.compliance
+            && a.report.after.mean.to_bits() == b.report.after.mean.to_bits()
+    };
+    let memo = FitMemo::default();
+    let with = robocal_ident::calibrate_kinematics_with(&nominal, &obs, &weights, &memo).unwrap();
+    // The first fit, the fit from its compliances, and the call's own.
+    assert_eq!(memo.fits(), 3);
+    let first = robocal_ident::calibrate_kinematics_with(&nominal, &obs, &alone, &memo).unwrap();
+    assert_eq!(
+        memo.fits(),
+        3,
+        "the compliances alone are the first fit, remembered"
+    );
+    assert!(same(
+        &with,
+        &calibrate_kinematics(&nominal, &obs, &weights).unwrap()
+    ));
+    assert!(same(
+        &first,
+        &calibrate_kinematics(&nominal, &obs, &alone).unwrap()
+    ));
+    assert!(!same(&with, &first));
+    // Other rows are not taken for these.
+    let mut fewer = obs.clone();
+    let n = 3 * 50;
+    fewer.q.truncate(n * obs.dof);
+    fewer.loads.truncate(n);
+    fewer.points.truncate(n);
+    let other = robocal_ident::calibrate_kinematics_with(&nominal, &fewer, &alone, &memo).unwrap();
+    assert_eq!(memo.fits(), 4);
+    assert!(same(
+        &other,
+        &calibrate_kinematics(&nominal, &fewer, &alone).unwrap()
+    ));
+    assert!(!same(&other, &first));
+}
+
 /// Tilting compliances (bearings a few times stiffer across their axes than about them) with
 /// the links' weights and the compliances, identified with the geometry from noise-free data at
 /// three loads: every point to round-off, each injected tilt to 2 % of itself (the wrist's

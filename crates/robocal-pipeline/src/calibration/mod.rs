@@ -26,7 +26,9 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement, Observer, Sample};
-use robocal_ident::{KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics};
+use robocal_ident::{
+    FitMemo, KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics_with,
+};
 use robocal_model::{CalibratedModel, resolve_gate_physics, with_gate_physics};
 use robocal_residual::{
     GateInputs, ResidualKind, ResidualModel, ResidualSettings, ResidualStage, Samples, SearchLog,
@@ -211,6 +213,18 @@ pub fn fit_kinematic(
     rows: &[&Measurement],
     settings: &KinematicSettings,
 ) -> Result<KinematicCalibration> {
+    fit_kinematic_with(nominal, rows, settings, &FitMemo::default())
+}
+
+/// [`fit_kinematic`], sharing with the other fits of the same rows the alignments and
+/// identifications `memo` remembers ([`robocal_ident::calibrate_kinematics_with`]: the same
+/// results, bit for bit).
+pub fn fit_kinematic_with(
+    nominal: &Robot,
+    rows: &[&Measurement],
+    settings: &KinematicSettings,
+    memo: &FitMemo,
+) -> Result<KinematicCalibration> {
     let obs = if settings.compliance.is_some() {
         Observations::from_rows(nominal.dof(), rows.iter().copied())
     } else {
@@ -223,7 +237,7 @@ pub fn fit_kinematic(
             rows.iter().copied().filter(|r| r.sample.load == lightest),
         )
     };
-    Ok(calibrate_kinematics(nominal, &obs, settings)?)
+    Ok(calibrate_kinematics_with(nominal, &obs, settings, memo)?)
 }
 
 /// `settings` with a CA-SOMM gate's physics resolved against `base` (its table and joint

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{
-    ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings,
+    ComplianceSettings, FitMemo, JointErrorSettings, KinematicCalibration, KinematicSettings,
     MOUNTING_ANGLE_DEG, Observations, calibrate_kinematics, tracker_down,
 };
 use robocal_model::CalibratedModel;
@@ -19,7 +19,7 @@ use serde::Serialize;
 use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
 use super::outliers::{OutlierSettings, find_outliers};
 use super::{
-    Built, configurations, configured, fit_kinematic, loads, physical_model, train_residual,
+    Built, configurations, configured, fit_kinematic_with, loads, physical_model, train_residual,
 };
 use crate::error::Result;
 use crate::stages::Stages;
@@ -334,21 +334,23 @@ fn score_physics(
     physics: Physics,
     auto: &AutoSettings,
     nominal: &Robot,
-    splits: &[Fold<'_>],
+    plan: &FoldPlan<'_>,
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
 ) -> Scored {
+    let splits = &plan.splits;
     let t = std::time::Instant::now();
     let kinematic = physics.settings(auto);
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
     // The folds' fits are independent: on every core at once, taken in fold order (the same
-    // results on any number of cores).
-    let fits: Vec<_> = splits
-        .par_iter()
-        .map(|fold| {
-            let fit = fit_kinematic(nominal, &fold.train, &kinematic);
+    // results on any number of cores), each sharing with the candidates before it the fits of
+    // its rows they made.
+    let fits: Vec<_> = (splits.par_iter())
+        .zip(&plan.memos)
+        .map(|(fold, memo)| {
+            let fit = fit_kinematic_with(nominal, &fold.train, &kinematic, memo);
             observer.advance(1);
             fit
         })
@@ -408,6 +410,9 @@ fn report(c: &Candidate, observer: &dyn Observer) {
 /// fitted again on every row.
 struct FoldPlan<'a> {
     splits: Vec<Fold<'a>>,
+    /// One per split: the alignments and identifications of its training rows, which the
+    /// physical candidates share (the first fit of one is often another's whole fit).
+    memos: Vec<FitMemo>,
     held_out: String,
     refit: bool,
 }
@@ -428,6 +433,7 @@ impl<'a> FoldPlan<'a> {
                     test: v.to_vec(),
                     blocked: false,
                 }],
+                memos: vec![FitMemo::default()],
                 held_out: source.clone(),
                 refit: false,
             }),
@@ -437,6 +443,7 @@ impl<'a> FoldPlan<'a> {
                 let (block_of, kb) = blocks(rows, settings.folds);
                 splits.extend(splits_of(rows, &block_of, kb, true));
                 Some(Self {
+                    memos: splits.iter().map(|_| FitMemo::default()).collect(),
                     splits,
                     held_out: format!(
                         "{k}-fold cross-validation over {n_configurations} configurations (seed {}), and {kb} blocks of joint 1's range",
@@ -567,14 +574,7 @@ fn physics_chain(
                 fitted: vec![None; plan.splits.len()],
             };
         }
-        score_physics(
-            physics,
-            settings,
-            nominal,
-            &plan.splits,
-            candidates,
-            observer,
-        )
+        score_physics(physics, settings, nominal, plan, candidates, observer)
     };
     let mut chain = Chain {
         scored: vec![score(Physics::ALIGNED)],
