@@ -914,9 +914,8 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
 
 /// A memo of one set of rows' fits: the fit with the links' weights remembers its first fit
 /// (the compliances alone), the fit from there and itself; the compliances alone asked next
-/// come from the memo
-/// (nothing new remembered), and other rows are fitted anew; every result equals the one made
-/// without a memo, bit for bit.
+/// come from the memo (nothing new remembered), and other rows are fitted anew; every result
+/// equals the one made without a memo, bit for bit.
 #[test]
 fn a_memo_shares_the_first_fit_and_changes_no_result() {
     use robocal_ident::{FitMemo, JointErrorSettings, KinematicCalibration};
