@@ -472,8 +472,13 @@ pub fn tracker_down(
     obs: &Observations,
     gravity: &Vector3<f64>,
 ) -> Result<(Vector3<f64>, f64)> {
-    let down = align(nominal, obs)?.base_rotation().transpose() * -Vector3::z() * gravity.norm();
-    Ok((down, down.angle(gravity).to_degrees()))
+    Ok(down_of_aligned(&align(nominal, obs)?, gravity))
+}
+
+/// [`tracker_down`] from the aligned table.
+fn down_of_aligned(aligned: &Robot, gravity: &Vector3<f64>) -> (Vector3<f64>, f64) {
+    let down = aligned.base_rotation().transpose() * -Vector3::z() * gravity.norm();
+    (down, down.angle(gravity).to_degrees())
 }
 
 /// Fits only the base and tool of `robot` (after a closed-form registration of the base):
@@ -1414,7 +1419,8 @@ fn identify_anew(
             }
             s
         };
-        let (down, angle) = tracker_down(nominal, obs, &c.gravity)?;
+        // The alignment every identification below starts from, made once.
+        let (down, angle) = down_of_aligned(&memo.align(nominal, obs)?, &c.gravity);
         if angle <= MOUNTING_ANGLE_DEG {
             return identify(nominal, obs, &given, memo);
         }
