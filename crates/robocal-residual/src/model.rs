@@ -96,6 +96,9 @@ pub struct ResidualModel {
     /// CA-SOMM with a fallback: whether two classes or one were kept, and the validation
     /// errors that decided it.
     pub gate_decision: Option<GateDecision>,
+    /// CA-SOMM with a fallback whose gate left a class (`'A'` or `'B'`) with fewer than two
+    /// training rows: the model is one SOMM on every row, and this says why.
+    pub empty_class: Option<char>,
 }
 
 /// CA-SOMM's fallback decision: the two classes' error on the validation rows against a SOMM
@@ -144,6 +147,18 @@ impl std::fmt::Display for GateDecision {
 }
 
 impl ResidualModel {
+    /// CA-SOMM's fallback in words, when it acted: the validation errors that decided between
+    /// two classes and one, or the class the gate left (nearly) empty.
+    pub fn fallback_decision(&self) -> Option<String> {
+        match (self.gate_decision, self.empty_class) {
+            (Some(d), _) => Some(d.to_string()),
+            (None, Some(class)) => Some(format!(
+                "one class kept: the gate left class {class} with fewer than two training rows (the residual the physics left is not split by it), so one SOMM learns every row"
+            )),
+            (None, None) => None,
+        }
+    }
+
     /// Trains the model `settings` describe on `train_set`, early-stopping on `validation`
     /// (raw input rows; with their physics rows when a gate reads physics). `progress`
     /// advances by one per epoch of every network.
@@ -179,6 +194,7 @@ impl ResidualModel {
         };
         // A SOMM on every row: the kind, or CA-SOMM's fallback when a class is left empty.
         let somm = || Somm::fit(&settings.axes, train_set, validation, seed, 0, progress);
+        let mut empty_class = None;
         let fitted = match settings.kind {
             ResidualKind::Somm => Fitted::Somm(somm()),
             ResidualKind::Mosm => Fitted::Mosm(Mosm::fit(
@@ -207,6 +223,7 @@ impl ResidualModel {
                     progress.message(&format!(
                         "CA-SOMM: class {class} has fewer than two training rows; one SOMM on every row instead"
                     ));
+                    empty_class = class.chars().next();
                     Fitted::Somm(somm())
                 }
                 Err(e) => return Err(e),
@@ -219,6 +236,7 @@ impl ResidualModel {
             search,
             fitted,
             gate_decision: None,
+            empty_class,
         };
         if matches!(model.fitted, Fitted::CaSomm(_))
             && settings.classifier.fallback == Some(true)

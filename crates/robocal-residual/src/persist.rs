@@ -53,6 +53,9 @@ struct Manifest {
     gp: Option<GpResidual>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     gate_decision: Option<GateDecision>,
+    /// `'A'` or `'B'`: CA-SOMM fell back to one SOMM because its gate left that class empty.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    empty_class: Option<char>,
 }
 
 /// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
@@ -110,6 +113,7 @@ impl ResidualModel {
             encoding: self.encoding,
             gp: self.gp().cloned(),
             gate_decision: self.gate_decision,
+            empty_class: self.empty_class,
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
@@ -234,6 +238,19 @@ impl ResidualModel {
                 net,
             });
         }
+        if let Some(class) = m.empty_class {
+            if !matches!(class, 'A' | 'B') {
+                return Err(format(format!(
+                    "empty_class {class:?}: must be \"A\" or \"B\" (the CA-SOMM class its gate left empty)"
+                )));
+            }
+            if m.kind != ResidualKind::Somm {
+                return Err(format(format!(
+                    "empty_class {class:?}: only a CA-SOMM that fell back to one SOMM (kind \"somm\") has one, not a {} model",
+                    m.kind.name()
+                )));
+            }
+        }
         let shape = || format(format!("a {} model has other networks", m.kind.name()));
         let three = |v: Vec<AxisNet>| -> Result<Somm> {
             Ok(Somm {
@@ -261,6 +278,7 @@ impl ResidualModel {
             search: m.search,
             fitted,
             gate_decision: m.gate_decision,
+            empty_class: m.empty_class,
         })
     }
 }

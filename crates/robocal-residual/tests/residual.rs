@@ -619,7 +619,9 @@ fn a_physics_gate_learns_a_flank_the_raw_angles_hide_and_the_fallback_keeps_what
 
 /// A gate that cannot split (leaves of more rows than there are) routes every row to one class:
 /// an error naming the empty class without the fallback; with it, one SOMM on every row (no
-/// classifier, no gate decision) that learns the smooth axes like a SOMM of the same settings.
+/// classifier, no gate decision) that learns the smooth axes like a SOMM of the same settings,
+/// and that says which class was left empty (in `residual.json` too; a class other than A or B
+/// there is an error naming the field).
 #[test]
 fn routed_classes_left_empty_fall_back_to_one_somm() {
     let (train, val) = (flank_samples(300, 31), flank_samples(100, 32));
@@ -640,6 +642,30 @@ fn routed_classes_left_empty_fall_back_to_one_somm() {
     s.classifier.fallback = Some(true);
     let model = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
     assert!(model.classifier().is_none() && model.gate_decision.is_none());
+    let ResidualError::EmptyClass { class } = err else {
+        unreachable!()
+    };
+    assert_eq!(model.empty_class, class.chars().next());
+    let why = model.fallback_decision().unwrap();
+    assert!(
+        why.contains(&format!("left class {class} with fewer than two")),
+        "{why}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    model.save(dir.path()).unwrap();
+    let back = ResidualModel::load(dir.path()).unwrap();
+    assert_eq!(back.empty_class, model.empty_class);
+    assert_eq!(back.predict(&val), model.predict(&val));
+    let manifest = dir.path().join("residual.json");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let field = format!("\"empty_class\": \"{class}\"");
+    assert!(text.contains(&field), "{text}");
+    std::fs::write(&manifest, text.replace(&field, "\"empty_class\": \"C\"")).unwrap();
+    let bad = ResidualModel::load(dir.path()).unwrap_err().to_string();
+    assert!(
+        bad.contains("empty_class 'C'") && bad.contains("residual.json"),
+        "{bad}"
+    );
     let mut plain = s.clone();
     plain.kind = ResidualKind::Somm;
     let one = ResidualModel::fit(&plain, &train, &val, &Silent).unwrap();

@@ -261,7 +261,7 @@ pub fn gate_ready(settings: &ResidualSettings, base: &CalibratedModel) -> Residu
 /// The CA-SOMM gate in the report: its classes, what it reads and splits on, and whether two
 /// classes paid (`None` for any other model).
 pub fn gate_summary(model: &ResidualModel, joints: usize, train: &Samples) -> Option<GateSummary> {
-    let decision = model.gate_decision.map(|d| d.to_string());
+    let decision = model.fallback_decision();
     let Some(c) = model.classifier() else {
         return decision.map(|d| GateSummary {
             decision: Some(d),
