@@ -21,6 +21,11 @@ use crate::net::AxisNet;
 use crate::samples::Samples;
 use crate::somm::Somm;
 
+/// The weight of a class-A row in the gate's tree (class B's weigh 1): it breaks a tie between
+/// the classes' weights at a node toward A (`n_A (1 + 2⁻¹⁶) = n_B` needs 2¹⁶ rows of A). Exact
+/// in `f32`.
+pub const TIE_WEIGHT: f32 = 1.0 + 1.0 / 65536.0;
+
 /// Depths a tree search tries ([`ClassifierSettings::tree_search`]).
 pub const TREE_DEPTHS: [usize; 7] = [2, 3, 4, 6, 8, 10, 12];
 /// Fewest rows per leaf a tree search tries, largest first (simpler trees first among equals).
@@ -83,7 +88,17 @@ impl CaSomm {
         let rows = gate_rows(inputs, &train_set.inputs, raw);
         let features = rows.first().map_or(0, Vec::len);
         let x = Array2::from_shape_fn((rows.len(), features), |(i, j)| rows[i][j]);
-        let data = Dataset::new(x, Array1::from_vec(labels.clone()));
+        // Class A's rows weigh a little more than B's (`TIE_WEIGHT`): linfa settles a node whose
+        // classes weigh the same by its hash maps' order, which differs from one map to the next,
+        // and prunes the siblings it then predicts alike, so an exact tie at a leaf made the
+        // tree's shape, and the gate, differ between runs. Weighted, a tie goes to class A (as
+        // the leaves' shares settle it below); elsewhere the split scores move by about the
+        // weight's excess, far less than any two distinct splits' of a few hundred rows differ.
+        let weights = labels
+            .iter()
+            .map(|&l| if l == 0 { TIE_WEIGHT } else { 1.0 });
+        let data = Dataset::new(x, Array1::from_vec(labels.clone()))
+            .with_weights(Array1::from_iter(weights));
         // A gate of a given size: the tree, and each leaf's share of class B among the
         // training rows (which also settles a leaf's class where linfa's tie would not).
         let gate = |depth: usize, leaf: usize| -> Result<Classifier> {

@@ -671,3 +671,45 @@ fn routed_classes_left_empty_fall_back_to_one_somm() {
     let one = ResidualModel::fit(&plain, &train, &val, &Silent).unwrap();
     assert_eq!(model.predict(&val), one.predict(&val));
 }
+
+/// A gate whose tree meets leaves where the classes weigh exactly the same is the same tree on
+/// every fit. linfa settles such a leaf by its hash maps' order, which differs from one map to
+/// the next within a run as between runs, and prunes siblings it predicts alike: here a leaf of
+/// 15 rows of each class beside one of 15 A and 45 B rows (joint 1 at four values, nothing
+/// else varying), so an unweighted tree kept or pruned their split by the draw — one fit in two.
+#[test]
+fn a_gate_with_tied_leaves_is_the_same_tree_on_every_fit() {
+    let mut train = Samples::default();
+    // (joint 1, rows of class A, rows of class B)
+    for (q1, a, b) in [
+        (-90.0, 30, 0),
+        (-30.0, 15, 15),
+        (30.0, 0, 30),
+        (90.0, 15, 15),
+    ] {
+        for k in 0..a + b {
+            train.inputs.push(vec![q1, 0.0, 0.0]);
+            let x = if k < a {
+                0.001 * k as f64
+            } else {
+                1.0 + 0.001 * k as f64
+            };
+            train.errors.push([x, 0.0, 0.0]);
+        }
+    }
+    let mut s = somm(settings(vec![2], 5e-3, 1), 3);
+    s.kind = ResidualKind::CaSomm;
+    s.classifier.max_depth = 2;
+    s.classifier.min_samples_leaf = 5;
+    s.classifier.tree_search = Some(false);
+    let gate = || {
+        let model = ResidualModel::fit(&s, &train, &train, &Silent).unwrap();
+        let c = model.classifier().unwrap();
+        (c.splits(), c.classify(&train.inputs))
+    };
+    let first = gate();
+    assert!(!first.0.is_empty(), "the tree splits");
+    for fit in 1..12 {
+        assert_eq!(gate(), first, "fit {fit} differs from the first");
+    }
+}
