@@ -185,6 +185,19 @@ impl ResidualModel {
         if let Some(gp) = &m.gp {
             gp.check(features).map_err(format)?;
         }
+        if let Some(class) = m.empty_class {
+            if !matches!(class, 'A' | 'B') {
+                return Err(format(format!(
+                    "empty_class {class:?}: must be \"A\" or \"B\" (the CA-SOMM class its gate left empty)"
+                )));
+            }
+            if m.kind != ResidualKind::Somm {
+                return Err(format(format!(
+                    "empty_class {class:?}: only a CA-SOMM that fell back to one SOMM (kind \"somm\") has one, not a {} model",
+                    m.kind.name()
+                )));
+            }
+        }
         let device = Device::flex();
         let mut nets = Vec::new();
         if m.inputs == 0 || m.inputs > MAX_INPUTS {
@@ -237,19 +250,6 @@ impl ResidualModel {
                 dense: net.dense(),
                 net,
             });
-        }
-        if let Some(class) = m.empty_class {
-            if !matches!(class, 'A' | 'B') {
-                return Err(format(format!(
-                    "empty_class {class:?}: must be \"A\" or \"B\" (the CA-SOMM class its gate left empty)"
-                )));
-            }
-            if m.kind != ResidualKind::Somm {
-                return Err(format(format!(
-                    "empty_class {class:?}: only a CA-SOMM that fell back to one SOMM (kind \"somm\") has one, not a {} model",
-                    m.kind.name()
-                )));
-            }
         }
         let shape = || format(format!("a {} model has other networks", m.kind.name()));
         let three = |v: Vec<AxisNet>| -> Result<Somm> {
