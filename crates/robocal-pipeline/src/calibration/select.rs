@@ -94,7 +94,8 @@ pub struct AutoSettings {
     /// Seed of the folds (and of the residual models).
     pub seed: u64,
     /// Fewest configurations (in the data, or in each fold's training part) for which a
-    /// residual model is tried.
+    /// residual model is tried (default 10: above it the paired test decides; 40 until session
+    /// 27 kept small data sets from trying them at all, `docs/accuracy.md`).
     pub min_residual_configurations: usize,
     /// Transmission harmonics up to this order tried with the geometry (0: not tried).
     pub harmonics: u32,
@@ -145,7 +146,7 @@ impl Default for AutoSettings {
         Self {
             folds: DEFAULT_FOLDS,
             seed,
-            min_residual_configurations: 40,
+            min_residual_configurations: 10,
             harmonics: 2,
             self_weight: true,
             backlash: true,
