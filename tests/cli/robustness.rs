@@ -118,6 +118,42 @@ fn bad_shots_are_named_and_left_out_and_clean_rows_are_not() {
     assert!(clean_mean(&kept) > 1.5 * a, "kept bad shots pull the fit");
 }
 
+/// Joint readings rounded to 0.01° when logged (the twin's rows as a controller exporting two
+/// decimals would give them): calibrate warns, naming the joints, the step and what the rounding
+/// leaves (about 0.1 mm at these poses: the estimate is checked against forward kinematics in
+/// `readings.rs`), on stderr and in report.json; the same rows as the twin logged them (0.0001°)
+/// get no such warning.
+#[test]
+fn joint_readings_rounded_when_logged_are_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = clean(dir.path());
+    let rounded = edited(&data, "rounded.csv", |_, f| {
+        for q in &mut f[1..7] {
+            *q = format!("{:.2}", q.parse::<f64>().unwrap());
+        }
+    });
+    for (file, warned) in [(&data, false), (&rounded, true)] {
+        let model = dir.path().join(format!("model-{warned}"));
+        let (ok, stderr) = calibrate(file, &model, &[]);
+        assert!(ok, "{stderr}");
+        let said = "warning: the joint readings are rounded (q1 to 0.01°, q2 to 0.01°, q3 to 0.01°, q4 to 0.01°, q5 to 0.01°, q6 to 0.01°): the rounding alone leaves about ";
+        let left = (stderr.split_once(said)).map(|(_, rest)| {
+            let mm: f64 = rest.split(' ').next().unwrap().parse().unwrap();
+            mm
+        });
+        assert_eq!(left.is_some(), warned, "{stderr}");
+        if let Some(mm) = left {
+            assert!((0.07..0.13).contains(&mm), "{mm} mm: {stderr}");
+        }
+        let warnings = report(&model)["kinematic"]["warnings"].to_string();
+        assert_eq!(
+            warnings.contains("joint readings are rounded"),
+            warned,
+            "{warnings}"
+        );
+    }
+}
+
 #[test]
 fn inches_radians_and_swapped_joints_are_refused_unless_forced() {
     let dir = tempfile::tempdir().unwrap();

@@ -12,7 +12,9 @@ use serde::Serialize;
 
 use super::{
     AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, ResidualReport,
-    Selection, check_plausible, configured, find_outliers, select::automatic,
+    Selection, check_plausible, configured, find_outliers,
+    readings::{rounded_joints, rounding_warning},
+    select::automatic,
 };
 use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
@@ -155,7 +157,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         keep: input.checks.keep_outliers,
         ..OutlierSettings::default()
     };
-    let built = match input.stages {
+    let mut built = match input.stages {
         Some((stages, _)) => {
             let mut stages = stages.clone();
             if input.angle_weight.is_some() {
@@ -179,6 +181,11 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
         }
     };
+    // Readings rounded when logged: what the rounding alone leaves, against what the fit leaves.
+    let rounded = rounded_joints(input.nominal, &rows);
+    if let Some(w) = rounding_warning(&rounded, built.kinematic.report.after.rms) {
+        built.kinematic.report.warnings.push(w);
+    }
     let mut model = built.model();
     // The model as its files hold it: the files give angles in degrees and compliances in
     // deg/kN·m, and some doubles (about one in ten) have no such number that reads back onto

@@ -18,6 +18,7 @@ pub mod calibrate;
 pub mod folds;
 pub mod outliers;
 pub mod plausibility;
+pub mod readings;
 pub mod select;
 
 use std::collections::HashSet;
