@@ -1,8 +1,8 @@
 //! Joint readings logged to a few decimals. A controller that exports its joint positions
 //! rounded to 0.01° feeds every row an error of up to 0.005° per joint, a uniform error of
-//! standard deviation step/√12 — 0.05 mm at a metre's reach for a few joints together, more than
-//! a laser tracker's noise — which no model can take out: it is in the readings the model is
-//! asked to predict from. What the rounding leaves is the joint Jacobian times that error.
+//! standard deviation step/√12 — 0.05 mm per joint at a metre from its axis, more than a laser
+//! tracker's noise — which no model can take out: it is in the readings the model is asked to
+//! predict from. What the rounding leaves is the joint Jacobian times that error.
 
 use robocal_data::Measurement;
 use robocal_robot::Robot;
@@ -103,8 +103,11 @@ pub fn rounding_warning(joints: &[JointRounding], fit_rms: f64) -> Option<String
     let names: Vec<String> = (rounded.iter())
         .map(|j| format!("q{} to {}°", j.joint + 1, j.step))
         .collect();
+    // Ten times finer than the finest step found: a tenth of the rounding's error.
+    let finer = rounded.iter().map(|j| j.step).fold(f64::INFINITY, f64::min) / 10.0;
+    let finer = (finer * 1e6).round() / 1e6;
     Some(format!(
-        "the joint readings are rounded ({}): the rounding alone leaves about {total:.3} mm (root mean square) at these poses, which no model can take out (the fit leaves {fit_rms:.3} mm); log the controller's readings to 0.001° or finer (if they are commanded angles the arm reached exactly, this does not apply)",
+        "the joint readings are rounded ({}): the rounding alone leaves about {total:.3} mm (root mean square) at these poses, which no model can take out (the fit leaves {fit_rms:.3} mm); log the controller's readings to {finer}° or finer (if they are commanded angles the arm reached exactly, this does not apply)",
         names.join(", ")
     ))
 }
@@ -230,6 +233,17 @@ mod tests {
         let w = rounding_warning(&rounded, 0.05).unwrap();
         assert!(w.contains("q1 to 0.01°, q2 to 0.01°, q3 to 0.01°"), "{w}");
         assert!(w.contains("about 0.027 mm"), "{w}");
+        assert!(
+            w.contains("log the controller's readings to 0.001° or finer"),
+            "{w}"
+        );
+        // Readings to 0.001° on a long arm: the advice is a tenth of that.
+        let w = rounding_warning(&[joint(0, 0.001, 0.012)], 0.05).unwrap();
+        assert!(w.contains("(q1 to 0.001°)"), "{w}");
+        assert!(
+            w.contains("log the controller's readings to 0.0001° or finer"),
+            "{w}"
+        );
         // Too little to matter.
         assert_eq!(rounding_warning(&[joint(0, 0.001, 0.004)], 0.05), None);
         // Whole degrees on joint 4 would leave 3 mm where the fit leaves 0.05: exact values, left
