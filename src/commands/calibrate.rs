@@ -193,6 +193,16 @@ pub fn run(
         if let Some(d) = r.gate.as_ref().and_then(|g| g.decision.as_ref()) {
             eprintln!("robocal: CA-SOMM: {d}");
         }
+        if let Some(s) = &r.spread {
+            eprintln!(
+                "robocal: residual ({}): standard deviations × {:.2}, as its folds' {} held-out rows found them (within one predicted spread of the measured point: {:.0} % as fitted, {:.0} % scaled)",
+                r.model,
+                s.scale,
+                s.rows,
+                100.0 * s.within_before,
+                100.0 * s.within_after,
+            );
+        }
     }
     if let Some(v) = &report.validation {
         eprintln!(

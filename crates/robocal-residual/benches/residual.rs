@@ -139,3 +139,13 @@ fn gp_predict_one_sample_with_sigma(b: Bencher, rows: usize) {
     let _ = model.predict_with_std(&input, true);
     b.bench_local(|| model.predict_with_std(black_box(&input), true).1);
 }
+
+/// A thousand samples' corrections with their standard deviations, in one call (the factor made
+/// before timing): what `predict --sigma` does with a file of poses.
+#[divan::bench(args = [1000, 2500], sample_count = 5, sample_size = 1)]
+fn gp_predict_1000_samples_with_sigma(b: Bencher, rows: usize) {
+    let model = gp_model(rows);
+    let input = Samples::rows(samples(1000, 8).inputs);
+    let _ = model.predict_with_std(&Samples::rows(vec![input.inputs[0].clone()]), true);
+    b.bench_local(|| model.predict_with_std(black_box(&input), true).1);
+}

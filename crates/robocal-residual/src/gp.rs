@@ -114,6 +114,15 @@ impl GpSettings {
 const LOG_SIGNAL: (f64, f64) = (-9.2, 4.6); // 1e-4 .. 100
 const LOG_LENGTH: (f64, f64) = (-3.0, 5.0); // 0.05 .. 150
 const LOG_NOISE: (f64, f64) = (-11.5, 0.7); // 1e-5 .. 2
+/// Rows whose standard deviations are solved for at once (a kernel block of at most
+/// 2500 × 256 values, 5 MB).
+const STD_CHUNK: usize = 256;
+
+/// [`GpResidual::std_scale`] of a model fitted without folds.
+fn unit_scale() -> f64 {
+    1.0
+}
+
 /// Added to the kernel's diagonal for round-off, standardised units.
 const JITTER: f64 = 1e-8;
 
@@ -215,17 +224,18 @@ impl GpAxis {
     /// same subset for every call with the same `seed` and row count, so that axes fitted with
     /// one seed share their rows).
     pub fn fit(x: &[Vec<f64>], y: &[f64], settings: &GpSettings, seed: u64) -> Result<Self> {
-        let (model, _) = Self::fit_rows(x, y, settings, seed)?;
+        let (model, _, _) = Self::fit_rows(x, y, settings, seed)?;
         Ok(model)
     }
 
-    /// [`Self::fit`], also returning the rows (indices into `x`) the model conditions on.
+    /// [`Self::fit`], also returning the rows (indices into `x`) the model conditions on and
+    /// the Cholesky factor of its kernel matrix over them ([`Self::factor`]; for variances).
     pub fn fit_rows(
         x: &[Vec<f64>],
         y: &[f64],
         settings: &GpSettings,
         seed: u64,
-    ) -> Result<(Self, Vec<usize>)> {
+    ) -> Result<(Self, Vec<usize>, faer::linalg::solvers::Llt<f64>)> {
         settings
             .check()
             .map_err(|e| ResidualError::Settings(e.within("gp")))?;
@@ -308,7 +318,7 @@ impl GpAxis {
         let yv = Mat::from_fn(rows.len(), 1, |i, _| ys[rows[i]]);
         let alpha = llt.solve(&yv);
         model.alpha = (0..rows.len()).map(|i| alpha[(i, 0)]).collect();
-        Ok((model, rows))
+        Ok((model, rows, llt))
     }
 
     fn inv_l2(&self) -> Vec<f64> {
@@ -343,6 +353,33 @@ impl GpAxis {
             (self.signal_variance - explained).max(0.0).sqrt() * self.target_std
         });
         (mean * self.target_std + self.target_mean, std)
+    }
+
+    /// Latent standard deviations (mm) at the standardised feature rows `rows`, given the
+    /// conditioning rows `x` and the factor of [`Self::factor`]: `√(s² − |L⁻¹k*|²)` for every
+    /// row at once (one triangular solve with a right-hand side per row; the same values as
+    /// [`Self::predict_one`]'s, several times faster).
+    pub fn stds(
+        &self,
+        x: &[Vec<f64>],
+        rows: &[Vec<f64>],
+        factor: &faer::linalg::solvers::Llt<f64>,
+    ) -> Vec<f64> {
+        let inv_l2 = self.inv_l2();
+        let mut ks = Mat::from_fn(x.len(), rows.len(), |i, j| {
+            kernel(&x[i], &rows[j], &inv_l2, self.signal_variance)
+        });
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            factor.L(),
+            ks.as_mut(),
+            faer::Par::Seq,
+        );
+        (0..rows.len())
+            .map(|j| {
+                let explained: f64 = ks.col(j).iter().map(|v| v * v).sum();
+                (self.signal_variance - explained).max(0.0).sqrt() * self.target_std
+            })
+            .collect()
     }
 
     /// Checks a model read from a file against its feature count and row count.
@@ -382,7 +419,12 @@ pub struct GpResidual {
     pub rows: Vec<Vec<f64>>,
     /// X, Y, Z.
     pub axes: Vec<GpAxis>,
-    /// Cholesky factors for the variances, made on first use.
+    /// The factor every latent standard deviation is multiplied by: the one the default
+    /// calibration's cross-validation found (the held-out errors' likelihood, see
+    /// `robocal-pipeline`), 1 for a model fitted without folds (and in files that predate it).
+    #[serde(default = "unit_scale")]
+    pub std_scale: f64,
+    /// Cholesky factors for the variances, made on first use (kept from the fit).
     #[serde(skip)]
     factors: std::sync::OnceLock<Vec<Option<faer::linalg::solvers::Llt<f64>>>>,
 }
@@ -396,7 +438,7 @@ impl GpResidual {
             .collect();
         // The axes are independent: on every core at once. One seed for every axis: the same
         // conditioning rows.
-        let fits: Vec<(GpAxis, Vec<usize>)> = (0..3)
+        let fits: Vec<(GpAxis, Vec<usize>, faer::linalg::solvers::Llt<f64>)> = (0..3)
             .into_par_iter()
             .map(|a| {
                 let y: Vec<f64> = train_set.errors.iter().map(|e| e[a]).collect();
@@ -404,39 +446,47 @@ impl GpResidual {
             })
             .collect::<Result<_>>()?;
         let rows = fits.first().map(|f| f.1.clone()).unwrap_or_default();
-        let axes: Vec<GpAxis> = fits.into_iter().map(|f| f.0).collect();
+        let (axes, factors): (Vec<GpAxis>, Vec<_>) =
+            fits.into_iter().map(|f| (f.0, Some(f.2))).unzip();
         Ok(Self {
             input_scale,
             rows: rows.iter().map(|&i| x[i].clone()).collect(),
             axes,
-            factors: std::sync::OnceLock::new(),
+            std_scale: 1.0,
+            factors: factors.into(),
         })
     }
 
-    /// Predicted error (mm) per encoded row, and with `std` the latent standard deviation of
-    /// each axis's correction (mm).
+    /// Predicted error (mm) per encoded row, and with `std` the standard deviation of each
+    /// axis's correction (mm): the latent one times [`Self::std_scale`].
     fn predict_rows(
         &self,
         encoded: &[Vec<f64>],
         std: bool,
     ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
-        let factors = std.then(|| {
-            self.factors
-                .get_or_init(|| self.axes.iter().map(|a| a.factor(&self.rows)).collect())
-        });
+        let x: Vec<Vec<f64>> = encoded.iter().map(|r| self.input_scale.apply(r)).collect();
         let mut mean = vec![[0.0; 3]; encoded.len()];
-        let mut sd = std.then(|| vec![[f64::NAN; 3]; encoded.len()]);
-        for (i, row) in encoded.iter().enumerate() {
-            let x = self.input_scale.apply(row);
+        for (i, row) in x.iter().enumerate() {
             for (a, gp) in self.axes.iter().enumerate() {
-                let f = factors.and_then(|f| f[a].as_ref());
-                let (m, s) = gp.predict_one(&self.rows, &x, f);
-                mean[i][a] = m;
-                if let (Some(sd), Some(s)) = (sd.as_mut(), s) {
-                    sd[i][a] = s;
-                }
+                mean[i][a] = gp.predict_one(&self.rows, row, None).0;
             }
         }
+        let sd = std.then(|| {
+            let factors = self
+                .factors
+                .get_or_init(|| self.axes.iter().map(|a| a.factor(&self.rows)).collect());
+            let mut sd = vec![[f64::NAN; 3]; encoded.len()];
+            for (a, gp) in self.axes.iter().enumerate() {
+                let Some(f) = &factors[a] else { continue };
+                // In chunks: the kernel block is conditioning rows × chunk rows.
+                for (c, chunk) in x.chunks(STD_CHUNK).enumerate() {
+                    for (i, s) in gp.stds(&self.rows, chunk, f).into_iter().enumerate() {
+                        sd[c * STD_CHUNK + i][a] = s * self.std_scale;
+                    }
+                }
+            }
+            sd
+        });
         (mean, sd)
     }
 
@@ -463,6 +513,12 @@ impl GpResidual {
         for (a, gp) in self.axes.iter().enumerate() {
             gp.check(features, self.rows.len())
                 .map_err(|m| format!("gp.axes[{a}]: {m}"))?;
+        }
+        if !(self.std_scale.is_finite() && self.std_scale > 0.0) {
+            return Err(format!(
+                "gp.std_scale: {} (must be positive and finite)",
+                self.std_scale
+            ));
         }
         Ok(())
     }
@@ -552,6 +608,38 @@ mod tests {
         let (m, s) = model.predict_one(&x, &[star], Some(&llt));
         assert!((m - mean).abs() < 1e-12, "{m} vs {mean}");
         assert!((s.unwrap() - (s2 - quad).sqrt()).abs() < 1e-12);
+    }
+
+    /// The deviations of many rows at once (one triangular solve) equal those of
+    /// [`GpAxis::predict_one`], row by row (two solves with the whole factor).
+    #[test]
+    fn batched_deviations_match_one_row_at_a_time() {
+        let x: Vec<Vec<f64>> = (0..60)
+            .map(|i| {
+                let t = i as f64 * 0.21;
+                vec![t.sin(), (0.7 * t).cos()]
+            })
+            .collect();
+        let y: Vec<f64> = x.iter().map(|r| r[0] - 0.5 * r[1] * r[1]).collect();
+        let settings = GpSettings {
+            iterations: 30,
+            ..GpSettings::default()
+        };
+        let (gp, rows, factor) = GpAxis::fit_rows(&x, &y, &settings, 4).unwrap();
+        let conditioning: Vec<Vec<f64>> = rows.iter().map(|&i| x[i].clone()).collect();
+        let stars: Vec<Vec<f64>> = (0..25)
+            .map(|i| vec![-1.5 + 0.12 * i as f64, 0.3 - 0.05 * i as f64])
+            .collect();
+        let batched = gp.stds(&conditioning, &stars, &factor);
+        for (star, b) in stars.iter().zip(&batched) {
+            let one = gp
+                .predict_one(&conditioning, star, Some(&factor))
+                .1
+                .unwrap();
+            assert!((one - b).abs() <= 1e-9 * (1.0 + one), "{one} vs {b}");
+        }
+        // Away from the data the deviation is larger than among it.
+        assert!(batched[0] > 2.0 * batched[12], "{batched:?}");
     }
 
     /// Fitting recovers the noise level of data with known noise, and the fitted model's

@@ -408,4 +408,12 @@ impl ResidualModel {
             _ => None,
         }
     }
+
+    /// Multiplies the standard deviations the model gives from now on by `scale` (the GP's
+    /// [`GpResidual::std_scale`]; a model that gives none is left as it is).
+    pub fn set_std_scale(&mut self, scale: f64) {
+        if let Fitted::Gp(m) = &mut self.fitted {
+            m.std_scale = scale;
+        }
+    }
 }

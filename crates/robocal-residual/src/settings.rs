@@ -48,6 +48,11 @@ impl ResidualKind {
     pub fn early_stops(self) -> bool {
         self != Self::Gp
     }
+
+    /// Whether the model gives a standard deviation with each correction (the GP).
+    pub fn gives_std(self) -> bool {
+        self == Self::Gp
+    }
 }
 
 /// Everything that defines how a residual model is trained.

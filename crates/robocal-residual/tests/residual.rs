@@ -432,7 +432,41 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
         .collect();
     let (_, s_far) = model.predict_with_std(&Samples::rows(far), true);
     let mean = |s: &[[f64; 3]]| s.iter().map(|v| v[0]).sum::<f64>() / s.len() as f64;
-    assert!(mean(&s_far.unwrap()) > 2.0 * mean(&sa.unwrap()));
+    let sa = sa.unwrap();
+    assert!(mean(&s_far.unwrap()) > 2.0 * mean(&sa));
+    // A factor on the deviations (what the default calibration's folds find) multiplies them,
+    // leaves the corrections alone and is saved; a file written before it existed reads as 1.
+    let mut scaled = model.clone();
+    scaled.set_std_scale(2.5);
+    let (c, sc) = scaled.predict_with_std(&test, true);
+    assert_eq!(c, a);
+    for (x, y) in sc.unwrap().iter().zip(&sa) {
+        for k in 0..3 {
+            assert!((x[k] - 2.5 * y[k]).abs() <= 1e-12 * y[k], "{x:?} {y:?}");
+        }
+    }
+    let scaled_dir = tempfile::tempdir().unwrap();
+    scaled.save(scaled_dir.path()).unwrap();
+    let file = scaled_dir.path().join("residual.json");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(json["gp"]["std_scale"], 2.5);
+    let (_, sl) = ResidualModel::load(scaled_dir.path())
+        .unwrap()
+        .predict_with_std(&test, true);
+    assert_eq!(sl, scaled.predict_with_std(&test, true).1);
+    json["gp"].as_object_mut().unwrap().remove("std_scale");
+    std::fs::write(&file, json.to_string()).unwrap();
+    let (_, old) = ResidualModel::load(scaled_dir.path())
+        .unwrap()
+        .predict_with_std(&test, true);
+    assert_eq!(old.unwrap(), sa);
+    json["gp"]["std_scale"] = (-1.0).into();
+    std::fs::write(&file, json.to_string()).unwrap();
+    let err = ResidualModel::load(scaled_dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("gp.std_scale"), "{err}");
     // The networks give no standard deviation.
     let text = std::fs::read_to_string(dir.path().join("residual.json")).unwrap();
     let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();

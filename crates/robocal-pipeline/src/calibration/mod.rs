@@ -20,6 +20,7 @@ pub mod outliers;
 pub mod plausibility;
 pub mod readings;
 pub mod select;
+pub mod spread;
 
 use std::collections::HashSet;
 
@@ -110,6 +111,10 @@ pub struct ResidualReport {
     /// The Gaussian process of each axis (a GP residual).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub gp: Vec<GpSummary>,
+    /// The default calibration's check of the model's standard deviations on its folds' held-out
+    /// rows, and the factor it put on them (a GP chosen by cross-validation).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spread: Option<spread::SpreadCalibration>,
 }
 
 /// The CA-SOMM gate, in the report.
@@ -388,6 +393,7 @@ pub fn train_residual(
                 })
                 .collect()
         }),
+        spread: None,
     };
     Ok((fitted, report))
 }

@@ -18,6 +18,7 @@ use serde::Serialize;
 
 use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
 use super::outliers::{OutlierSettings, find_outliers};
+use super::spread::{self, SpreadCalibration};
 use super::{
     Built, configurations, configured, fit_kinematic_with, loads, physical_model, train_residual,
 };
@@ -698,6 +699,8 @@ struct ResidualScore {
     score: Option<f64>,
     /// Whether it lowers the chain model's held-out errors significantly.
     significant: bool,
+    /// Its standard deviations calibrated on the held-out rows (a model that gives them).
+    spread: Option<SpreadCalibration>,
 }
 
 /// Each residual model of `settings`, trained on every fold on what the identified chain model
@@ -740,6 +743,8 @@ fn residual_candidates(
             status: String::new(),
         };
         let mut significant = false;
+        let mut spread_pairs: Vec<(f64, f64)> = Vec::new();
+        let mut spread = None;
         if fewest < settings.min_residual_configurations {
             c.status = format!(
                 "skipped: {fewest} configurations to train on; a residual model needs at least {}",
@@ -772,18 +777,29 @@ fn residual_candidates(
                 let chunk = done..(done + at_once).min(splits.len());
                 let trained: Vec<_> = (splits[chunk.clone()].par_iter())
                     .zip(&fitted[chunk.clone()])
-                    .map(|(fold, &base)| {
+                    .zip(chunk.clone())
+                    .map(|((fold, &base), k)| {
                         observer.advance(1);
                         train_residual(stage, base, &fold.train, None, &Silent).map(|(model, _)| {
-                            CalibratedModel {
+                            let model = CalibratedModel {
                                 residual: Some(model),
                                 ..base.clone()
-                            }
+                            };
+                            // A model that says how sure it is: its deviations on (some of)
+                            // the held-out rows, against the errors there.
+                            let pairs = if stage.settings.kind.gives_std() {
+                                spread::held_out_pairs(&model, &fold.test, settings.seed + k as u64)
+                            } else {
+                                Vec::new()
+                            };
+                            (model.errors(&fold.test), pairs)
                         })
                     })
                     .collect();
                 for (fold, candidate) in splits[chunk.clone()].iter().zip(trained) {
-                    held.add(fold, candidate?.errors(&fold.test));
+                    let (errors, pairs) = candidate?;
+                    held.add(fold, errors);
+                    spread_pairs.extend(pairs);
                 }
                 let took = t.elapsed().as_secs_f64();
                 c.seconds += took;
@@ -806,6 +822,7 @@ fn residual_candidates(
                     let (random, blocked, score) = held.summary();
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
                     pending_final = pending_final.max(slowest);
+                    spread = spread::calibrate(&spread_pairs);
                     significant = (chain.scored[chain.current].errors.as_ref())
                         .is_some_and(|base| improves(base, &held.all(), groups));
                     c.status = if significant {
@@ -820,6 +837,7 @@ fn residual_candidates(
         scores.push(ResidualScore {
             score: c.score,
             significant,
+            spread,
         });
         candidates.push(c);
     }
@@ -1171,6 +1189,13 @@ pub fn automatic(
     }
     let mut built = configured(&stages, nominal, rows, validation.clone(), &Silent)?;
     observer.advance(1);
+    // The chosen residual model's deviations, scaled as its folds found.
+    if let (Some((r, _)), Some((model, report))) = (residual_wins, built.residual.as_mut())
+        && let Some(s) = residuals[r].spread
+    {
+        model.set_std_scale(s.scale);
+        report.spread = Some(s);
+    }
     observer.finish();
     if chosen_physics.aligned {
         built.kinematic.robot = built.kinematic.aligned.clone();
@@ -1254,5 +1279,53 @@ mod tests {
         let (upright, rows) = twin_rows("configs/twin/arm5.toml", 30);
         let rows: Vec<&Measurement> = rows.iter().collect();
         assert!(mounting(&AutoSettings::default(), &upright.nominal, &rows).is_none());
+    }
+
+    /// ARM5's gear harmonics left out of the physics: the GP takes them, and the chosen GP's
+    /// standard deviations carry the factor its folds found — in the report, in the model, and
+    /// in what it predicts (the same model at factor 1 gives deviations smaller by exactly it).
+    #[test]
+    fn the_chosen_gp_carries_the_factor_its_folds_found() {
+        let (twin, rows) = twin_rows("configs/twin/arm5.toml", 40);
+        let rows: Vec<&Measurement> = rows.iter().collect();
+        let mut gp = ResidualSettings::gp(3);
+        gp.gp.iterations = 20;
+        gp.gp.hyper_rows = 150;
+        let settings = AutoSettings {
+            harmonics: 0,
+            self_weight: false,
+            backlash: false,
+            outliers: None,
+            residuals: vec![ResidualStage {
+                settings: gp,
+                holdout: 0.2,
+            }],
+            ..AutoSettings::default()
+        };
+        let built = automatic(&settings, &twin.nominal, &rows, None, &Silent).unwrap();
+        let (model, report) = built.residual.as_ref().expect("the GP chosen");
+        let spread = report.spread.expect("its deviations calibrated");
+        // Every held-out row of the five random folds and five blocks (at most 150 a fold).
+        let held: usize = (FoldPlan::new(&settings, &rows, None).unwrap().splits.iter())
+            .map(|f| f.test.len().min(spread::ROWS_PER_FOLD))
+            .sum();
+        assert_eq!(spread.rows, held);
+        assert!((0.1..=100.0).contains(&spread.scale), "{spread:?}");
+        assert_eq!(model.gp().unwrap().std_scale, spread.scale);
+        let samples = robocal_residual::Samples::rows(
+            (rows.iter().take(20))
+                .map(|m| robocal_residual::inputs_of(&m.sample))
+                .collect(),
+        );
+        let mut unscaled = model.clone();
+        unscaled.set_std_scale(1.0);
+        let (a, sa) = model.predict_with_std(&samples, true);
+        let (b, sb) = unscaled.predict_with_std(&samples, true);
+        assert_eq!(a, b);
+        for (x, y) in sa.unwrap().iter().zip(sb.unwrap()) {
+            for k in 0..3 {
+                assert!((x[k] - spread.scale * y[k]).abs() <= 1e-12 * x[k].abs().max(1e-9));
+            }
+        }
     }
 }
