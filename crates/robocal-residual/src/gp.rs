@@ -114,8 +114,8 @@ impl GpSettings {
 const LOG_SIGNAL: (f64, f64) = (-9.2, 4.6); // 1e-4 .. 100
 const LOG_LENGTH: (f64, f64) = (-3.0, 5.0); // 0.05 .. 150
 const LOG_NOISE: (f64, f64) = (-11.5, 0.7); // 1e-5 .. 2
-/// Rows whose standard deviations are solved for at once (a kernel block of at most
-/// 2500 × 256 values, 5 MB).
+/// Rows whose standard deviations are solved for at once: a kernel block of conditioning rows ×
+/// 256 values (5 MB at the default 2500 rows, 10 MB at [`MAX_GP_ROWS`]).
 const STD_CHUNK: usize = 256;
 
 /// [`GpResidual::std_scale`] of a model fitted without folds.
@@ -424,7 +424,8 @@ pub struct GpResidual {
     /// `robocal-pipeline`), 1 for a model fitted without folds (and in files that predate it).
     #[serde(default = "unit_scale")]
     pub std_scale: f64,
-    /// Cholesky factors for the variances, made on first use (kept from the fit).
+    /// Cholesky factors for the variances: kept from the fit (three times conditioning rows²
+    /// values, 150 MB at 2500 rows), made on first use in a model read from its file.
     #[serde(skip)]
     factors: std::sync::OnceLock<Vec<Option<faer::linalg::solvers::Llt<f64>>>>,
 }
