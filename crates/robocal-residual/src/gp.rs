@@ -207,8 +207,8 @@ fn nll_and_gradient(x: &[Vec<f64>], y: &[f64], theta: &[f64]) -> Option<(f64, Ve
     Some((nll, grad))
 }
 
-/// Seeded choice of at most `max` of `n` row indices, ascending.
-fn subset(n: usize, max: usize, rng: &mut ChaCha8Rng) -> Vec<usize> {
+/// Seeded choice of at most `max` of `n` row indices, ascending (all of them when `n ≤ max`).
+pub fn subset(n: usize, max: usize, rng: &mut ChaCha8Rng) -> Vec<usize> {
     let mut idx: Vec<usize> = (0..n).collect();
     if n > max {
         idx.shuffle(rng);
@@ -346,19 +346,14 @@ impl GpAxis {
             .map(|xi| kernel(xi, row, &inv_l2, self.signal_variance))
             .collect();
         let mean: f64 = ks.iter().zip(&self.alpha).map(|(k, a)| k * a).sum();
-        let std = factor.map(|llt| {
-            let kv = Mat::from_fn(ks.len(), 1, |i, _| ks[i]);
-            let w = llt.solve(&kv);
-            let explained: f64 = (0..ks.len()).map(|i| ks[i] * w[(i, 0)]).sum();
-            (self.signal_variance - explained).max(0.0).sqrt() * self.target_std
-        });
+        let std = factor.map(|llt| self.stds(x, &[row.to_vec()], llt)[0]);
         (mean * self.target_std + self.target_mean, std)
     }
 
     /// Latent standard deviations (mm) at the standardised feature rows `rows`, given the
     /// conditioning rows `x` and the factor of [`Self::factor`]: `√(s² − |L⁻¹k*|²)` for every
-    /// row at once (one triangular solve with a right-hand side per row; the same values as
-    /// [`Self::predict_one`]'s, several times faster).
+    /// row at once (one triangular solve with a right-hand side per row: many rows together are
+    /// several times faster than one at a time).
     pub fn stds(
         &self,
         x: &[Vec<f64>],
@@ -611,8 +606,8 @@ mod tests {
         assert!((s.unwrap() - (s2 - quad).sqrt()).abs() < 1e-12);
     }
 
-    /// The deviations of many rows at once (one triangular solve) equal those of
-    /// [`GpAxis::predict_one`], row by row (two solves with the whole factor).
+    /// The deviations of many rows at once (one triangular solve, a column per row) equal those
+    /// of [`GpAxis::predict_one`], row by row (the closed form above checks the formula).
     #[test]
     fn batched_deviations_match_one_row_at_a_time() {
         let x: Vec<Vec<f64>> = (0..60)

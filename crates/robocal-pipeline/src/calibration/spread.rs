@@ -19,10 +19,10 @@
 //! `c` (`std_scale` in `residual.json`).
 
 use rand::SeedableRng;
-use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_data::Measurement;
 use robocal_model::CalibratedModel;
+use robocal_residual::gp::subset;
 use serde::Serialize;
 
 /// Held-out rows per fold whose deviation is computed (a seeded choice; each costs a triangular
@@ -57,12 +57,11 @@ pub fn held_out_pairs(
     test: &[&Measurement],
     seed: u64,
 ) -> Vec<(f64, f64)> {
-    let mut idx: Vec<usize> = (0..test.len()).collect();
-    if idx.len() > ROWS_PER_FOLD {
-        idx.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-        idx.truncate(ROWS_PER_FOLD);
-        idx.sort_unstable();
-    }
+    let idx = subset(
+        test.len(),
+        ROWS_PER_FOLD,
+        &mut ChaCha8Rng::seed_from_u64(seed),
+    );
     let rows: Vec<&Measurement> = idx.iter().map(|&i| test[i]).collect();
     let (points, sigmas) = model.predict_with_sigma(rows.iter().map(|m| &m.sample), true);
     let Some(sigmas) = sigmas else {
