@@ -83,8 +83,8 @@ pub enum Command {
         /// Output CSV: pose, load, x, y, z (and sigma).
         #[arg(long, value_name = "CSV")]
         out: PathBuf,
-        /// Add a column `sigma`: each point's standard deviation, mm (models with a
-        /// Gaussian-process residual).
+        /// Add a column `sigma`: each point's standard deviation, mm (a model with a
+        /// Gaussian-process residual: the GP's; a physical model: its identified parameters').
         #[arg(long)]
         sigma: bool,
     },

@@ -9,7 +9,8 @@ use super::model;
 use crate::cli::ModelSource;
 
 /// Predicts every row of `data` and writes `pose,load,x,y,z` to `out`, atomically; with
-/// `sigma`, also each point's standard deviation (a model with a Gaussian-process residual);
+/// `sigma`, also each point's standard deviation (a model with a Gaussian-process residual: the
+/// GP's; a physical model without a residual model: its identified parameters');
 /// with `rx, ry, rz` columns in `data` (a 6-DoF probe's file), the tool frame's predicted
 /// orientation in them.
 pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result<()> {
@@ -20,7 +21,7 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
     let (points, sigmas) = model.predict_with_sigma(&samples.rows, sigma);
     if sigma && sigmas.is_none() {
         bail!(
-            "--sigma: this model gives no standard deviation (only a model with a Gaussian-process residual does); nothing written"
+            "--sigma: this model gives no standard deviation (a model with a Gaussian-process residual gives the GP's, a physical model without a residual model its parameters' covariance's; a network residual gives none, and a table alone, or a model directory without covariance.json, has no covariance); nothing written"
         );
     }
     let rows: Vec<Prediction> = (samples.rows.iter().zip(points).enumerate())

@@ -1045,7 +1045,7 @@ fn default_calibrate_works_for_a_single_joint_from_an_identity_base() {
 }
 
 #[test]
-fn predict_sigma_comes_from_a_gp_model_and_is_refused_without_one() {
+fn predict_sigma_comes_from_a_gp_model_and_is_refused_for_a_table_alone() {
     let dir = tempfile::tempdir().unwrap();
     let data = simulate("configs/twin/arm5.toml", &dir.path().join("sim"));
     let train = subset(&data, "train.csv", |pose, _| pose < 30);
@@ -1090,7 +1090,7 @@ fn predict_sigma_comes_from_a_gp_model_and_is_refused_without_one() {
         let sigma: f64 = sigma.parse().unwrap();
         assert!(sigma > 0.0 && sigma < 1.0, "{sigma}");
     }
-    // A model without a GP has no standard deviation to give: exit 1, nothing written.
+    // A table alone has no standard deviation to give (no covariance): exit 1, nothing written.
     let out = dir.path().join("none.csv");
     let o = robocal(&[
         "predict",

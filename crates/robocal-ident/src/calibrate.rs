@@ -5,7 +5,8 @@ use faer::Mat;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, robust_std};
 use robocal_robot::{
-    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, ParamId, Robot, Unit,
+    Compliance, DEG_PER_KNM, ErrorParam, Flank, Harmonic, JointErrors, ParamId,
+    ParameterCovariance, Robot, Unit,
 };
 use serde::Serialize;
 
@@ -451,6 +452,9 @@ pub struct KinematicCalibration {
     pub compliance: Option<Compliance>,
     /// The nominal table with only base and tool fitted.
     pub aligned: Robot,
+    /// The identified parameters' covariance (the posterior's under the harmonics' prior), when
+    /// the fit leaves degrees of freedom.
+    pub covariance: Option<ParameterCovariance>,
     /// Report.
     pub report: KinematicReport,
 }
@@ -1643,7 +1647,21 @@ fn identify_anew(
     }
     // Under the harmonics' prior, the posterior's: a coefficient the poses barely determine is
     // as sure as the prior makes it, not as unsure as the data alone leave it.
-    let std_u = problem.standard_deviations(&u);
+    let cov_u = problem.covariance(&u);
+    let std_u: Option<Vec<f64>> = cov_u.as_ref().and_then(|c| {
+        let std: Vec<f64> = (0..c.nrows()).map(|i| c[(i, i)].max(0.0).sqrt()).collect();
+        std.iter().all(|s| s.is_finite()).then_some(std)
+    });
+    // The same covariance in internal units, by the parameters' names: what a predicted
+    // point's standard deviation is made of.
+    let covariance = std_u.as_ref().and(cov_u.as_ref()).map(|c| {
+        let scale = problem.scale();
+        let names = kept.iter().map(Column::to_string).collect();
+        let m = nalgebra::DMatrix::from_fn(c.nrows(), c.ncols(), |i, j| {
+            c[(i, j)] * scale[i] * scale[j]
+        });
+        ParameterCovariance::new(names, &m)
+    });
     // Standard deviation of the unknown for `column`, internal units.
     let std_of = |column: Column| {
         let p = kept.iter().position(|&k| k == column)?;
@@ -1719,6 +1737,7 @@ fn identify_anew(
         robot,
         compliance,
         aligned,
+        covariance,
         report: KinematicReport {
             solver: settings.solver.name(),
             cost: match settings.solver {

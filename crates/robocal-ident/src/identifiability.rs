@@ -236,6 +236,21 @@ pub fn posterior_standard_deviations(
     residuals: &[f64],
     prior: &[(usize, f64)],
 ) -> Option<Vec<f64>> {
+    let cov = posterior_covariance(jac, residuals, prior)?;
+    let std: Vec<f64> = (0..cov.nrows())
+        .map(|i| cov[(i, i)].max(0.0).sqrt())
+        .collect();
+    std.iter().all(|s| s.is_finite()).then_some(std)
+}
+
+/// The posterior's covariance of the unknowns (`u` units), `σ² (JᵀJ + Σ dⱼ² eⱼeⱼᵀ)⁻¹`, as in
+/// [`posterior_standard_deviations`]. `None` when there are no degrees of freedom left or the
+/// matrix is singular.
+pub fn posterior_covariance(
+    jac: &Mat<f64>,
+    residuals: &[f64],
+    prior: &[(usize, f64)],
+) -> Option<Mat<f64>> {
     let (rows, k) = (jac.nrows(), jac.ncols());
     if rows <= k || k == 0 {
         return None;
@@ -250,8 +265,5 @@ pub fn posterior_standard_deviations(
     }
     let llt = a.llt(faer::Side::Lower).ok()?;
     let inv = llt.solve(Mat::<f64>::identity(k, k));
-    let std: Vec<f64> = (0..k)
-        .map(|i| (sigma2 * inv[(i, i)]).max(0.0).sqrt())
-        .collect();
-    std.iter().all(|s| s.is_finite()).then_some(std)
+    Some(Mat::from_fn(k, k, |i, j| sigma2 * inv[(i, j)]))
 }

@@ -17,7 +17,7 @@ use robocal_robot::{
     rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
-use crate::identifiability::posterior_standard_deviations;
+use crate::identifiability::{posterior_covariance, posterior_standard_deviations};
 
 /// Rows of a residual or Jacobian evaluation per parallel task: enough that a task outweighs
 /// its scheduling, few enough that the rows of one fit spread over the cores.
@@ -545,6 +545,15 @@ impl<'a> CalibrationProblem<'a> {
             .map(|&(_, j, d)| (j, d))
             .collect();
         posterior_standard_deviations(&jac, &r, &prior)
+    }
+
+    /// The unknowns' covariance at `u` (`u` units), as [`Self::standard_deviations`]'s.
+    pub fn covariance(&self, u: &[f64]) -> Option<Mat<f64>> {
+        let (r, jac) = self.residuals_and_jacobian(u);
+        let prior: Vec<(usize, f64)> = (self.prior_rows(u).iter())
+            .map(|&(_, j, d)| (j, d))
+            .collect();
+        posterior_covariance(&jac, &r, &prior)
     }
 
     /// Weights each point's residual by `weights` (one per point, ≥ 0): least squares on

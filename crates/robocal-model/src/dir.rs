@@ -9,6 +9,8 @@
 //!                     (the arm before calibration), when the calibration gives one
 //!   domain.toml       the joint readings and loads the model was calibrated on (rows outside
 //!                     are extrapolation, warned of), when the calibration gives one
+//!   covariance.json   the identified parameters' covariance (a physical model's predicted
+//!                     points' standard deviations), when the identification gives one
 //!   report.json       model_format, robocal_version, then what the calibration reports
 //! ```
 
@@ -16,7 +18,7 @@ use std::path::Path;
 
 use robocal_data::{write_dir_atomically, write_text_in};
 use robocal_residual::{MANIFEST, ResidualModel};
-use robocal_robot::{JointErrors, Robot};
+use robocal_robot::{JointErrors, ParameterCovariance, Robot};
 use serde::{Deserialize, Serialize};
 
 use crate::domain::{DOMAIN_FILE, Domain};
@@ -31,6 +33,8 @@ pub const KINEMATICS_FILE: &str = "kinematics.toml";
 pub const COMPLIANCE_FILE: &str = "compliance.toml";
 /// The nominal table registered in the tracker frame: the arm before calibration.
 pub const NOMINAL_FILE: &str = "nominal.toml";
+/// The identified parameters' covariance.
+pub const COVARIANCE_FILE: &str = "covariance.json";
 /// The calibration's report, which carries the layout version.
 pub const REPORT_FILE: &str = "report.json";
 
@@ -79,6 +83,15 @@ impl CalibratedModel {
             }
             if let Some(domain) = &self.domain {
                 write_text_in(dir, out, DOMAIN_FILE, &domain.to_toml_string())?;
+            }
+            if let Some(covariance) = &self.covariance {
+                let text = serde_json::to_string_pretty(covariance).map_err(|source| {
+                    ModelError::Json {
+                        file: out.join(COVARIANCE_FILE),
+                        source,
+                    }
+                })? + "\n";
+                write_text_in(dir, out, COVARIANCE_FILE, &text)?;
             }
             write_text_in(dir, out, REPORT_FILE, &json)?;
             Ok(())
@@ -151,10 +164,46 @@ impl CalibratedModel {
         let domain = (domain_file.exists())
             .then(|| Domain::load(&domain_file, robot.dof()))
             .transpose()?;
+        let covariance = load_covariance(dir, &robot, joint_errors.as_ref())?;
         Ok(Self {
             nominal,
             domain,
+            covariance,
             ..Self::new(robot, joint_errors, residual)
         })
     }
+}
+
+/// `covariance.json` of the model directory `dir`, when there is one: checked, and every name
+/// found among the parameters of `robot` and `errors`.
+fn load_covariance(
+    dir: &Path,
+    robot: &Robot,
+    errors: Option<&JointErrors>,
+) -> Result<Option<ParameterCovariance>> {
+    let file = dir.join(COVARIANCE_FILE);
+    if !file.exists() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&file).map_err(|source| ModelError::Read {
+        file: file.clone(),
+        source,
+    })?;
+    let covariance: ParameterCovariance =
+        serde_json::from_str(&text).map_err(|source| ModelError::Json {
+            file: file.clone(),
+            source,
+        })?;
+    let fault = |key: String, message: String| ModelError::Covariance {
+        file: file.clone(),
+        key,
+        message,
+    };
+    covariance
+        .check()
+        .map_err(|(key, message)| fault(key, message))?;
+    covariance
+        .resolve(robot, errors)
+        .map_err(|message| fault("parameters".into(), message))?;
+    Ok(Some(covariance))
 }

@@ -68,6 +68,24 @@ pub enum ModelError {
         /// Joints of the identified table.
         joints: usize,
     },
+    /// A file of the directory could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        /// The file.
+        file: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// `covariance.json` holds a bad value, or names a parameter the model lacks.
+    #[error("{file}: key `{key}`: {message}")]
+    Covariance {
+        /// `covariance.json`.
+        file: PathBuf,
+        /// The key at fault.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
     /// `domain.toml` holds a bad value.
     #[error("{file}: key `{key}`: {message}")]
     Domain {

@@ -5,7 +5,30 @@ use robocal_data::{ErrorStats, Measurement, Sample};
 use robocal_residual::{
     ClassifierSettings, GatePhysics, PHYSICS_PER_JOINT, ResidualModel, Samples, inputs_of,
 };
-use robocal_robot::{JointErrors, Robot, matrix_to_rpy, rotation_vector, rpy_to_matrix};
+use robocal_robot::{
+    JointErrors, ParameterCovariance, Robot, displaced, matrix_to_rpy, rotation_vector,
+    rpy_to_matrix,
+};
+
+/// How much the two sides of a step along one of the covariance's directions may differ, as a
+/// share of their sum, before the step is taken to have crossed a jump (a turned backlash flank)
+/// rather than a slope: a smooth model's sides differ by the step's second-order term, a part in
+/// a million on the accuracy suite's twins.
+const JUMP_SHARE: f64 = 0.5;
+
+/// What one step along a direction of the covariance adds to a point's variance (mm²), from the
+/// point's moves `ahead` (the step forwards) and `behind` (the step backwards): the central
+/// difference's square where the two agree; where they differ by more than [`JUMP_SHARE`] of
+/// their sum, the smaller one's, with the jump (mm) between them, else 0.
+fn step_variance(ahead: Vector3<f64>, behind: Vector3<f64>) -> (f64, f64) {
+    let (na, nb) = (ahead.norm(), behind.norm());
+    let jump = (ahead - behind).norm();
+    if jump <= JUMP_SHARE * (na + nb) {
+        (((ahead + behind) / 2.0).norm_squared(), 0.0)
+    } else {
+        (na.min(nb).powi(2), jump)
+    }
+}
 
 /// A calibrated model: the identified table, the joint-error physics identified with it and the
 /// residual model learned on what they leave. Each part beyond the table is optional; a nominal
@@ -26,6 +49,10 @@ pub struct CalibratedModel {
     /// are extrapolation, which `predict`, `evaluate` and `compensate` warn of. `None` for a
     /// table alone or a model directory written before it.
     pub domain: Option<crate::Domain>,
+    /// The identified parameters' covariance (`covariance.json`): a physical model's predicted
+    /// points' standard deviations ([`Self::physics_sigmas`]). `None` for a table alone, a
+    /// fit without degrees of freedom left, or a directory written before it.
+    pub covariance: Option<ParameterCovariance>,
 }
 
 impl CalibratedModel {
@@ -41,6 +68,7 @@ impl CalibratedModel {
             residual,
             nominal: None,
             domain: None,
+            covariance: None,
         }
     }
 
@@ -159,9 +187,10 @@ impl CalibratedModel {
         self.predict_with_sigma(samples, false).0
     }
 
-    /// Predicted points for `samples` (mm, world frame) and, with `sigma` and a residual model
-    /// that knows how sure it is (the GP), each point's standard deviation: the root sum of the
-    /// axes' variances, mm.
+    /// Predicted points for `samples` (mm, world frame) and, with `sigma`, each point's standard
+    /// deviation (the root sum of the axes' variances, mm) where the model knows how sure it is:
+    /// a residual model that gives one (the GP) gives it; a physical model without a residual
+    /// model gives its parameters' ([`Self::physics_sigmas`]); otherwise `None`.
     pub fn predict_with_sigma<'a>(
         &self,
         samples: impl IntoIterator<Item = &'a Sample>,
@@ -170,7 +199,12 @@ impl CalibratedModel {
         let samples: Vec<&Sample> = samples.into_iter().collect();
         let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
         let Some(residual) = &self.residual else {
-            return (points, None);
+            let sigmas = if sigma {
+                self.physics_sigmas(&samples)
+            } else {
+                None
+            };
+            return (points, sigmas);
         };
         let (mean, std) = residual.predict_with_std(&self.residual_rows(&samples), sigma);
         for (p, e) in points.iter_mut().zip(mean) {
@@ -182,6 +216,46 @@ impl CalibratedModel {
                 .collect()
         });
         (points, sigmas)
+    }
+
+    /// The standard deviation (mm; the root sum of the three axes' variances) that the
+    /// identified parameters' covariance gives each sample's predicted point — the table and
+    /// the joint errors, to first order in the parameters' spread: `√tr(J C Jᵀ)` with `J` the
+    /// point's derivative over the parameters, as `Σ_k |(p(x + a_k) − p(x − a_k)) / 2|²` over
+    /// the columns `a_k` of `C = Σ a_k a_kᵀ` ([`ParameterCovariance::directions`]).
+    ///
+    /// A step that moves the point by much more on one side than on the other crossed a jump:
+    /// a backlash flank that the parameters' spread can turn (the torque on the joint within
+    /// it of zero). There the side without the jump is the slope, and the jump `J` itself is a
+    /// two-valued uncertainty: the flank either holds or turns, whose variance is at most
+    /// `|J|²/4` — added once (every direction that turns the same flank sees the same jump).
+    /// `None` without a covariance, or one that names a parameter the model lacks (checked
+    /// when a directory is read).
+    pub fn physics_sigmas(&self, samples: &[&Sample]) -> Option<Vec<f64>> {
+        let cov = self.covariance.as_ref()?;
+        let parameters = cov.resolve(&self.robot, self.joint_errors.as_ref()).ok()?;
+        let at: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
+        let mut variance = vec![0.0; samples.len()];
+        let mut jump = vec![0.0f64; samples.len()];
+        for a in cov.directions() {
+            let minus: Vec<f64> = a.iter().map(|v| -v).collect();
+            let shifted = |step: &[f64]| {
+                let (robot, joint_errors) =
+                    displaced(&self.robot, self.joint_errors.as_ref(), &parameters, step);
+                CalibratedModel::new(robot, joint_errors, None)
+            };
+            let (up, down) = (shifted(&a), shifted(&minus));
+            for (i, s) in samples.iter().enumerate() {
+                let (v, j) = step_variance(up.base_point(s) - at[i], at[i] - down.base_point(s));
+                variance[i] += v;
+                jump[i] = jump[i].max(j);
+            }
+        }
+        Some(
+            (variance.iter().zip(&jump))
+                .map(|(v, j)| (v + j * j / 4.0).sqrt())
+                .collect(),
+        )
     }
 
     /// Measured − predicted position of every row, mm, world frame.
@@ -307,4 +381,33 @@ pub fn gate_physics_rows(robot: &Robot, p: &GatePhysics, samples: &[&Sample]) ->
         .iter()
         .map(|s| gate_physics_row(robot, p, &s.joints_rad(), s.load))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A slope: the central difference, and no jump (the sides differ by a second-order term).
+    /// A jump on one side (a backlash flank the step turned): the other side's slope, and the
+    /// jump between the two, whichever side it lies on.
+    #[test]
+    fn a_step_across_a_jump_is_told_from_a_slope() {
+        let slope = Vector3::new(0.010, -0.004, 0.002);
+        let (v, j) = step_variance(slope * 1.001, slope * 0.999);
+        assert!(
+            (v - slope.norm_squared()).abs() < 1e-12 * v && j == 0.0,
+            "{v} {j}"
+        );
+        let turn = Vector3::new(0.0, 1.1, 0.0);
+        for (ahead, behind) in [(slope + turn, slope), (slope, slope - turn)] {
+            let (v, j) = step_variance(ahead, behind);
+            assert!((v - slope.norm_squared()).abs() < 1e-15, "{v}");
+            assert!((j - 1.1).abs() < 1e-12, "{j}");
+        }
+        // No move at all: nothing.
+        assert_eq!(
+            step_variance(Vector3::zeros(), Vector3::zeros()),
+            (0.0, 0.0)
+        );
+    }
 }

@@ -246,3 +246,78 @@ fn the_calibrated_domain_round_trips_and_warns_of_rows_outside() {
     let err = CalibratedModel::load(&out).unwrap_err().to_string();
     assert!(err.contains(DOMAIN_FILE) && err.contains("line 1"), "{err}");
 }
+
+/// A physical model with a covariance over some table entries and joint-error coefficients.
+fn physical_model_with_covariance() -> CalibratedModel {
+    let CalibratedModel {
+        robot,
+        joint_errors,
+        ..
+    } = full_model();
+    let names = ["j2.a", "j3.d", "base.x", "j2.compliance", "j4.h1.cos"];
+    let k = names.len();
+    // A positive definite matrix with correlations, internal units (mm², rad², ...).
+    let sd = [0.02, 0.015, 0.05, 1e-8, 2e-5];
+    let m = nalgebra::DMatrix::from_fn(k, k, |i, j| {
+        let rho = if i == j { 1.0 } else { 0.3 };
+        rho * sd[i] * sd[j]
+    });
+    CalibratedModel {
+        covariance: Some(robocal_robot::ParameterCovariance::new(
+            names.iter().map(|n| n.to_string()).collect(),
+            &m,
+        )),
+        ..CalibratedModel::new(robot, joint_errors, None)
+    }
+}
+
+#[test]
+fn the_covariance_round_trips_and_a_bad_one_is_refused_with_its_key() {
+    let model = physical_model_with_covariance();
+    let poses = samples(12, 5);
+    let (points, sigmas) = model.predict_with_sigma(&poses, true);
+    let sigmas = sigmas.expect("a physical model with a covariance gives deviations");
+    assert!(
+        sigmas.iter().all(|s| s.is_finite() && *s > 0.0),
+        "{sigmas:?}"
+    );
+    // Without `sigma`, none; without a covariance, none.
+    assert!(model.predict_with_sigma(&poses, false).1.is_none());
+    let bare = CalibratedModel {
+        covariance: None,
+        ..model.clone()
+    };
+    assert!(bare.predict_with_sigma(&poses, true).1.is_none());
+    let (_tmp, out) = dir();
+    model.save(&out, &serde_json::json!({})).unwrap();
+    let back = CalibratedModel::load(&out).unwrap();
+    assert_eq!(back.covariance, model.covariance);
+    let (p, s) = back.predict_with_sigma(&poses, true);
+    assert_eq!(p, points);
+    assert_eq!(s.unwrap(), sigmas);
+    // Faults, each named with the file and the key.
+    let file = out.join("covariance.json");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let refused = |text: &str, key: &str| {
+        std::fs::write(&file, text).unwrap();
+        let e = CalibratedModel::load(&out).unwrap_err().to_string();
+        assert!(
+            e.contains("covariance.json") && e.contains(&format!("key `{key}`")),
+            "{e}"
+        );
+    };
+    refused(&text.replace("\"j3.d\"", "\"j9.d\""), "parameters");
+    refused(&text.replace("\"j2.a\"", "\"j3.d\""), "parameters");
+    let mut asymmetric: robocal_robot::ParameterCovariance = serde_json::from_str(&text).unwrap();
+    asymmetric.matrix[0][1] *= 2.0;
+    refused(&serde_json::to_string(&asymmetric).unwrap(), "matrix");
+    // Not JSON of its form: the file named.
+    std::fs::write(&file, "{\"parameters\": [").unwrap();
+    let e = CalibratedModel::load(&out).unwrap_err().to_string();
+    assert!(e.contains("covariance.json"), "{e}");
+    // A directory without it reads as before: no deviations for a physical model.
+    std::fs::remove_file(&file).unwrap();
+    let old = CalibratedModel::load(&out).unwrap();
+    assert!(old.covariance.is_none());
+    assert!(old.predict_with_sigma(&poses, true).1.is_none());
+}

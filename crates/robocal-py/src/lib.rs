@@ -431,7 +431,8 @@ impl PyModel {
 
     /// The predicted point (world frame, mm) for each row of `q` (rows × joints, deg) under
     /// `load` (kg: one per row or one number). With `sigma=True`, also each point's standard
-    /// deviation (mm; models with a Gaussian-process residual): `(points, sigma)`. `target`:
+    /// deviation (mm; a model with a Gaussian-process residual: the GP's; a physical model: its
+    /// identified parameters'): `(points, sigma)`. `target`:
     /// one point name per row (`[tool.points]`; empty: the default point).
     #[pyo3(signature = (q, load, sigma=false, *, target=None))]
     fn predict<'py>(
@@ -459,7 +460,7 @@ impl PyModel {
             return Ok(out);
         }
         let s = sigmas.ok_or_else(|| {
-            bad("sigma: this model gives no standard deviation (only a model with a Gaussian-process residual does)".into())
+            bad("sigma: this model gives no standard deviation (a model with a Gaussian-process residual gives the GP's, a physical model its parameters' covariance's; a network residual gives none, and a model directory without covariance.json has no covariance)".into())
         })?;
         Ok((out, Array1::from(s).into_pyarray(py))
             .into_pyobject(py)?

@@ -156,12 +156,19 @@ def test_a_saved_model_reloads_and_the_cli_reads_it(tmp_path):
     assert evaluated["mean"] == pytest.approx(model.evaluate(tq, tload, txyz)["mean"], abs=1e-9)
     # One number for every row's load.
     np.testing.assert_array_equal(model.predict(tq, 5.0), model.predict(tq, np.full(len(tq), 5.0)))
-    # A model without a Gaussian process gives no sigma.
+    # A physical model gives its parameters' deviations, and keeps them through its directory;
+    # one read from a directory without its covariance gives none.
     plain = robocal.calibrate(
         robocal.Robot.load(ROBOT), q, load, xyz, config=STAGES / "kinematic-lm.toml"
     )
+    p2, s2 = plain.predict(tq, tload, sigma=True)
+    assert s2.shape == (len(tq),) and (s2 > 0).all() and np.isfinite(s2).all()
+    plain_dir = tmp_path / "plain"
+    plain.save(plain_dir)
+    np.testing.assert_array_equal(robocal.Model.load(plain_dir).predict(tq, tload, sigma=True)[1], s2)
+    (plain_dir / "covariance.json").unlink()
     with pytest.raises(robocal.RobocalError, match="no standard deviation"):
-        plain.predict(tq, tload, sigma=True)
+        robocal.Model.load(plain_dir).predict(tq, tload, sigma=True)
 
 
 def test_compensation_reaches_the_targets_and_equals_the_cli(tmp_path):

@@ -27,6 +27,7 @@
 //! ```
 
 pub mod compliance;
+pub mod covariance;
 pub mod error;
 pub mod exact;
 pub mod ik;
@@ -40,6 +41,7 @@ pub use compliance::{
     Turns, backlash_name, compliance_name, harmonic_name, link_weight_name, payload_com_name,
     payload_mass_feature, self_weight_name, tilt_name, torque_side, turn_rotation, turned,
 };
+pub use covariance::{Parameter, ParameterCovariance, displaced};
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
 pub use kinematics::JointAxes;

@@ -52,13 +52,17 @@ pub use select::{
     AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, Selection, automatic,
 };
 
-/// The geometric (and elastic) model of an identification, without a residual model.
+/// The geometric (and elastic) model of an identification, without a residual model, with its
+/// parameters' covariance.
 pub fn physical_model(calibration: &KinematicCalibration) -> CalibratedModel {
-    CalibratedModel::new(
-        calibration.robot.clone(),
-        calibration.compliance.clone(),
-        None,
-    )
+    CalibratedModel {
+        covariance: calibration.covariance.clone(),
+        ..CalibratedModel::new(
+            calibration.robot.clone(),
+            calibration.compliance.clone(),
+            None,
+        )
+    }
 }
 
 /// One network's training, in the report.

@@ -1200,6 +1200,7 @@ pub fn automatic(
     if chosen_physics.aligned {
         built.kinematic.robot = built.kinematic.aligned.clone();
         built.kinematic.compliance = None;
+        built.kinematic.covariance = None;
     }
     // Compliances the final fit found impossible and held (rigid, or at the value of its first
     // fit without the links' weights and backlash), in the decision.
