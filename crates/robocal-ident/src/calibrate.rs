@@ -12,7 +12,9 @@ use serde::Serialize;
 
 use crate::bfgs::run_bfgs;
 use crate::error::{IdentError, Result};
-use crate::identifiability::{Column, Identifiability, analyse, standard_deviations};
+use crate::identifiability::{
+    Column, Identifiability, analyse, deviations_of, standard_deviations,
+};
 use crate::lm::run_lm;
 use crate::problem::{
     CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, Observations,
@@ -1648,10 +1650,7 @@ fn identify_anew(
     // Under the harmonics' prior, the posterior's: a coefficient the poses barely determine is
     // as sure as the prior makes it, not as unsure as the data alone leave it.
     let cov_u = problem.covariance(&u);
-    let std_u: Option<Vec<f64>> = cov_u.as_ref().and_then(|c| {
-        let std: Vec<f64> = (0..c.nrows()).map(|i| c[(i, i)].max(0.0).sqrt()).collect();
-        std.iter().all(|s| s.is_finite()).then_some(std)
-    });
+    let std_u = cov_u.as_ref().and_then(deviations_of);
     // The same covariance in internal units, by the parameters' names: what a predicted
     // point's standard deviation is made of.
     let covariance = std_u.as_ref().and(cov_u.as_ref()).map(|c| {

@@ -236,7 +236,11 @@ pub fn posterior_standard_deviations(
     residuals: &[f64],
     prior: &[(usize, f64)],
 ) -> Option<Vec<f64>> {
-    let cov = posterior_covariance(jac, residuals, prior)?;
+    deviations_of(&posterior_covariance(jac, residuals, prior)?)
+}
+
+/// The roots of a covariance's diagonal; `None` when one is not finite.
+pub fn deviations_of(cov: &Mat<f64>) -> Option<Vec<f64>> {
     let std: Vec<f64> = (0..cov.nrows())
         .map(|i| cov[(i, i)].max(0.0).sqrt())
         .collect();

@@ -17,7 +17,7 @@ use robocal_robot::{
     rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
-use crate::identifiability::{posterior_covariance, posterior_standard_deviations};
+use crate::identifiability::{deviations_of, posterior_covariance};
 
 /// Rows of a residual or Jacobian evaluation per parallel task: enough that a task outweighs
 /// its scheduling, few enough that the rows of one fit spread over the cores.
@@ -537,14 +537,10 @@ impl<'a> CalibrationProblem<'a> {
     }
 
     /// The unknowns' standard deviations at `u` (`u` units): the posterior's under the priors
-    /// where there are any ([`posterior_standard_deviations`]: the data's `σ`, the priors' rows
+    /// where there are any ([`crate::posterior_standard_deviations`]: the data's `σ`, the priors' rows
     /// added to `JᵀJ`), else the data's alone. `None` as [`crate::standard_deviations`].
     pub fn standard_deviations(&self, u: &[f64]) -> Option<Vec<f64>> {
-        let (r, jac) = self.residuals_and_jacobian(u);
-        let prior: Vec<(usize, f64)> = (self.prior_rows(u).iter())
-            .map(|&(_, j, d)| (j, d))
-            .collect();
-        posterior_standard_deviations(&jac, &r, &prior)
+        deviations_of(&self.covariance(u)?)
     }
 
     /// The unknowns' covariance at `u` (`u` units), as [`Self::standard_deviations`]'s.
