@@ -1661,6 +1661,9 @@ fn identify_anew(
         });
         ParameterCovariance::new(names, &m)
     });
+    // What is written must read back: a fit so ill-conditioned that round-off leaves a negative
+    // variance keeps no covariance (and its points no deviation).
+    let covariance = covariance.filter(|c| c.check().is_ok());
     // Standard deviation of the unknown for `column`, internal units.
     let std_of = |column: Column| {
         let p = kept.iter().position(|&k| k == column)?;

@@ -40,10 +40,17 @@ pub struct ParameterCovariance {
 }
 
 impl ParameterCovariance {
-    /// A covariance of `parameters` (`matrix`, `k × k`).
+    /// A covariance of `parameters` (`matrix`, `k × k`), made exactly symmetric (an inverse
+    /// computed by solves is symmetric only to round-off, which an ill-conditioned fit
+    /// magnifies).
     pub fn new(parameters: Vec<String>, matrix: &DMatrix<f64>) -> Self {
-        let matrix = (0..matrix.nrows())
-            .map(|i| matrix.row(i).iter().copied().collect())
+        let k = matrix.nrows().min(matrix.ncols());
+        let matrix = (0..k)
+            .map(|i| {
+                (0..k)
+                    .map(|j| 0.5 * (matrix[(i, j)] + matrix[(j, i)]))
+                    .collect()
+            })
             .collect();
         Self { parameters, matrix }
     }
@@ -72,8 +79,11 @@ impl ParameterCovariance {
                         format!("row {}, column {}: not finite", i + 1, j + 1),
                     );
                 }
+                // Asymmetry against the scale of the two variances (a correlation's part in a
+                // million): what a matrix written with fewer digits still passes.
                 let w = self.matrix[j][i];
-                if (v - w).abs() > 1e-9 * (v.abs() + w.abs()) + 1e-300 {
+                let scale = (self.matrix[i][i] * self.matrix[j][j]).abs().sqrt();
+                if !w.is_finite() || (v - w).abs() > 1e-6 * scale {
                     return fault(
                         "matrix",
                         format!("not symmetric at row {}, column {}", i + 1, j + 1),
@@ -208,6 +218,22 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// An inverse computed by solves, symmetric only to round-off, is stored exactly symmetric.
+    #[test]
+    fn a_matrix_symmetric_to_round_off_is_made_exactly_symmetric() {
+        let mut m = DMatrix::from_row_slice(2, 2, &[1e-12, 3e-13, 3e-13 * (1.0 + 1e-7), 2e-12]);
+        let c = ParameterCovariance::new(vec!["a".into(), "b".into()], &m);
+        assert_eq!(c.matrix[0][1], c.matrix[1][0]);
+        c.check().unwrap();
+        // As written by hand, asymmetric beyond round-off: refused.
+        m[(1, 0)] = 6e-13;
+        let raw = ParameterCovariance {
+            parameters: c.parameters.clone(),
+            matrix: vec![vec![m[(0, 0)], m[(0, 1)]], vec![m[(1, 0)], m[(1, 1)]]],
+        };
+        assert_eq!(raw.check().unwrap_err().0, "matrix");
     }
 
     #[test]
