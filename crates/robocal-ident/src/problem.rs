@@ -17,7 +17,7 @@ use robocal_robot::{
     rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
-use crate::identifiability::{deviations_of, posterior_covariance};
+use crate::identifiability::posterior_covariance;
 
 /// Rows of a residual or Jacobian evaluation per parallel task: enough that a task outweighs
 /// its scheduling, few enough that the rows of one fit spread over the cores.
@@ -536,14 +536,9 @@ impl<'a> CalibrationProblem<'a> {
             .collect()
     }
 
-    /// The unknowns' standard deviations at `u` (`u` units): the posterior's under the priors
-    /// where there are any ([`crate::posterior_standard_deviations`]: the data's `σ`, the priors' rows
-    /// added to `JᵀJ`), else the data's alone. `None` as [`crate::standard_deviations`].
-    pub fn standard_deviations(&self, u: &[f64]) -> Option<Vec<f64>> {
-        deviations_of(&self.covariance(u)?)
-    }
-
-    /// The unknowns' covariance at `u` (`u` units), as [`Self::standard_deviations`]'s.
+    /// The unknowns' covariance at `u` (`u` units): the posterior's under the priors where there
+    /// are any ([`crate::posterior_covariance`]: the data's `σ²`, the priors' rows added to
+    /// `JᵀJ`), else the data's alone. `None` as [`crate::posterior_covariance`].
     pub fn covariance(&self, u: &[f64]) -> Option<Mat<f64>> {
         let (r, jac) = self.residuals_and_jacobian(u);
         let prior: Vec<(usize, f64)> = (self.prior_rows(u).iter())

@@ -200,7 +200,7 @@ impl CalibratedModel {
         let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
         let Some(residual) = &self.residual else {
             let sigmas = if sigma {
-                self.physics_sigmas(&samples)
+                self.physics_sigmas_about(&samples, &points)
             } else {
                 None
             };
@@ -232,9 +232,15 @@ impl CalibratedModel {
     /// `None` without a covariance, or one that names a parameter the model lacks (checked
     /// when a directory is read).
     pub fn physics_sigmas(&self, samples: &[&Sample]) -> Option<Vec<f64>> {
+        let at: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
+        self.physics_sigmas_about(samples, &at)
+    }
+
+    /// [`Self::physics_sigmas`] about the samples' points `at` ([`Self::base_point`]'s),
+    /// already predicted.
+    fn physics_sigmas_about(&self, samples: &[&Sample], at: &[Vector3<f64>]) -> Option<Vec<f64>> {
         let cov = self.covariance.as_ref()?;
         let parameters = cov.resolve(&self.robot, self.joint_errors.as_ref()).ok()?;
-        let at: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
         let mut variance = vec![0.0; samples.len()];
         let mut jump = vec![0.0f64; samples.len()];
         for a in cov.directions() {

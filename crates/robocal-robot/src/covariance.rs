@@ -153,13 +153,6 @@ impl ParameterCovariance {
             })
             .collect()
     }
-
-    /// The standard deviation of each parameter (the root of its variance), internal units.
-    pub fn standard_deviations(&self) -> Vec<f64> {
-        (0..self.parameters.len())
-            .map(|i| self.matrix[i][i].max(0.0).sqrt())
-            .collect()
-    }
 }
 
 /// `robot` and `errors` with `step[i]` added to each parameter `parameters[i]` (a table entry the
