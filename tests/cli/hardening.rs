@@ -320,6 +320,11 @@ fn every_command_refuses_bad_input_cleanly() {
             &["stage-rate.toml", "residual.x.learning_rate"],
         ),
         (
+            "stage-members.toml",
+            "[residual]\nmodel = \"gp\"\nmembers = 3\n",
+            &["stage-members.toml", "residual.members", "only a somm"],
+        ),
+        (
             "stage-tilt.toml",
             "[kinematic]\nsolver = \"lm\"\n[joint_errors]\nharmonics = 0\ntilt = true\n",
             &["stage-tilt.toml", "joint_errors.tilt", "[compliance]"],

@@ -452,6 +452,7 @@ impl Experiment {
                                 model: s.kind.name().to_string(),
                                 defaults: None,
                                 seed: Some(s.seed),
+                                members: (s.members > 1).then_some(s.members),
                                 holdout: Some(r.holdout),
                                 x: Some(s.axes[0].clone()),
                                 y: Some(s.axes[1].clone()),

@@ -618,3 +618,68 @@ fn residual_models_are_skipped_below_the_default_count_of_configurations() {
         );
     }
 }
+
+/// A stage config's SOMM of three members: each member trained on its own hold-out of whole
+/// configurations (seeded as its networks are), their average the model — checked against the
+/// three trained alone on those hold-outs — and the report over every row.
+#[test]
+fn an_averaged_somm_trains_each_member_on_its_own_hold_out() {
+    use robocal_data::Silent;
+    use robocal_pipeline::calibration::{hold_out, physical_model};
+    use robocal_pipeline::{RawStages, configured};
+    use robocal_residual::{Defaults, ResidualModel, Samples};
+    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    twin.poses.count = 30;
+    let data = twin.generate().unwrap().measurements;
+    let rows: Vec<&robocal_data::Measurement> = data.rows.iter().collect();
+    let raw: RawStages = toml::from_str(
+        "[residual]\nmodel = \"somm\"\nseed = 5\nmembers = 3\n\
+         [residual.x]\nhidden = [6]\nactivation = \"tanh\"\nlearning_rate = 3e-3\nmax_epochs = 5\n\
+         [residual.y]\nhidden = [6]\nactivation = \"tanh\"\nlearning_rate = 3e-3\nmax_epochs = 5\n\
+         [residual.z]\nhidden = [6]\nactivation = \"tanh\"\nlearning_rate = 3e-3\nmax_epochs = 5\n",
+    )
+    .unwrap();
+    let stages = raw.validate(None, Defaults::Robocal).unwrap();
+    let built = configured(&stages, &twin.nominal, &rows, None, &Silent).unwrap();
+    let (model, report) = built.residual.as_ref().unwrap();
+    assert_eq!(
+        (model.members(), model.nets().len(), report.members),
+        (3, 9, 3)
+    );
+    assert_eq!(
+        (report.training_rows, report.validation_rows),
+        (rows.len(), 0)
+    );
+    assert!(report.validation_after.is_none());
+    assert_eq!(
+        report.validation_source,
+        "3 members averaged, each early-stopping on its own 6 of 30 configurations held out (seeds 5, 1005, 2005)"
+    );
+    // The members alone, each on its hold-out, on what the same physics leaves.
+    let stage = stages.residual.as_ref().unwrap();
+    let base = physical_model(&built.kinematic);
+    let samples = |r: &[&robocal_data::Measurement]| {
+        Samples::from_model(|s| base.base_point(s), r.iter().copied())
+    };
+    let mut held = Vec::new();
+    let alone: Vec<Vec<[f64; 3]>> = (0..3)
+        .map(|m| {
+            let member = stage.settings.member(m);
+            let (t, v, _) = hold_out(&rows, stage.holdout, member.seed).unwrap();
+            held.push(v.iter().map(|r| r.sample.pose.clone()).collect::<Vec<_>>());
+            let one = ResidualModel::fit(&member, &samples(&t), &samples(&v), &Silent).unwrap();
+            one.predict(&samples(&rows))
+        })
+        .collect();
+    assert!(
+        held[0] != held[1] && held[1] != held[2],
+        "the hold-outs differ"
+    );
+    let mean = model.predict(&samples(&rows));
+    for (i, p) in mean.iter().enumerate() {
+        for a in 0..3 {
+            let m = (alone[0][i][a] + alone[1][i][a] + alone[2][i][a]) / 3.0;
+            assert!((p[a] - m).abs() <= 1e-12 * (1.0 + m.abs()), "{i} {a}");
+        }
+    }
+}

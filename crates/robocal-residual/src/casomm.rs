@@ -188,11 +188,11 @@ impl CaSomm {
                         })
                     })
                     .collect();
-                let set = |set: &Samples, val: &Samples, offset: u64| Somm {
-                    nets: std::array::from_fn(|a| match &shared[a] {
+                let set = |set: &Samples, val: &Samples, offset: u64| {
+                    Somm::single(std::array::from_fn(|a| match &shared[a] {
                         Some(n) => n.clone(),
                         None => Somm::fit_axis(axes, a, set, val, seed, offset, progress),
-                    }),
+                    }))
                 };
                 [set(&train_a, &val_a, 0), set(&train_b, &val_b, 10)]
             }
@@ -230,6 +230,6 @@ impl Residual for CaSomm {
     }
 
     fn nets(&self) -> Vec<&AxisNet> {
-        self.sets.iter().flat_map(|s| &s.nets).collect()
+        self.sets.iter().flat_map(Somm::all_nets).collect()
     }
 }

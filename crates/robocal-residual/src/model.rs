@@ -45,10 +45,6 @@ pub trait Residual {
 
 /// The fitted model of each kind.
 #[derive(Debug, Clone)]
-#[expect(
-    clippy::large_enum_variant,
-    reason = "made once per calibration and held, not moved in loops"
-)]
 pub enum Fitted {
     /// One network per axis.
     Somm(Somm),
@@ -169,6 +165,12 @@ impl ResidualModel {
         progress: &dyn Observer,
     ) -> Result<Self> {
         settings.check()?;
+        if settings.members > 1 {
+            let members = (0..settings.members)
+                .map(|m| Self::fit(&settings.member(m), train_set, validation, progress))
+                .collect::<Result<Vec<_>>>()?;
+            return Self::average(members);
+        }
         let inputs = match train_set.inputs.first() {
             Some(r) => r.len(),
             None => return Err(ResidualError::Data("no training samples".into())),
@@ -245,6 +247,42 @@ impl ResidualModel {
             model.keep_classes_that_pay(&settings, train_set, raw_validation, progress);
         }
         Ok(model)
+    }
+
+    /// One SOMM averaging the networks of `members` (SOMMs on the same inputs and encoding), in
+    /// their order.
+    pub fn average(members: Vec<Self>) -> Result<Self> {
+        let Some(first) = members.first() else {
+            return Err(ResidualError::Data("no members to average".into()));
+        };
+        let (inputs, encoding) = (first.inputs, first.encoding);
+        let mut sets = Vec::new();
+        let mut search = Vec::new();
+        for m in members {
+            if m.inputs != inputs || m.encoding != encoding {
+                return Err(ResidualError::Data(
+                    "members with different inputs or encodings cannot be averaged".into(),
+                ));
+            }
+            match m.fitted {
+                Fitted::Somm(s) if m.empty_class.is_none() => sets.extend(s.members),
+                other => {
+                    return Err(ResidualError::Data(format!(
+                        "only SOMMs are averaged, not a {} model",
+                        other.kind().name()
+                    )));
+                }
+            }
+            search.extend(m.search);
+        }
+        Ok(Self {
+            inputs,
+            encoding,
+            search,
+            fitted: Fitted::Somm(Somm { members: sets }),
+            gate_decision: None,
+            empty_class: None,
+        })
     }
 
     /// CA-SOMM's fallback: a SOMM trained on every row beside the two sets; the two sets are
@@ -343,7 +381,7 @@ impl ResidualModel {
     pub fn max_epochs(settings: &ResidualSettings) -> u64 {
         let axes: usize = settings.axes.iter().map(|s| s.max_epochs).sum();
         (match settings.kind {
-            ResidualKind::Somm => axes,
+            ResidualKind::Somm => axes * settings.members.max(1),
             ResidualKind::Mosm => settings.mosm.max_epochs,
             ResidualKind::CaSomm => 2 * axes,
             ResidualKind::Gp => 0,
@@ -414,6 +452,14 @@ impl ResidualModel {
     pub fn set_std_scale(&mut self, scale: f64) {
         if let Fitted::Gp(m) = &mut self.fitted {
             m.std_scale = scale;
+        }
+    }
+
+    /// How many sets of networks a SOMM averages (1 for every other model).
+    pub fn members(&self) -> usize {
+        match &self.fitted {
+            Fitted::Somm(m) => m.members.len(),
+            _ => 1,
         }
     }
 }

@@ -19,7 +19,7 @@ use crate::mosm::Mosm;
 use crate::net::{AxisNet, SequentialIds};
 use crate::samples::{Encoding, Standardizer};
 use crate::search::SearchLog;
-use crate::settings::ResidualKind;
+use crate::settings::{MAX_MEMBERS, ResidualKind};
 use crate::somm::Somm;
 
 /// Version of the saved residual model (`residual.json`).
@@ -56,6 +56,18 @@ struct Manifest {
     /// `'A'` or `'B'`: CA-SOMM fell back to one SOMM because its gate left that class empty.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     empty_class: Option<char>,
+    /// A SOMM averaging several sets of networks: how many (`nets` holds each set's X, Y, Z in
+    /// turn). Absent: one.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    members: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
 }
 
 /// Most inputs a residual model may take (joint angles and the load: 1 to 63 joints).
@@ -68,7 +80,11 @@ impl ResidualModel {
     fn net_file(&self, i: usize) -> String {
         let axis = ["x", "y", "z"];
         match self.kind() {
-            ResidualKind::Somm | ResidualKind::Gp => format!("residual-{}.bpk", axis[i]),
+            // A further member's set: `residual-x-2.bpk`, …; the first keeps a single SOMM's names.
+            ResidualKind::Somm | ResidualKind::Gp => match i / 3 {
+                0 => format!("residual-{}.bpk", axis[i]),
+                m => format!("residual-{}-{}.bpk", axis[i % 3], m + 1),
+            },
             ResidualKind::Mosm => "residual-xyz.bpk".into(),
             ResidualKind::CaSomm => {
                 format!("residual-{}-{}.bpk", ["a", "b"][i / 3], axis[i % 3])
@@ -114,6 +130,7 @@ impl ResidualModel {
             gp: self.gp().cloned(),
             gate_decision: self.gate_decision,
             empty_class: self.empty_class,
+            members: self.members(),
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
@@ -149,8 +166,16 @@ impl ResidualModel {
             None => return Err(format("no residual_format field".into())),
         }
         let m: Manifest = serde_json::from_value(version).map_err(|e| format(e.to_string()))?;
+        if !(1..=MAX_MEMBERS).contains(&m.members)
+            || (m.members > 1 && m.kind != ResidualKind::Somm)
+        {
+            return Err(format(format!(
+                "members {}: a somm averages 1 to {MAX_MEMBERS} sets of networks, every other model has one",
+                m.members
+            )));
+        }
         let expected = match m.kind {
-            ResidualKind::Somm => 3,
+            ResidualKind::Somm => 3 * m.members,
             ResidualKind::Mosm => 1,
             ResidualKind::CaSomm => 6,
             ResidualKind::Gp => 0,
@@ -252,13 +277,16 @@ impl ResidualModel {
             });
         }
         let shape = || format(format!("a {} model has other networks", m.kind.name()));
-        let three = |v: Vec<AxisNet>| -> Result<Somm> {
-            Ok(Somm {
-                nets: v.try_into().map_err(|_| shape())?,
-            })
-        };
+        let three = |v: Vec<AxisNet>| -> Result<[AxisNet; 3]> { v.try_into().map_err(|_| shape()) };
         let fitted = match (m.kind, m.classifier, m.gp) {
-            (ResidualKind::Somm, _, _) => Fitted::Somm(three(nets)?),
+            (ResidualKind::Somm, _, _) => {
+                let mut members = Vec::new();
+                while !nets.is_empty() {
+                    let rest = nets.split_off(3.min(nets.len()));
+                    members.push(three(std::mem::replace(&mut nets, rest))?);
+                }
+                Fitted::Somm(Somm { members })
+            }
             (ResidualKind::Mosm, _, _) => Fitted::Mosm(Mosm {
                 net: nets.pop().ok_or_else(shape)?,
             }),
@@ -266,7 +294,7 @@ impl ResidualModel {
                 let b = nets.split_off(3.min(nets.len()));
                 Fitted::CaSomm(CaSomm {
                     classifier,
-                    sets: [three(nets)?, three(b)?],
+                    sets: [Somm::single(three(nets)?), Somm::single(three(b)?)],
                 })
             }
             (ResidualKind::Gp, _, Some(gp)) => Fitted::Gp(gp),

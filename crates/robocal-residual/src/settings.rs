@@ -55,6 +55,13 @@ impl ResidualKind {
     }
 }
 
+/// Most members a SOMM may average.
+pub const MAX_MEMBERS: usize = 16;
+
+/// Member `m` of a SOMM is seeded `seed + MEMBER_SEED_STRIDE × m` (its axes `+ 0, 1, 2` after
+/// that, as a single SOMM's are): apart from every other member's.
+pub const MEMBER_SEED_STRIDE: u64 = 1000;
+
 /// Everything that defines how a residual model is trained.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResidualSettings {
@@ -74,6 +81,9 @@ pub struct ResidualSettings {
     pub encoding: Encoding,
     /// Seed of weight initialisation and batch order.
     pub seed: u64,
+    /// SOMM: how many sets of networks are trained (member `m` seeded `seed + 1000 m`, on its
+    /// own hold-out in the calibration pipeline) and averaged. 1 for every other model.
+    pub members: usize,
 }
 
 impl ResidualSettings {
@@ -99,6 +109,7 @@ impl ResidualSettings {
             gp: GpSettings::default(),
             encoding: Encoding::Raw,
             seed,
+            members: 1,
         }
     }
 
@@ -133,9 +144,34 @@ impl ResidualSettings {
         }
     }
 
+    /// Member `m`'s settings: seeded `seed + 1000 m`, one member.
+    pub fn member(&self, m: usize) -> Self {
+        Self {
+            seed: self.seed.wrapping_add(MEMBER_SEED_STRIDE * m as u64),
+            members: 1,
+            ..self.clone()
+        }
+    }
+
     /// Every setting checked, used by this kind or not; the error's key is relative to
     /// `[residual]` (`x.learning_rate`, `gp.step`).
     pub fn validate(&self) -> std::result::Result<(), Invalid> {
+        if !(1..=MAX_MEMBERS).contains(&self.members) {
+            return Err(Invalid::new(
+                "members",
+                format!("{}: must be 1 to {MAX_MEMBERS}", self.members),
+            ));
+        }
+        if self.members > 1 && self.kind != ResidualKind::Somm {
+            return Err(Invalid::new(
+                "members",
+                format!(
+                    "{}: only a somm averages several sets of networks (a {} model has one)",
+                    self.members,
+                    self.kind.name()
+                ),
+            ));
+        }
         let [x, y, z] = &self.axes;
         for (name, s) in [("x", x), ("y", y), ("z", z), ("mosm", &self.mosm)] {
             s.check().map_err(|e| e.within(name))?;

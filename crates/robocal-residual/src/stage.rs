@@ -43,6 +43,10 @@ pub struct RawResidualStage {
     /// Share of the training configurations held out for early stopping when no `--validate`
     /// file is given (whole configurations, every load of each), default 0.2.
     pub holdout: Option<f64>,
+    /// `model = "somm"`: sets of networks trained from different seeds (each on its own
+    /// hold-out) and averaged; default 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub members: Option<usize>,
     /// The X network.
     pub x: Option<NetSettings>,
     /// The Y network.
@@ -118,6 +122,9 @@ impl RawResidualStage {
             };
         }
         settings.search = self.search.clone();
+        if let Some(m) = self.members {
+            settings.members = m;
+        }
         settings.validate().map_err(|e| e.within("residual"))?;
         let holdout = self.holdout.unwrap_or(0.2);
         if !(holdout > 0.0 && holdout < 1.0) {

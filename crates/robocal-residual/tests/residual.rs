@@ -747,3 +747,77 @@ fn a_gate_with_tied_leaves_is_the_same_tree_on_every_fit() {
         assert_eq!(gate(), first, "fit {fit} differs from the first");
     }
 }
+
+#[test]
+fn an_averaged_somm_predicts_its_members_mean_and_round_trips() {
+    let f = |x: &[f64]| [smooth(x), x[0] - x[1], 0.3 * x[2]];
+    let (train, val, test) = (samples(300, 4, f), samples(100, 5, f), samples(40, 6, f));
+    let s = ResidualSettings {
+        members: 3,
+        ..somm(settings(vec![8, 8], 3e-3, 4), 11)
+    };
+    let avg = ResidualModel::fit(&s, &train, &val, &Silent).unwrap();
+    assert_eq!((avg.members(), avg.nets().len()), (3, 9));
+    // Each member trained alone, as `member` seeds it (the first as a single SOMM of the same
+    // seed): the average's prediction is their mean.
+    assert_eq!(s.member(0).seed, 11);
+    assert_eq!(s.member(2).seed, 2011);
+    let alone: Vec<Vec<[f64; 3]>> = (0..3)
+        .map(|m| {
+            let one = ResidualModel::fit(&s.member(m), &train, &val, &Silent).unwrap();
+            assert_eq!(one.members(), 1);
+            one.predict(&test)
+        })
+        .collect();
+    assert_ne!(alone[0], alone[1], "the members differ");
+    let (mean, std) = avg.predict_with_std(&test, true);
+    assert_eq!(std, None, "the members' spread is not given as a deviation");
+    for i in 0..test.len() {
+        for a in 0..3 {
+            let m = (alone[0][i][a] + alone[1][i][a] + alone[2][i][a]) / 3.0;
+            assert!((mean[i][a] - m).abs() <= 1e-12 * (1.0 + m.abs()), "{i} {a}");
+        }
+    }
+    // Saved and read back: the same points, to the bit; the further members' files beside the
+    // first's, which keeps a single SOMM's names.
+    let dir = tempfile::tempdir().unwrap();
+    avg.save(dir.path()).unwrap();
+    for file in ["residual-x.bpk", "residual-z-2.bpk", "residual-y-3.bpk"] {
+        assert!(dir.path().join(file).is_file(), "{file}");
+    }
+    let back = ResidualModel::load(dir.path()).unwrap();
+    assert_eq!(back.members(), 3);
+    assert_eq!(back.predict(&test), mean);
+    // A manifest whose members do not match its networks, or with no member: refused, naming
+    // the field.
+    refused_after(dir.path(), "has 12 networks", |m| m["members"] = 4.into());
+    refused_after(dir.path(), "members 0", |m| m["members"] = 0.into());
+    // Settings: no members, more than the bound, several on another kind.
+    for (members, kind, needle) in [
+        (0, ResidualKind::Somm, "members"),
+        (17, ResidualKind::Somm, "members"),
+        (2, ResidualKind::Mosm, "only a somm"),
+        (2, ResidualKind::Gp, "only a somm"),
+    ] {
+        let bad = ResidualSettings {
+            members,
+            kind,
+            ..s.clone()
+        };
+        let err = ResidualModel::fit(&bad, &train, &val, &Silent).unwrap_err();
+        assert!(
+            err.to_string().contains(needle),
+            "{members} {kind:?}: {err}"
+        );
+    }
+    // Only SOMMs of the same inputs are averaged.
+    let gp = ResidualModel::fit(
+        &ResidualSettings::gp(1),
+        &samples(40, 7, f),
+        &Samples::default(),
+        &Silent,
+    )
+    .unwrap();
+    assert!(ResidualModel::average(vec![avg.clone(), gp]).is_err());
+    assert!(ResidualModel::average(Vec::new()).is_err());
+}

@@ -27,7 +27,8 @@ use std::collections::HashSet;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
-use robocal_data::{ErrorStats, Measurement, Observer, Sample};
+use rayon::prelude::*;
+use robocal_data::{ErrorStats, Measurement, Observer, Sample, Silent};
 use robocal_ident::{
     FitMemo, KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics_with,
 };
@@ -85,6 +86,8 @@ pub struct ResidualReport {
     pub model: &'static str,
     /// Seed of the networks and of the hold-out.
     pub seed: u64,
+    /// Sets of networks averaged (a SOMM of several members; 1 otherwise).
+    pub members: usize,
     /// Where the early-stopping data came from.
     pub validation_source: String,
     /// Rows trained on.
@@ -334,6 +337,9 @@ pub fn train_residual(
         let s: Vec<&Sample> = rows.iter().map(|m| &m.sample).collect();
         with_gate_physics(samples, &base.robot, physics.as_ref(), &s)
     };
+    if settings.members > 1 && validation.is_none() {
+        return train_members(stage, &settings, base, train, make, observer);
+    }
     let (train, val, source) = match validation {
         Some((v, source)) => (make(train), make(v), source),
         None if !settings.kind.early_stops() => (
@@ -360,12 +366,86 @@ pub fn train_residual(
     let fitted = ResidualModel::fit(&settings, &train, &val, observer);
     observer.finish();
     let fitted = fitted?;
+    let report = residual_report(&fitted, seed, source, &train, &val, base.dof());
+    Ok((fitted, report))
+}
+
+/// A SOMM of several members, member `m` trained on its own hold-out of whole configurations
+/// (seeded as its networks are: [`ResidualSettings::member`]) and early-stopping on it, the
+/// members as many at once as there are cores (each seeded: the same model on any number);
+/// then averaged. Every row is in some member's training. The report's rows are every row
+/// (the members' hold-outs differ, so none is a validation set of the average).
+fn train_members<'a>(
+    stage: &ResidualStage,
+    settings: &ResidualSettings,
+    base: &CalibratedModel,
+    train: &[&'a Measurement],
+    make: impl Fn(&[&'a Measurement]) -> Samples + Sync,
+    observer: &dyn Observer,
+) -> Result<(ResidualModel, ResidualReport)> {
+    observer.message(&format!(
+        "residual: {} sets of networks, each on its own hold-out",
+        settings.members
+    ));
+    let members: Vec<Result<(ResidualModel, usize)>> = (0..settings.members)
+        .into_par_iter()
+        .map(|m| {
+            let member = settings.member(m);
+            let Some((t, v, _)) = hold_out(train, stage.holdout, member.seed) else {
+                return Err(PipelineError::Stage(
+                    "the residual stage needs a --validate file or at least two configurations to hold one out".into(),
+                ));
+            };
+            let fitted = ResidualModel::fit(&member, &make(&t), &make(&v), &Silent)?;
+            Ok((fitted, configurations(&v).len()))
+        })
+        .collect();
+    let mut models = Vec::new();
+    let mut held = 0;
+    for m in members {
+        let (model, n) = m?;
+        models.push(model);
+        held = n;
+    }
+    let fitted = ResidualModel::average(models)?;
+    let seeds: Vec<String> = (0..settings.members)
+        .map(|m| settings.member(m).seed.to_string())
+        .collect();
+    let source = format!(
+        "{} members averaged, each early-stopping on its own {held} of {} configurations held out (seeds {})",
+        settings.members,
+        configurations(train).len(),
+        seeds.join(", ")
+    );
+    let all = make(train);
+    let report = residual_report(
+        &fitted,
+        settings.seed,
+        source,
+        &all,
+        &Samples::default(),
+        base.dof(),
+    );
+    Ok((fitted, report))
+}
+
+/// The report of a trained residual model: its training rows `train` and early-stopping rows
+/// `val` (none: no validation figures) before and after it.
+fn residual_report(
+    fitted: &ResidualModel,
+    seed: u64,
+    source: String,
+    train: &Samples,
+    val: &Samples,
+    joints: usize,
+) -> ResidualReport {
     let left = |s: &Samples, predicted: Option<&[[f64; 3]]>| {
         ErrorStats::from_errors(&s.remaining(predicted))
     };
-    let report = ResidualReport {
-        model: stage.settings.kind.name(),
+    ResidualReport {
+        model: fitted.kind().name(),
         seed,
+        members: fitted.members(),
         validation_source: source,
         training_rows: train.len(),
         validation_rows: val.len(),
@@ -377,13 +457,13 @@ pub fn train_residual(
                 stopped_early: n.report.stopped_early,
             })
             .collect(),
-        training_before: left(&train, None),
-        training_after: left(&train, Some(&fitted.predict(&train))),
-        validation_before: (!val.is_empty()).then(|| left(&val, None)),
-        validation_after: (!val.is_empty()).then(|| left(&val, Some(&fitted.predict(&val)))),
-        classifier_accuracy_training: fitted.classifier_accuracy(&train),
-        classifier_accuracy_validation: fitted.classifier_accuracy(&val),
-        gate: gate_summary(&fitted, base.dof(), &train),
+        training_before: left(train, None),
+        training_after: left(train, Some(&fitted.predict(train))),
+        validation_before: (!val.is_empty()).then(|| left(val, None)),
+        validation_after: (!val.is_empty()).then(|| left(val, Some(&fitted.predict(val)))),
+        classifier_accuracy_training: fitted.classifier_accuracy(train),
+        classifier_accuracy_validation: fitted.classifier_accuracy(val),
+        gate: gate_summary(fitted, joints, train),
         search: fitted.search.clone(),
         gp: fitted.gp().map_or_else(Vec::new, |g| {
             (g.axes.iter().zip(["x", "y", "z"]))
@@ -398,8 +478,7 @@ pub fn train_residual(
                 .collect()
         }),
         spread: None,
-    };
-    Ok((fitted, report))
+    }
 }
 
 /// A calibrated model and what made it.
