@@ -74,6 +74,14 @@ peer seeds="2" aside="":
     target/peervenv/bin/pip install -q numpy scipy scikit-learn
     target/peervenv/bin/python scripts/peer/lm_mlp.py target/peer-cases --robocal target/release/robocal
 
+# a network's seed and five networks averaged (members = 5) on one stage physics, through the
+# files, on the development suite's cases beyond the model (docs/accuracy.md, session 31)
+network-seeds seeds="2" effects="all,beyond":
+    cargo build --release --bin robocal
+    rm -rf target/seed-cases
+    cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} --arms pmc6va030,arm7,arm5 --effects {{effects}} --export target/seed-cases
+    python3 scripts/network_seeds.py target/seed-cases --robocal target/release/robocal
+
 # bad shots: clean rows in robust σ, 1-3 shots of 20-50 mm named, the held-out change
 accuracy-outliers seeds="3":
     cargo run --release -p robocal-pipeline --example accuracy -- --outliers --seeds {{seeds}}
