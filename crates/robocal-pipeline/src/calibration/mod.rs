@@ -219,6 +219,20 @@ pub fn hold_out<'a>(
     Some((kept, out, how))
 }
 
+/// [`hold_out`] for a residual stage's early stopping, or the error that the stage needs a
+/// validation file.
+fn early_stopping_hold_out<'a>(
+    rows: &[&'a Measurement],
+    share: f64,
+    seed: u64,
+) -> Result<(Vec<&'a Measurement>, Vec<&'a Measurement>, String)> {
+    hold_out(rows, share, seed).ok_or_else(|| {
+        PipelineError::Stage(
+            "the residual stage needs a --validate file or at least two configurations to hold one out".into(),
+        )
+    })
+}
+
 /// Identifies the kinematic stage from `rows`: a rigid stage from the rows at the lightest load
 /// (geometry alone, as in the paper), an elasto-geometric one from every row.
 pub fn fit_kinematic(
@@ -351,11 +365,7 @@ pub fn train_residual(
             ),
         ),
         None => {
-            let Some((t, v, how)) = hold_out(train, stage.holdout, seed) else {
-                return Err(PipelineError::Stage(
-                    "the residual stage needs a --validate file or at least two configurations to hold one out".into(),
-                ));
-            };
+            let (t, v, how) = early_stopping_hold_out(train, stage.holdout, seed)?;
             (make(&t), make(&v), how)
         }
     };
@@ -387,26 +397,19 @@ fn train_members<'a>(
         "residual: {} sets of networks, each on its own hold-out",
         settings.members
     ));
-    let members: Vec<Result<(ResidualModel, usize)>> = (0..settings.members)
+    let (models, held): (Vec<ResidualModel>, Vec<usize>) = (0..settings.members)
         .into_par_iter()
         .map(|m| {
             let member = settings.member(m);
-            let Some((t, v, _)) = hold_out(train, stage.holdout, member.seed) else {
-                return Err(PipelineError::Stage(
-                    "the residual stage needs a --validate file or at least two configurations to hold one out".into(),
-                ));
-            };
+            let (t, v, _) = early_stopping_hold_out(train, stage.holdout, member.seed)?;
             let fitted = ResidualModel::fit(&member, &make(&t), &make(&v), &Silent)?;
             Ok((fitted, configurations(&v).len()))
         })
-        .collect();
-    let mut models = Vec::new();
-    let mut held = 0;
-    for m in members {
-        let (model, n) = m?;
-        models.push(model);
-        held = n;
-    }
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
+    // Every member holds out the same share of the same configurations.
+    let held = held[0];
     let fitted = ResidualModel::average(models)?;
     let seeds: Vec<String> = (0..settings.members)
         .map(|m| settings.member(m).seed.to_string())
