@@ -1,5 +1,6 @@
 //! `robocal evaluate`.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Result;
@@ -81,37 +82,43 @@ pub fn run(source: &ModelSource, data: &Path, json: bool, per_pose: Option<&Path
         })?;
         said();
     }
+    let mut text = String::new();
     if json {
         let mut value = serde_json::to_value(stats)?;
         if let (Some(o), Some(map)) = (&orientation, value.as_object_mut()) {
             map.insert("orientation_deg".into(), serde_json::to_value(o)?);
         }
-        println!("{value}");
+        writeln!(text, "{value}")?;
     } else {
-        println!("count {}", stats.count);
-        println!("mean  {:.6} mm", stats.mean);
-        println!("std   {:.6} mm", stats.std);
-        println!("rms   {:.6} mm", stats.rms);
-        println!("max   {:.6} mm", stats.max);
+        writeln!(text, "count {}", stats.count)?;
+        writeln!(text, "mean  {:.6} mm", stats.mean)?;
+        writeln!(text, "std   {:.6} mm", stats.std)?;
+        writeln!(text, "rms   {:.6} mm", stats.rms)?;
+        writeln!(text, "max   {:.6} mm", stats.max)?;
         if let Some(o) = &orientation {
-            println!("orientation (angle between measured and predicted tool frames):");
-            println!("  count {}", o.count);
-            println!("  mean  {:.6} deg", o.mean);
-            println!("  std   {:.6} deg", o.std);
-            println!("  rms   {:.6} deg", o.rms);
-            println!("  max   {:.6} deg", o.max);
+            writeln!(
+                text,
+                "orientation (angle between measured and predicted tool frames):"
+            )?;
+            writeln!(text, "  count {}", o.count)?;
+            writeln!(text, "  mean  {:.6} deg", o.mean)?;
+            writeln!(text, "  std   {:.6} deg", o.std)?;
+            writeln!(text, "  rms   {:.6} deg", o.rms)?;
+            writeln!(text, "  max   {:.6} deg", o.max)?;
         }
         let mut order: Vec<usize> = (0..errors.len()).collect();
         order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
-        println!("worst rows:");
+        writeln!(text, "worst rows:")?;
         for &i in order.iter().take(5) {
             let m = &set.rows[i];
-            println!(
+            writeln!(
+                text,
                 "  {:.6} mm  pose {} (line {}, load {} kg)",
                 errors[i], m.sample.pose, m.sample.line, m.sample.load
-            );
+            )?;
         }
     }
+    super::print_out(&text)?;
     if source.robot.is_some() && stats.mean > OTHER_FRAME {
         eprintln!(
             "robocal: hint: a mean error of {:.1} mm from a robot file: its base is only a guess of where the robot stands in the tracker frame (and the table is nominal); `robocal calibrate` registers the base, or give data in the robot file's frame",

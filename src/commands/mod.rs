@@ -12,6 +12,7 @@ mod run;
 mod simulate;
 mod terminal;
 
+use std::io::Write;
 use std::path::Path;
 
 use anyhow::Result;
@@ -121,5 +122,15 @@ pub fn replacing(out: &Path) -> impl FnOnce() + '_ {
         if existed {
             eprintln!("robocal: {} existed and was replaced", out.display());
         }
+    }
+}
+
+/// Writes `text` to stdout. A reader that went away (`robocal evaluate … | head -3`) ends the
+/// output, not the command: a broken pipe is no error, where `println!` would panic.
+pub(crate) fn print_out(text: &str) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
     }
 }

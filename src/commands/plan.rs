@@ -84,7 +84,7 @@ pub fn run(
     let json = plan_json_path(out);
     let text = serde_json::to_string_pretty(&result).context("plan.json")? + "\n";
     write_atomically(&json, |w| w.write_all(text.as_bytes()))?;
-    print!("{}", summary(&result, &settings));
+    super::print_out(&summary(&result, &settings))?;
     eprintln!(
         "robocal: wrote {} configurations × {} loads to {} and the plan to {}",
         largest.count,

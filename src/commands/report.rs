@@ -27,14 +27,13 @@ pub fn run(model_dir: &Path, data: &Path, out: &Path) -> Result<()> {
         "no registered nominal table in the model".to_string(),
         |b| format!("before {:.4} mm", b.mean),
     );
-    println!(
-        "{} rows: mean error {:.4} mm (max {:.4}), {before}",
-        report.rows, report.after.mean, report.after.max
-    );
-    println!(
-        "report written to {}: report.md, report.html, statistics.json, {} figures (PNG and SVG)",
+    super::print_out(&format!(
+        "{} rows: mean error {:.4} mm (max {:.4}), {before}\nreport written to {}: report.md, report.html, statistics.json, {} figures (PNG and SVG)\n",
+        report.rows,
+        report.after.mean,
+        report.after.max,
         out.display(),
         report.figures.len()
-    );
+    ))?;
     Ok(())
 }

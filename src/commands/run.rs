@@ -12,7 +12,7 @@ pub fn run(experiment: &Path, out: Option<&Path>) -> Result<()> {
     let plan = Experiment::load(experiment)?;
     let mut outcome = run_experiment(&plan, &Terminal::default())?;
     let written = write_report(&mut outcome, out)?;
-    println!("{}", written.tables);
+    super::print_out(&format!("{}\n", written.tables))?;
     eprintln!(
         "robocal: report written to {} ({:.1} s in all)",
         written.dir.display(),

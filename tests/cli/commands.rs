@@ -1425,3 +1425,22 @@ fn calibrate_identifies_prints_and_saves_the_payload_centre_of_mass() {
     let names = joint_error_names(&r, "mm");
     assert_eq!(names, ["payload_com.x", "payload_com.y", "payload_com.z"]);
 }
+
+/// A reader that goes away before the output is written (`robocal evaluate … | head -1` after
+/// `head` has its line) ends the output quietly: exit 0, nothing on stderr, no panic.
+#[test]
+fn a_closed_stdout_is_no_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = hand_file(dir.path(), &[1.0, 2.0, 3.0]);
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_robocal"))
+        .args(["evaluate", "--robot", ROBOT, "--data", s(&data)])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{:?}: {stderr}", o.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
