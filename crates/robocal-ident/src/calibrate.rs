@@ -131,6 +131,12 @@ pub struct JointErrorSettings {
     pub backlash_torque: bool,
     /// Each joint's flank, when already chosen (the second run).
     pub flanks: Option<Vec<Flank>>,
+    /// A torque flank's preload searched where its step explains most beyond the joint's own
+    /// terms (offset, compliance, harmonics, self-weight), its direction fitted again without
+    /// them ([`crate::flank`]); `false`: the logistic regression's alone, whose boundary the
+    /// compliance pulls toward the rows' middle torque. Measured in session 32 and not the
+    /// default (`docs/accuracy.md`).
+    pub flank_search: bool,
     /// The tilting compliance of every joint ([`robocal_robot::Tilt`]: the parts beyond it turn
     /// across its axis under the gravity moment of the payload and of the links' weights; a
     /// joint whose tilt the poses do not separate from the rest is held rigid, and, where the
@@ -157,6 +163,7 @@ impl Default for JointErrorSettings {
             backlash_home: None,
             backlash_torque: true,
             flanks: None,
+            flank_search: false,
             tilt: false,
             harmonic_prior: true,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
@@ -1517,7 +1524,8 @@ fn identify_anew(
             let Some(errors) = fit.compliance.as_ref() else {
                 break;
             };
-            let flanks = crate::flank::choose_flanks(&fit.robot, errors, obs, &home);
+            let flanks =
+                crate::flank::choose_flanks(&fit.robot, errors, obs, &home, je.flank_search);
             if signs.is_none() && flanks.iter().all(|f| matches!(f, Flank::Approach { .. })) {
                 break;
             }

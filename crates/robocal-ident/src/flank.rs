@@ -9,19 +9,30 @@
 //! the part of a torque-pressed step that is linear in them, which would turn the sign of what
 //! is left —, the best `b` lowers the squared error by `(Σ s_i y_i)² / Σ |J_i|²`,
 //! `y_i = J_i · e_i`: the flank each row wants is the sign of `y_i`, and getting it right is
-//! worth `|y_i|`. The torque
-//! flank is the sign of a linear function of the joint's gravity-torque features
-//! ([`JointErrors::torque_features`]): the torque of the links, the payload and a preload, the
-//! form a torque-pressed flank has. Its weights are those of a logistic regression of the rows'
-//! wanted flanks on the features, each row weighted by `|y_i|` (Newton's method with a small
-//! ridge on standardized features). The joint takes the torque flank when it lowers the error
-//! more than the approach flank does — judged on flanks cross-fitted over two halves of the
-//! configurations (each half's flanks from a regression on the other half), so that a
-//! regression with two dozen weights does not win by fitting the noise.
+//! worth `|y_i|`. The torque flank is the sign of a linear function of the joint's
+//! gravity-torque features ([`JointErrors::torque_features`]): the torque of the links, the
+//! payload and a preload, the form a torque-pressed flank has. Its weights are those of a
+//! logistic regression of the rows' wanted flanks on the features, each row weighted by `|y_i|`
+//! (Newton's method with a small ridge on standardized features). The joint takes the torque
+//! flank when it lowers the error more than the approach flank does — judged on flanks
+//! cross-fitted over two halves of the configurations (each half's flanks from a regression on
+//! the other half), so that a regression with two dozen weights does not win by fitting the
+//! noise.
+//!
+//! The compliance given back is linear in the same torque, so where the joint is compliant the
+//! regression's boundary lies where that line crosses the step, near the rows' middle torque,
+//! not at the arm's preload. With the search (`JointErrorSettings::flank_search`) a flank is
+//! scored by what its step gains **beyond the joint's own terms** (offset, compliance times its
+//! torque, harmonics, self-weight; [`StepGain`]: the step projected off them), the preload is
+//! the split of the rows' torques that scores most, the direction is fitted again on the wanted
+//! flanks with those terms fitted beside the step and taken out, and the preload again, until
+//! the flanks settle ([`torque_weights`]); the torque flank is then taken where its
+//! cross-fitted flanks score more than the approach flank's.
 
 use nalgebra::{DMatrix, DVector, Vector3};
 use robocal_robot::{
-    Flank, JointErrors, Robot, TORQUE_FEATURES_PER_LINK, payload_mass_feature, torque_side,
+    Flank, JointErrors, MomentPart, Robot, TORQUE_FEATURES_PER_LINK, payload_mass_feature,
+    torque_side,
 };
 
 use crate::problem::Observations;
@@ -34,17 +45,24 @@ const RIDGE: f64 = 1e-3;
 /// share of the largest joint's: no flank its torque presses is tried.
 const TORQUE_SHARE: f64 = 0.05;
 
+/// Rounds of a torque flank's direction (the logistic regression) and preload (the search),
+/// at most.
+const DIRECTION_ROUNDS: usize = 4;
+
 /// Newton steps of the logistic regression, at most.
 const NEWTON_STEPS: usize = 50;
 
 /// For every joint, the flank its backlash should be identified on — of its approach from
 /// `home[j]` (rad), or the one its torque presses — from the fit `robot` + `errors` and the
-/// observations it was fitted on.
+/// observations it was fitted on; with `search`, each torque flank's preload searched and its
+/// direction fitted again beyond the joint's own terms ([`torque_weights`]), else the
+/// regression's alone.
 pub(crate) fn choose_flanks(
     robot: &Robot,
     errors: &JointErrors,
     obs: &Observations,
     home: &[f64],
+    search: bool,
 ) -> Vec<Flank> {
     let dof = robot.dof();
     let n = obs.len();
@@ -119,21 +137,49 @@ pub(crate) fn choose_flanks(
             if norm2 <= 0.0 {
                 return approach;
             }
-            let gain = |s: &[f64]| {
-                let dot: f64 = s.iter().zip(&y).map(|(s, y)| s * y).sum();
-                dot * dot / norm2
+            if !search {
+                return regression_flank(features, &y, norm2, &half, &approach_flank)
+                    .unwrap_or(approach);
+            }
+            // Every row's terms of the joint that a step is judged beyond, as the fit has them:
+            // its offset, its compliance (times the payload's and the links' torque), its
+            // harmonics' sines and cosines and its self-weight terms (each a torque feature).
+            let orders: Vec<u32> = (errors.harmonics.iter())
+                .filter(|h| h.joint == j)
+                .map(|h| h.order)
+                .collect();
+            let own: Vec<usize> = (errors.self_weight.iter())
+                .filter(|w| w.joint == j)
+                .filter_map(|w| {
+                    let part = MomentPart::ALL.iter().position(|p| *p == w.part)?;
+                    Some((w.body - j) * TORQUE_FEATURES_PER_LINK + part)
+                })
+                .collect();
+            let basis: Vec<Vec<f64>> = (0..n)
+                .map(|i| {
+                    let q = obs.joints(i);
+                    let mut b = vec![1.0, errors.load_torques(robot, q, obs.loads[i])[j]];
+                    for &k in &orders {
+                        let (s, c) = (f64::from(k) * q[j]).sin_cos();
+                        b.extend([s, c]);
+                    }
+                    b.extend(own.iter().map(|&f| features[i][f]));
+                    b
+                })
+                .collect();
+            let weight: Vec<f64> = (0..n)
+                .map(|i| columns[i].column(j).norm_squared())
+                .collect();
+            let all: Vec<usize> = (0..n).collect();
+            let Some(whole) = StepGain::new(&all, &basis, &y, &weight) else {
+                return approach;
             };
-            // Cross-fitted flanks: each half's from the regression on the other half.
+            // Cross-fitted flanks: each half's from the regression and the preload search on
+            // the other half.
             let mut crossed = vec![0.0; n];
             for h in 0..2 {
                 let train: Vec<usize> = (0..n).filter(|&i| half[i] != h).collect();
-                let Some(w) = logistic(
-                    &train
-                        .iter()
-                        .map(|&i| features[i].clone())
-                        .collect::<Vec<_>>(),
-                    &train.iter().map(|&i| y[i]).collect::<Vec<_>>(),
-                ) else {
+                let Some(w) = torque_weights(&train, features, &basis, &y, &weight) else {
                     return approach;
                 };
                 for i in (0..n).filter(|&i| half[i] == h) {
@@ -141,12 +187,251 @@ pub(crate) fn choose_flanks(
                 }
             }
             // The approach flank has no weights fitted: its gain is honest as it is.
-            if gain(&crossed) <= gain(&approach_flank) {
+            if whole.gain(&crossed) <= whole.gain(&approach_flank) {
                 return approach;
             }
-            logistic(features, &y).map_or(approach, |weights| Flank::Torque { weights })
+            torque_weights(&all, features, &basis, &y, &weight)
+                .map_or(approach, |weights| Flank::Torque { weights })
         })
         .collect()
+}
+
+/// The torque flank of the logistic regression alone (its constant the preload), where its
+/// flanks, cross-fitted over the two `half`s of the configurations, gain more along the rows'
+/// `y` than the approach flanks do; `None` where they do not.
+fn regression_flank(
+    features: &[Vec<f64>],
+    y: &[f64],
+    norm2: f64,
+    half: &[usize],
+    approach_flank: &[f64],
+) -> Option<Flank> {
+    let n = y.len();
+    let gain = |s: &[f64]| {
+        let dot: f64 = s.iter().zip(y).map(|(s, y)| s * y).sum();
+        dot * dot / norm2
+    };
+    let mut crossed = vec![0.0; n];
+    for h in 0..2 {
+        let train: Vec<usize> = (0..n).filter(|&i| half[i] != h).collect();
+        let w = logistic(
+            &train
+                .iter()
+                .map(|&i| features[i].clone())
+                .collect::<Vec<_>>(),
+            &train.iter().map(|&i| y[i]).collect::<Vec<_>>(),
+        )?;
+        for i in (0..n).filter(|&i| half[i] == h) {
+            crossed[i] = torque_side(&w, &features[i]);
+        }
+    }
+    // The approach flank has no weights fitted: its gain is honest as it is.
+    if gain(&crossed) <= gain(approach_flank) {
+        return None;
+    }
+    logistic(features, y).map(|weights| Flank::Torque { weights })
+}
+
+/// The pseudo-inverse of a symmetric positive semi-definite matrix, directions below 1e-10 of
+/// its largest eigenvalue left out.
+fn pseudo_inverse(gram: DMatrix<f64>) -> DMatrix<f64> {
+    let eigen = gram.symmetric_eigen();
+    let largest = eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let inverse_values =
+        (eigen.eigenvalues).map(|v| if v > 1e-10 * largest { 1.0 / v } else { 0.0 });
+    &eigen.eigenvectors * DMatrix::from_diagonal(&inverse_values) * eigen.eigenvectors.transpose()
+}
+
+/// A torque flank's weights from the rows `rows`: the direction of the torque from a logistic
+/// regression of the rows' wanted flanks on the features ([`logistic`]), the preload (the
+/// constant, last weight) where the step explains most beyond the joint's terms linear in the
+/// features and its harmonics ([`StepGain`]). The wanted flanks come from what the fit leaves
+/// with the joint's own terms given back, its compliance among them: that term is linear in the
+/// torque and shifts the regression's boundary towards the rows' middle torque (a preload of
+/// tens of N·m where the arm's is a few), which the search takes out.
+fn torque_weights(
+    rows: &[usize],
+    features: &[Vec<f64>],
+    basis: &[Vec<f64>],
+    y: &[f64],
+    weight: &[f64],
+) -> Option<Vec<f64>> {
+    let rows_features: Vec<Vec<f64>> = rows.iter().map(|&i| features[i].clone()).collect();
+    let mut w = logistic(
+        &rows_features,
+        &rows.iter().map(|&i| y[i]).collect::<Vec<_>>(),
+    )?;
+    let Some(gain) = StepGain::new(rows, basis, y, weight) else {
+        return Some(w);
+    };
+    let last = w.len() - 1;
+    let mut flanks: Option<Vec<f64>> = None;
+    for round in 0..DIRECTION_ROUNDS {
+        let torque: Vec<f64> = (rows_features.iter())
+            .map(|f| w[..last].iter().zip(f).map(|(w, f)| w * f).sum())
+            .collect();
+        let Some(preload) = gain.best_preload(&torque) else {
+            break;
+        };
+        w[last] = preload;
+        let now: Vec<f64> = (rows_features.iter()).map(|f| torque_side(&w, f)).collect();
+        if flanks.as_ref() == Some(&now) || round + 1 == DIRECTION_ROUNDS {
+            break;
+        }
+        // The direction again, from what the fit leaves with the step but without the joint's
+        // other terms: the wanted flanks of the step alone.
+        let Some(next) = logistic(&rows_features, &gain.step_and_rest(&now)) else {
+            break;
+        };
+        w = next;
+        flanks = Some(now);
+    }
+    Some(w)
+}
+
+/// The gain of a backlash step beyond a set of terms the joint already has: for rows `i` with
+/// the joint's column `J_i`, the wanted-flank projection `y_i = J_i · e_i` and the basis values
+/// `φ(i)` (each term moves the point by `J_i φ_k(i)` times its coefficient), the step `s_i J_i`
+/// lowers the squared error, beyond what the terms can take, by
+/// `(Σ s_i a_i)² / (Σ w_i − Bᵀ G⁺ B)`: `w_i = |J_i|²`, `G = Σ w_i φ(i) φ(i)ᵀ`,
+/// `a_i = y_i − w_i φ(i) · G⁺ Σ w φ y` (what the terms leave), `B = Σ s_i w_i φ(i)`.
+struct StepGain {
+    /// Per row (in the order given): what the terms leave along the joint's column.
+    a: Vec<f64>,
+    /// Per row: `w_i φ(i)`.
+    b: Vec<DVector<f64>>,
+    /// `Σ w_i`.
+    total: f64,
+    /// `G⁺`.
+    inverse: DMatrix<f64>,
+    /// Per row: the scaled basis values `φ(i)`, `y_i` and `w_i`.
+    phi: Vec<DVector<f64>>,
+    y: Vec<f64>,
+    w: Vec<f64>,
+}
+
+impl StepGain {
+    fn new(rows: &[usize], basis: &[Vec<f64>], y: &[f64], weight: &[f64]) -> Option<Self> {
+        let p = basis.first()?.len();
+        let total: f64 = rows.iter().map(|&i| weight[i]).sum();
+        if rows.is_empty() || total <= 0.0 {
+            return None;
+        }
+        // Each basis function scaled to a unit root mean square over the rows (the features
+        // come in N·m per kg, N·m per kg·m, and times the load): the pseudo-inverse's cut-off
+        // then judges directions, not units.
+        let mut scale = vec![0.0; p];
+        for &i in rows {
+            for (s, v) in scale.iter_mut().zip(&basis[i]) {
+                *s += v * v;
+            }
+        }
+        let scale: Vec<f64> = (scale.iter())
+            .map(|s| (s / rows.len() as f64).sqrt())
+            .map(|s| if s > 0.0 { 1.0 / s } else { 0.0 })
+            .collect();
+        let phi =
+            |i: usize| DVector::from_iterator(p, basis[i].iter().zip(&scale).map(|(v, s)| v * s));
+        let mut gram = DMatrix::zeros(p, p);
+        let mut moment = DVector::zeros(p);
+        for &i in rows {
+            let phi = phi(i);
+            gram.ger(weight[i], &phi, &phi, 1.0);
+            moment.axpy(y[i], &phi, 1.0);
+        }
+        let inverse = pseudo_inverse(gram);
+        let coefficients = &inverse * moment;
+        let phi: Vec<DVector<f64>> = rows.iter().map(|&i| phi(i)).collect();
+        let y: Vec<f64> = rows.iter().map(|&i| y[i]).collect();
+        let w: Vec<f64> = rows.iter().map(|&i| weight[i]).collect();
+        let a = (phi.iter().zip(&y).zip(&w))
+            .map(|((phi, y), w)| y - w * phi.dot(&coefficients))
+            .collect();
+        let b = phi.iter().zip(&w).map(|(phi, w)| phi * *w).collect();
+        Some(Self {
+            a,
+            b,
+            total,
+            inverse,
+            phi,
+            y,
+            w,
+        })
+    }
+
+    /// `y_i` less the joint's terms as a fit of them together with the step `s` finds them:
+    /// the step and what neither explains.
+    fn step_and_rest(&self, s: &[f64]) -> Vec<f64> {
+        let p = self.inverse.nrows();
+        let mut gram = DMatrix::zeros(p + 1, p + 1);
+        let mut moment = DVector::zeros(p + 1);
+        for ((phi, s), (y, w)) in (self.phi.iter().zip(s)).zip(self.y.iter().zip(&self.w)) {
+            let x = DVector::from_iterator(p + 1, phi.iter().copied().chain([*s]));
+            gram.ger(*w, &x, &x, 1.0);
+            moment.axpy(*y, &x, 1.0);
+        }
+        let coefficients = pseudo_inverse(gram) * moment;
+        let terms = coefficients.rows(0, p);
+        (self.phi.iter().zip(self.y.iter().zip(&self.w)))
+            .map(|(phi, (y, w))| y - w * phi.dot(&terms))
+            .collect()
+    }
+
+    /// The gain of the step with flanks `s` (one per row, in the order given).
+    fn gain(&self, s: &[f64]) -> f64 {
+        let dot: f64 = s.iter().zip(&self.a).map(|(s, a)| s * a).sum();
+        let mut sum = DVector::zeros(self.inverse.nrows());
+        for (s, b) in s.iter().zip(&self.b) {
+            sum.axpy(*s, b, 1.0);
+        }
+        Self::ratio(
+            dot,
+            self.total - sum.dot(&(&self.inverse * &sum)),
+            self.total,
+        )
+    }
+
+    /// `dot² / rest`, zero where the step is (nearly) one of the terms.
+    fn ratio(dot: f64, rest: f64, total: f64) -> f64 {
+        if rest > 1e-9 * total {
+            dot * dot / rest
+        } else {
+            0.0
+        }
+    }
+
+    /// The constant `c` whose flanks `+1` where `torque_i + c ≥ 0` (`torque` one per row, in
+    /// the order given) gain the most; `None` where no split of the rows gains anything.
+    fn best_preload(&self, torque: &[f64]) -> Option<f64> {
+        let mut order: Vec<usize> = (0..torque.len()).collect();
+        order.sort_by(|&a, &b| torque[b].total_cmp(&torque[a]));
+        // Every row on the negative flank, then the largest torques turned one by one.
+        let mut dot: f64 = -self.a.iter().sum::<f64>();
+        let mut sum = DVector::zeros(self.inverse.nrows());
+        for b in &self.b {
+            sum -= b;
+        }
+        let mut best: Option<(f64, f64)> = None;
+        for (k, &i) in order.iter().enumerate() {
+            dot += 2.0 * self.a[i];
+            sum.axpy(2.0, &self.b[i], 1.0);
+            let Some(&next) = order.get(k + 1) else {
+                break;
+            };
+            if torque[next] == torque[i] {
+                continue;
+            }
+            let gain = Self::ratio(
+                dot,
+                self.total - sum.dot(&(&self.inverse * &sum)),
+                self.total,
+            );
+            if best.is_none_or(|(g, _)| gain > g) {
+                best = Some((gain, -(torque[i] + torque[next]) / 2.0));
+            }
+        }
+        best.filter(|(g, _)| *g > 0.0).map(|(_, c)| c)
+    }
 }
 
 /// Weights `w` (one per feature, in the features' own units) of a logistic regression of the

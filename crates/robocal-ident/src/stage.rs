@@ -198,6 +198,10 @@ pub struct RawJointErrorStage {
     /// The readings (deg, one per joint) the measurement program moved the joints out from to
     /// every pose; absent: 0 for every joint. Only with `backlash = true`.
     pub backlash_home: Option<Vec<f64>>,
+    /// A torque flank's preload searched where its step explains most beyond the joint's own
+    /// terms, its direction fitted again without them (default false; only with
+    /// `backlash = true` and the torque flank allowed).
+    pub flank_search: Option<bool>,
     /// Tilting compliances of every joint (default false; needs `[compliance]`).
     pub tilt: Option<bool>,
     /// The harmonics under a Gaussian prior whose spread the data choose (default true; only
@@ -244,6 +248,7 @@ impl RawJointErrorStage {
                 self.backlash_torque.is_some(),
             ),
             ("joint_errors.backlash_home", self.backlash_home.is_some()),
+            ("joint_errors.flank_search", self.flank_search.is_some()),
         ] {
             if given && !s.backlash {
                 return Err(Invalid::new(
@@ -254,6 +259,15 @@ impl RawJointErrorStage {
         }
         if let Some(torque) = self.backlash_torque {
             s.backlash_torque = torque;
+        }
+        if let Some(search) = self.flank_search {
+            if search && !s.backlash_torque {
+                return Err(Invalid::new(
+                    "joint_errors.flank_search",
+                    "searches the flank the torque presses, which backlash_torque = false forbids",
+                ));
+            }
+            s.flank_search = search;
         }
         if let Some(home) = &self.backlash_home {
             if home.is_empty() || home.iter().any(|h| !h.is_finite()) {
@@ -278,6 +292,7 @@ impl RawJointErrorStage {
             backlash_torque: Some(settings.backlash_torque),
             backlash_home: (settings.backlash_home.as_ref())
                 .map(|h| h.iter().map(|h| h.to_degrees()).collect()),
+            flank_search: settings.flank_search.then_some(true),
             tilt: settings.tilt.then_some(true),
             harmonic_prior: (settings.harmonics > 0 && !settings.harmonic_prior).then_some(false),
         }
@@ -299,4 +314,44 @@ fn joint_list(key: &str, joints: &[usize]) -> Result<Vec<usize>, Invalid> {
         return Err(Invalid::new(key, "names a joint twice"));
     }
     Ok(sorted.iter().map(|j| j - 1).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stage(
+        backlash: Option<bool>,
+        torque: Option<bool>,
+        search: Option<bool>,
+    ) -> RawJointErrorStage {
+        RawJointErrorStage {
+            backlash,
+            backlash_torque: torque,
+            flank_search: search,
+            ..RawJointErrorStage::default()
+        }
+    }
+
+    /// `flank_search` turns the search on, goes back into the table it came from, and is
+    /// refused, naming the key, without backlash or with the torque flank forbidden.
+    #[test]
+    fn flank_search_is_validated_and_given_back() {
+        let s = stage(Some(true), None, Some(true)).validate().unwrap();
+        assert!(s.flank_search && s.backlash_torque);
+        assert_eq!(
+            RawJointErrorStage::from_settings(&s).flank_search,
+            Some(true)
+        );
+        let plain = stage(Some(true), None, None).validate().unwrap();
+        assert!(!plain.flank_search);
+        assert_eq!(RawJointErrorStage::from_settings(&plain).flank_search, None);
+        for bad in [
+            stage(None, None, Some(true)),
+            stage(Some(true), Some(false), Some(true)),
+        ] {
+            let err = bad.validate().unwrap_err();
+            assert_eq!(err.key, "joint_errors.flank_search", "{err:?}");
+        }
+    }
 }
