@@ -244,11 +244,14 @@ fn pseudo_inverse(gram: DMatrix<f64>) -> DMatrix<f64> {
 
 /// A torque flank's weights from the rows `rows`: the direction of the torque from a logistic
 /// regression of the rows' wanted flanks on the features ([`logistic`]), the preload (the
-/// constant, last weight) where the step explains most beyond the joint's terms linear in the
-/// features and its harmonics ([`StepGain`]). The wanted flanks come from what the fit leaves
-/// with the joint's own terms given back, its compliance among them: that term is linear in the
-/// torque and shifts the regression's boundary towards the rows' middle torque (a preload of
-/// tens of N·m where the arm's is a few), which the search takes out.
+/// constant, last weight) where the step explains most beyond the joint's own terms (offset,
+/// compliance × torque, harmonics, self-weight: [`StepGain`]); then the direction again from
+/// the wanted flanks of the step alone (those terms fitted beside it and taken out) and the
+/// preload again, until the flanks settle or [`DIRECTION_ROUNDS`] preloads have been searched.
+/// The first wanted flanks come from what the fit leaves with the joint's own terms given back,
+/// its compliance among them: that term is linear in the torque and shifts the regression's
+/// boundary towards the rows' middle torque (tens of N·m off where the joint is compliant),
+/// which the search takes out.
 fn torque_weights(
     rows: &[usize],
     features: &[Vec<f64>],
@@ -294,7 +297,7 @@ fn torque_weights(
 /// `φ(i)` (each term moves the point by `J_i φ_k(i)` times its coefficient), the step `s_i J_i`
 /// lowers the squared error, beyond what the terms can take, by
 /// `(Σ s_i a_i)² / (Σ w_i − Bᵀ G⁺ B)`: `w_i = |J_i|²`, `G = Σ w_i φ(i) φ(i)ᵀ`,
-/// `a_i = y_i − w_i φ(i) · G⁺ Σ w φ y` (what the terms leave), `B = Σ s_i w_i φ(i)`.
+/// `a_i = y_i − w_i φ(i) · G⁺ Σ φ y` (what the terms leave), `B = Σ s_i w_i φ(i)`.
 struct StepGain {
     /// Per row (in the order given): what the terms leave along the joint's column.
     a: Vec<f64>,

@@ -412,6 +412,32 @@ fn with_injected_weights(errors: Compliance) -> Compliance {
     errors
 }
 
+/// Asserts that the first backlash of the injected `errors` (on `truth`) and joint `joint`'s
+/// backlash identified in `cal` put at least 97 % of the rows of each of `rows` on the same flank,
+/// and returns the mean error `cal` leaves on the last of them (the held-out rows).
+fn torque_flank_found(
+    cal: &robocal_ident::KinematicCalibration,
+    joint: usize,
+    truth: &Robot,
+    errors: &Compliance,
+    rows: [&Observations; 2],
+) -> f64 {
+    let found = cal.compliance.as_ref().unwrap();
+    let b = found.backlash.iter().find(|b| b.joint == joint).unwrap();
+    for rows in rows {
+        let agree = (0..rows.len())
+            .filter(|&i| {
+                let (q, load) = (rows.joints(i), rows.loads[i]);
+                errors.flank(&errors.backlash[0], truth, q, load)
+                    == found.flank(b, &cal.robot, q, load) * b.value.signum()
+            })
+            .count();
+        assert!(agree * 100 >= 97 * rows.len(), "{agree} of {}", rows.len());
+    }
+    let left = rows[1].errors_with(&cal.robot, Some(found));
+    left.iter().sum::<f64>() / left.len() as f64
+}
+
 /// Calibrates `obs` (noise-free points of `truth` with `errors`) with `settings`: every point
 /// to round-off, and the points of the configurations `held` at another load (12 kg) to 1e-4 mm.
 fn fits_to_round_off(
@@ -1379,14 +1405,8 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
     errors.backlash[0].value = 0.09f64.to_radians();
     let loads = [0.0, 5.0, 10.0, 20.0];
     let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
-    let truth_flanks = |m: &JointErrors, rows: &robocal_ident::Observations| -> Vec<f64> {
-        (0..rows.len())
-            .map(|i| m.flank(&m.backlash[0], &truth, rows.joints(i), rows.loads[i]))
-            .collect()
-    };
-    let plus = truth_flanks(&errors, &obs)
-        .iter()
-        .filter(|s| **s > 0.0)
+    let plus = (0..obs.len())
+        .filter(|&i| errors.flank(&errors.backlash[0], &truth, obs.joints(i), obs.loads[i]) > 0.0)
         .count();
     assert!(plus > obs.len() / 10 && plus < obs.len() * 9 / 10, "{plus}");
     let settings = with_joint_errors(
@@ -1407,16 +1427,7 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
         b.value.to_degrees()
     );
     let held = observe_loaded(&truth, &errors, &configs[100..], &[0.0, 12.0]);
-    for rows in [&obs, &held] {
-        let want = truth_flanks(&errors, rows);
-        let got: Vec<f64> = (0..rows.len())
-            .map(|i| found.flank(b, &cal.robot, rows.joints(i), rows.loads[i]) * b.value.signum())
-            .collect();
-        let agree = want.iter().zip(&got).filter(|(a, b)| a == b).count();
-        assert!(agree * 100 >= 97 * rows.len(), "{agree} of {}", rows.len());
-    }
-    let left = held.errors_with(&cal.robot, Some(found));
-    let mean = left.iter().sum::<f64>() / left.len() as f64;
+    let mean = torque_flank_found(&cal, 3, &truth, &errors, [&obs, &held]);
     // Noise-free, a few rows beside the boundary on the wrong flank (half a millimetre each)
     // and the geometry's share of them.
     assert!(mean < 0.06, "{mean}");
@@ -1495,21 +1506,7 @@ fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
         b.value.to_degrees()
     );
     let held = observe_loaded(&truth, &errors, &configs[100..], &[0.0, 12.0]);
-    let truth_flanks = |rows: &robocal_ident::Observations| -> Vec<f64> {
-        (0..rows.len())
-            .map(|i| errors.flank(&errors.backlash[0], &truth, rows.joints(i), rows.loads[i]))
-            .collect()
-    };
-    for rows in [&obs, &held] {
-        let want = truth_flanks(rows);
-        let got: Vec<f64> = (0..rows.len())
-            .map(|i| found.flank(b, &cal.robot, rows.joints(i), rows.loads[i]) * b.value.signum())
-            .collect();
-        let agree = want.iter().zip(&got).filter(|(a, b)| a == b).count();
-        assert!(agree * 100 >= 97 * rows.len(), "{agree} of {}", rows.len());
-    }
-    let left = held.errors_with(&cal.robot, Some(found));
-    let mean = left.iter().sum::<f64>() / left.len() as f64;
+    let mean = torque_flank_found(&cal, 2, &truth, &errors, [&obs, &held]);
     assert!(mean < 0.005, "{mean}");
     // The regression alone misses the flank.
     let mut regression = settings.clone();
