@@ -498,6 +498,16 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     assert_eq!(kept("joint_errors"), with_errors);
     assert_eq!(kept("tilt"), with_tilt);
     assert_eq!(kept("compliance"), with_compliance);
+    // The flank search is tried only on a chosen physics with backlash, and its decision holds
+    // that candidate's score.
+    let searched = (selection.candidates.iter()).find(|c| c.name.contains("(flank search)"));
+    match (selection.decisions.iter()).find(|d| d.stage == "flank_search") {
+        Some(d) => {
+            assert_eq!(d.held_out_with, searched.unwrap().score, "{d:?}");
+            assert_eq!(d.kept, chosen[0].name.contains("(flank search)"));
+        }
+        None => assert!(searched.is_none(), "{searched:?}"),
+    }
     if with_compliance {
         assert_eq!(built.kinematic.report.points, rows.len());
     }

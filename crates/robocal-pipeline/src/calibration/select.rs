@@ -186,6 +186,8 @@ struct Physics {
     backlash: bool,
     /// Tilting compliances.
     tilt: bool,
+    /// Backlash flanks by the search beyond the joint's own terms (`flank_search`).
+    flank_search: bool,
 }
 
 impl Physics {
@@ -196,6 +198,7 @@ impl Physics {
         self_weight: false,
         backlash: false,
         tilt: false,
+        flank_search: false,
     };
     const RIGID: Self = Self {
         aligned: false,
@@ -218,6 +221,9 @@ impl Physics {
         }
         if self.backlash {
             name += " + backlash";
+            if self.flank_search {
+                name += " (flank search)";
+            }
         }
         if self.tilt {
             name += " + tilt";
@@ -242,6 +248,7 @@ impl Physics {
             self_weight: self.self_weight || other.self_weight,
             backlash: self.backlash || other.backlash,
             tilt: self.tilt || other.tilt,
+            flank_search: self.flank_search || other.flank_search,
             ..self
         }
     }
@@ -302,6 +309,7 @@ impl Physics {
                 self_weight: self.self_weight && !self.compliance,
                 link_weights: self.self_weight && self.compliance,
                 backlash: self.backlash,
+                flank_search: self.flank_search,
                 tilt: self.tilt,
                 gravity,
                 ..JointErrorSettings::default()
@@ -675,6 +683,16 @@ fn physics_chain(
         kept = (chain.current == tried[best]).then(|| chain.scored[tried[best]].physics);
         remaining.remove(best);
     }
+    // The backlash flanks searched beyond each joint's own terms, on chosen physics with
+    // backlash: one candidate more, kept only if it lowers the held-out errors significantly.
+    let current = chain.scored[chain.current].physics;
+    if current.backlash && !current.aligned {
+        let searched = Physics {
+            flank_search: true,
+            ..current
+        };
+        chain.step("flank_search", score(searched), groups);
+    }
     // Last, the bearings' tilt on the chosen physics (with the compliances: the payload's moment
     // and, where the links' weights were kept, theirs): one candidate more, kept only if it
     // lowers the held-out errors significantly.
@@ -956,6 +974,15 @@ fn decisions(
             "not tried (no harmonics, self-weight or backlash in the settings), or every fit failed",
         ),
     });
+    if let Some(step) = steps("flank_search").first() {
+        out.push(decision(
+            "flank_search",
+            chosen.flank_search,
+            score(step.base),
+            score(step.next),
+            "the backlash flanks searched beyond each joint's own terms (a torque flank's preload where its step explains most)",
+        ));
+    }
     out.push(match steps("tilt").first() {
         Some(step) => decision(
             "tilt",
