@@ -134,8 +134,8 @@ pub struct JointErrorSettings {
     /// A torque flank's preload searched where its step explains most beyond the joint's own
     /// terms (offset, compliance, harmonics, self-weight), its direction fitted again without
     /// them ([`crate::flank`]); `false`: the logistic regression's alone, whose boundary the
-    /// compliance pulls toward the rows' middle torque. Measured in session 32 and not the
-    /// default (`docs/accuracy.md`).
+    /// compliance pulls toward the rows' middle torque. The default calibration tries it as one
+    /// candidate more where its chosen physics holds backlash (`docs/accuracy.md`, session 32).
     pub flank_search: bool,
     /// The tilting compliance of every joint ([`robocal_robot::Tilt`]: the parts beyond it turn
     /// across its axis under the gravity moment of the payload and of the links' weights; a
