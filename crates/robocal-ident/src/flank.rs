@@ -91,6 +91,15 @@ pub(crate) fn choose_flanks(
         columns.push(target.joint_jacobian(&deflected));
         deflection.push(d);
     }
+    // The torque each joint's compliance meets, per row (the search's terms; every joint's at
+    // once).
+    let load_torques: Vec<Vec<f64>> = if search {
+        (0..n)
+            .map(|i| errors.load_torques(robot, obs.joints(i), obs.loads[i]))
+            .collect()
+    } else {
+        Vec::new()
+    };
     let features: Vec<Vec<Vec<f64>>> = (0..dof)
         .map(|j| {
             (0..n)
@@ -138,7 +147,20 @@ pub(crate) fn choose_flanks(
                 return approach;
             }
             if !search {
-                return regression_flank(features, &y, norm2, &half, &approach_flank)
+                let regression = |rows: &[usize]| {
+                    logistic(
+                        &rows
+                            .iter()
+                            .map(|&i| features[i].clone())
+                            .collect::<Vec<_>>(),
+                        &rows.iter().map(|&i| y[i]).collect::<Vec<_>>(),
+                    )
+                };
+                let gain = |s: &[f64]| {
+                    let dot: f64 = s.iter().zip(&y).map(|(s, y)| s * y).sum();
+                    dot * dot / norm2
+                };
+                return cross_fitted(features, &half, &approach_flank, regression, gain)
                     .unwrap_or(approach);
             }
             // Every row's terms of the joint that a step is judged beyond, as the fit has them:
@@ -158,7 +180,7 @@ pub(crate) fn choose_flanks(
             let basis: Vec<Vec<f64>> = (0..n)
                 .map(|i| {
                     let q = obs.joints(i);
-                    let mut b = vec![1.0, errors.load_torques(robot, q, obs.loads[i])[j]];
+                    let mut b = vec![1.0, load_torques[i][j]];
                     for &k in &orders {
                         let (s, c) = (f64::from(k) * q[j]).sin_cos();
                         b.extend([s, c]);
@@ -174,53 +196,28 @@ pub(crate) fn choose_flanks(
             let Some(whole) = StepGain::new(&all, &basis, &y, &weight) else {
                 return approach;
             };
-            // Cross-fitted flanks: each half's from the regression and the preload search on
-            // the other half.
-            let mut crossed = vec![0.0; n];
-            for h in 0..2 {
-                let train: Vec<usize> = (0..n).filter(|&i| half[i] != h).collect();
-                let Some(w) = torque_weights(&train, features, &basis, &y, &weight) else {
-                    return approach;
-                };
-                for i in (0..n).filter(|&i| half[i] == h) {
-                    crossed[i] = torque_side(&w, &features[i]);
-                }
-            }
-            // The approach flank has no weights fitted: its gain is honest as it is.
-            if whole.gain(&crossed) <= whole.gain(&approach_flank) {
-                return approach;
-            }
-            torque_weights(&all, features, &basis, &y, &weight)
-                .map_or(approach, |weights| Flank::Torque { weights })
+            let search = |rows: &[usize]| torque_weights(rows, features, &basis, &y, &weight);
+            cross_fitted(features, &half, &approach_flank, search, |s| whole.gain(s))
+                .unwrap_or(approach)
         })
         .collect()
 }
 
-/// The torque flank of the logistic regression alone (its constant the preload), where its
-/// flanks, cross-fitted over the two `half`s of the configurations, gain more along the rows'
-/// `y` than the approach flanks do; `None` where they do not.
-fn regression_flank(
+/// The torque flank whose weights `fit` finds on the given rows, where its flanks, cross-fitted
+/// over the two `half`s of the configurations (each half's from `fit` on the other half), have a
+/// larger `gain` than the approach flanks do; `None` where they do not or `fit` finds none.
+fn cross_fitted(
     features: &[Vec<f64>],
-    y: &[f64],
-    norm2: f64,
     half: &[usize],
     approach_flank: &[f64],
+    fit: impl Fn(&[usize]) -> Option<Vec<f64>>,
+    gain: impl Fn(&[f64]) -> f64,
 ) -> Option<Flank> {
-    let n = y.len();
-    let gain = |s: &[f64]| {
-        let dot: f64 = s.iter().zip(y).map(|(s, y)| s * y).sum();
-        dot * dot / norm2
-    };
+    let n = features.len();
     let mut crossed = vec![0.0; n];
     for h in 0..2 {
         let train: Vec<usize> = (0..n).filter(|&i| half[i] != h).collect();
-        let w = logistic(
-            &train
-                .iter()
-                .map(|&i| features[i].clone())
-                .collect::<Vec<_>>(),
-            &train.iter().map(|&i| y[i]).collect::<Vec<_>>(),
-        )?;
+        let w = fit(&train)?;
         for i in (0..n).filter(|&i| half[i] == h) {
             crossed[i] = torque_side(&w, &features[i]);
         }
@@ -229,7 +226,7 @@ fn regression_flank(
     if gain(&crossed) <= gain(approach_flank) {
         return None;
     }
-    logistic(features, y).map(|weights| Flank::Torque { weights })
+    fit(&(0..n).collect::<Vec<_>>()).map(|weights| Flank::Torque { weights })
 }
 
 /// The pseudo-inverse of a symmetric positive semi-definite matrix, directions below 1e-10 of
@@ -387,16 +384,14 @@ impl StepGain {
         for (s, b) in s.iter().zip(&self.b) {
             sum.axpy(*s, b, 1.0);
         }
-        Self::ratio(
-            dot,
-            self.total - sum.dot(&(&self.inverse * &sum)),
-            self.total,
-        )
+        self.ratio(dot, &sum)
     }
 
-    /// `dot² / rest`, zero where the step is (nearly) one of the terms.
-    fn ratio(dot: f64, rest: f64, total: f64) -> f64 {
-        if rest > 1e-9 * total {
+    /// `dot² / (Σ w_i − Bᵀ G⁺ B)` for `B` = `sum`, zero where the step is (nearly) one of the
+    /// terms.
+    fn ratio(&self, dot: f64, sum: &DVector<f64>) -> f64 {
+        let rest = self.total - sum.dot(&(&self.inverse * sum));
+        if rest > 1e-9 * self.total {
             dot * dot / rest
         } else {
             0.0
@@ -424,11 +419,7 @@ impl StepGain {
             if torque[next] == torque[i] {
                 continue;
             }
-            let gain = Self::ratio(
-                dot,
-                self.total - sum.dot(&(&self.inverse * &sum)),
-                self.total,
-            );
+            let gain = self.ratio(dot, &sum);
             if best.is_none_or(|(g, _)| gain > g) {
                 best = Some((gain, -(torque[i] + torque[next]) / 2.0));
             }
