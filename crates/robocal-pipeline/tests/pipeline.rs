@@ -513,6 +513,74 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     }
 }
 
+/// Where the chosen physics holds backlash the default tries the flank search as one candidate
+/// more: on the five-axis twin with a play of 0.03° on joint 2, resting on the flank its torque
+/// presses, with a preload of −25 N·m that puts the turn far from the rows' middle torque (where
+/// the regression of the flanks puts it), the searched candidate lowers the held-out score, is
+/// kept, and is what the model holds: joint 2's play on a torque flank, its width recovered.
+#[test]
+fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_middle() {
+    use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_robot::Flank;
+    use robocal_twin::{Backlash, BacklashSide};
+    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    let width = 0.03f64.to_radians();
+    twin.backlash = vec![Backlash {
+        joint: 1,
+        width,
+        side: BacklashSide::Torque { preload: -25.0 },
+    }];
+    let data = twin.generate().unwrap().measurements;
+    let rows: Vec<&robocal_data::Measurement> = data.rows.iter().collect();
+    let settings = AutoSettings {
+        folds: 3,
+        harmonics: 0,
+        self_weight: false,
+        residuals: Vec::new(),
+        ..AutoSettings::default()
+    };
+    let lines = Lines::default();
+    let built = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
+    let selection = built.selection.as_ref().unwrap();
+    let score = |name: &str| {
+        (selection.candidates.iter())
+            .find(|c| c.name == name)
+            .unwrap_or_else(|| panic!("{name}: {:?}", selection.candidates))
+            .score
+    };
+    let d = (selection.decisions.iter())
+        .find(|d| d.stage == "flank_search")
+        .expect("the flank search tried");
+    assert_eq!(
+        d.held_out_without,
+        score("kinematic + compliance + backlash")
+    );
+    assert_eq!(
+        d.held_out_with,
+        score("kinematic + compliance + backlash (flank search)")
+    );
+    assert!(d.kept, "{d:?}");
+    assert!(
+        d.held_out_with.unwrap() < 0.9 * d.held_out_without.unwrap(),
+        "{d:?}"
+    );
+    let chosen = (selection.candidates.iter())
+        .find(|c| c.status == "chosen")
+        .unwrap();
+    assert_eq!(
+        chosen.name,
+        "kinematic + compliance + backlash (flank search)"
+    );
+    let errors = built.kinematic.compliance.as_ref().unwrap();
+    let b = (errors.backlash.iter()).find(|b| b.joint == 1).unwrap();
+    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
+    assert!(
+        (2.0 * b.value.abs() - width).abs() < 0.1 * width,
+        "play {}°",
+        2.0 * b.value.abs().to_degrees()
+    );
+}
+
 /// A heavy arm's own weight bends it enough that its rigid table, fitted on the unloaded rows,
 /// moves a length the poses barely see by more than the plausibility rule allows (ARM6H's
 /// j5.d by 13 mm): the check then fits the arm's deflection too and accepts the data; the same
