@@ -146,9 +146,9 @@ pub fn run(
     if let Some(errors) = &built.kinematic.compliance {
         for line in harmonic_lines(errors)
             .into_iter()
-            .chain(backlash_lines(errors))
+            .chain(backlash_lines(errors, &r.joint_errors))
             .chain(link_weight_lines(errors))
-            .chain(tilt_lines(errors))
+            .chain(tilt_lines(errors, &r.joint_errors))
         {
             eprintln!("robocal: {line}");
         }
@@ -285,29 +285,59 @@ fn link_weight_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
         .collect()
 }
 
-/// One line per joint with an identified tilting compliance.
-fn tilt_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+/// The standard deviation the report gives the identified term `name` (in its unit), if any.
+fn term_std(terms: &[robocal_ident::ErrorTermReport], name: &str) -> Option<f64> {
+    (terms.iter())
+        .find(|t| t.name == name && t.identified)
+        .and_then(|t| t.std)
+}
+
+/// ` ± σ` with `decimals` decimals, or nothing without a σ.
+fn plus_minus(std: Option<f64>, decimals: usize) -> String {
+    std.map_or_else(String::new, |s| format!(" ± {s:.decimals$}"))
+}
+
+/// One line per joint with an identified tilting compliance, with its σ from `terms` (the
+/// report's joint-error terms).
+fn tilt_lines(
+    errors: &robocal_robot::JointErrors,
+    terms: &[robocal_ident::ErrorTermReport],
+) -> Vec<String> {
     (errors.tilts.iter())
         .filter(|t| t.value != 0.0)
         .map(|t| {
             format!(
-                "joint {} tilting compliance {:.4} deg/kN·m (the parts beyond it turning across its axis under the gravity moment there)",
+                "joint {} tilting compliance {:.4} deg/kN·m{} (the parts beyond it turning across its axis under the gravity moment there)",
                 t.joint + 1,
-                t.value / robocal_robot::DEG_PER_KNM
+                t.value / robocal_robot::DEG_PER_KNM,
+                plus_minus(term_std(terms, &robocal_robot::tilt_name(t.joint)), 4),
             )
         })
         .collect()
 }
 
-/// One line per joint with identified backlash: half its play, and the flank it rests on.
-fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+/// One line per joint with identified backlash: half its play, and the flank it rests on; the
+/// play with its σ (twice the half-play's, from `terms`, the report's joint-error terms), so a
+/// play the poses barely see (a wrist joint whose turn hardly moves the reflector) reads as
+/// what it is.
+fn backlash_lines(
+    errors: &robocal_robot::JointErrors,
+    terms: &[robocal_ident::ErrorTermReport],
+) -> Vec<String> {
     (errors.backlash.iter())
         .filter(|b| b.value != 0.0)
         .map(|b| {
             let (value, play) = (b.value.to_degrees(), 2.0 * b.value.abs().to_degrees());
+            let play = format!(
+                "{play:.4}°{}",
+                plus_minus(
+                    term_std(terms, &robocal_robot::backlash_name(b.joint)).map(|s| 2.0 * s),
+                    4
+                )
+            );
             match &b.flank {
                 robocal_robot::Flank::Approach { home } => format!(
-                    "joint {} backlash: {value:+.4}° at or above {:.1}° (the home it was moved out from), {:+.4}° below: a play of {play:.4}°",
+                    "joint {} backlash: {value:+.4}° at or above {:.1}° (the home it was moved out from), {:+.4}° below: a play of {play}",
                     b.joint + 1,
                     home.to_degrees(),
                     -value
@@ -316,7 +346,7 @@ fn backlash_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                     let preload = (b.flank.preload())
                         .map_or_else(String::new, |p| format!(", preload {p:.2} N·m"));
                     format!(
-                        "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses{preload}): a play of {play:.4}°",
+                        "joint {} backlash: {value:+.4}° where its torque is positive, {:+.4}° where negative (the flank its torque presses{preload}): a play of {play}",
                         b.joint + 1,
                         -value,
                     )

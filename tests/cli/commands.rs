@@ -1132,6 +1132,16 @@ fn calibrate_prints_and_saves_the_backlash() {
     assert!(j1.abs() > 0.005, "{j1}");
     let line = format!("robocal: joint 1 backlash: {:+.4}° at or above 0.0°", j1);
     assert!(stderr.contains(&line), "{line} not in {stderr}");
+    // The play with its σ: twice the half-play's in report.json.
+    let std = (report(&model)["kinematic"]["joint_errors"]
+        .as_array()
+        .unwrap()
+        .iter())
+    .find(|t| t["name"] == "j1.backlash")
+    .and_then(|t| t["std"].as_f64())
+    .expect("j1.backlash's σ in report.json");
+    let play = format!("a play of {:.4}° ± {:.4}", 2.0 * j1.abs(), 2.0 * std);
+    assert!(stderr.contains(&play), "{play} not in {stderr}");
     for b in c.backlash.iter().filter(|b| b.value == 0.0) {
         assert!(!stderr.contains(&format!("joint {} backlash", b.joint + 1)));
     }
