@@ -440,6 +440,11 @@ pub const BACKLASH_BOUND_DEG: f64 = 0.2;
 /// Most choices of the backlash flanks in one identification (each followed by a fit).
 pub const FLANK_ROUNDS: usize = 2;
 
+/// Most choices of the backlash flanks in one identification with the flank search
+/// ([`JointErrorSettings::flank_search`]): two torque-pressed joints' steps trade in what each
+/// choice is made from, and the choices settle over more rounds.
+pub const SEARCH_FLANK_ROUNDS: usize = 6;
+
 /// Condition number of the scaled Jacobian above which the report warns.
 pub const ILL_CONDITIONED: f64 = 1e5;
 
@@ -1504,7 +1509,8 @@ fn identify_anew(
     // flanks of the approach from home, each joint's flank chosen from what it leaves, then the
     // identification on those flanks; the choice made again from that fit (a flank chosen from
     // a fit that lacked it is blurred where the first fit absorbed the step), until the rows'
-    // flanks stay as they were or FLANK_ROUNDS choices have been made.
+    // flanks stay as they were or FLANK_ROUNDS (SEARCH_FLANK_ROUNDS with the search) choices
+    // have been made.
     if let Some(je) = &settings.joint_errors
         && je.backlash
         && je.backlash_torque
@@ -1520,7 +1526,12 @@ fn identify_anew(
         // absorbed by its offset and bent into its harmonics).
         let mut best = fit.clone();
         let mut signs: Option<Vec<f64>> = None;
-        for _ in 0..FLANK_ROUNDS {
+        let rounds = if je.flank_search {
+            SEARCH_FLANK_ROUNDS
+        } else {
+            FLANK_ROUNDS
+        };
+        for _ in 0..rounds {
             let Some(errors) = fit.compliance.as_ref() else {
                 break;
             };
