@@ -111,7 +111,7 @@ pub fn run(
                 "robocal: joint {} compliance {:.4} deg/kN·m{}{}",
                 j.joint,
                 j.compliance,
-                j.std.map_or(String::new(), |s| format!(" ± {s:.4}")),
+                plus_minus(j.std, 4),
                 if j.compliance < 0.0 {
                     " (warning: negative; see report.json)"
                 } else {
@@ -124,16 +124,10 @@ pub fn run(
             let coordinates: Vec<String> = (0..3)
                 .map(|axis| {
                     let name = robocal_robot::payload_com_name(axis);
-                    let std = (r.joint_errors.iter())
-                        .find(|t| t.name == name && t.identified)
-                        .and_then(|t| t.std);
+                    let std = term_std(&r.joint_errors, &name);
                     // The coordinate's letter, as its name in the report ends.
                     let letter = name.rsplit('.').next().unwrap_or_default();
-                    format!(
-                        "{letter} {:.1}{}",
-                        c.payload_com[axis],
-                        std.map_or(String::new(), |s| format!(" ± {s:.1}"))
-                    )
+                    format!("{letter} {:.1}{}", c.payload_com[axis], plus_minus(std, 1))
                 })
                 .collect();
             eprintln!(
