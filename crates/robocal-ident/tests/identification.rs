@@ -1454,37 +1454,17 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
 #[test]
 fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
     use robocal_ident::JointErrorSettings;
-    use robocal_robot::{Flank, JointErrors};
+    use robocal_robot::Flank;
     let nominal = nominal();
     let configs = configurations();
     let truth = injected(&nominal, &configs, 23);
     let mut errors = with_injected_weights(injected_compliance()).with_backlash(&[2]);
-    // Joint 3's features: links 3..6 (a unit mass at the frame, moments x, y, z), the
-    // payload's four, 1. The torque of the injected links' weights and the payload's.
-    let mut weights = vec![0.0; JointErrors::torque_feature_count(6, 2)];
-    for w in errors.link_weights.iter().filter(|w| w.body >= 2) {
-        let part = robocal_robot::MomentPart::ALL
-            .iter()
-            .position(|p| *p == w.part)
-            .unwrap();
-        weights[(w.body - 2) * 4 + part] = w.value;
-    }
-    let com = errors.payload_com * 1e-3;
-    weights[16..20].copy_from_slice(&[1.0, com.x, com.y, com.z]);
     let loads = [0.0, 5.0, 10.0, 20.0];
     let rows = observe_loaded(&truth, &errors, &configs[..100], &loads);
-    let mut torque: Vec<f64> = (0..rows.len())
-        .map(|i| {
-            let f = errors.torque_features(&truth, rows.joints(i), rows.loads[i], 2);
-            weights.iter().zip(&f).map(|(w, f)| w * f).sum()
-        })
-        .collect();
-    torque.sort_by(f64::total_cmp);
-    let median = torque[torque.len() / 2];
+    let (flank, torque) = flank_at_median_torque(&errors, &truth, &rows, 2);
     // One sign over the rows: without the preload every row rests on the same flank.
     assert!(torque[0] * torque[torque.len() - 1] > 0.0, "{torque:?}");
-    weights[20] = -median;
-    errors.backlash[0].flank = Flank::Torque { weights };
+    errors.backlash[0].flank = flank;
     errors.backlash[0].value = 0.013f64.to_radians();
     let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
     let settings = with_joint_errors(
@@ -1519,13 +1499,15 @@ fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
 }
 
 /// A flank pressed by joint `joint`'s gravity torque (the injected links' weights of `errors`
-/// and the payload's) with a preload that puts the turn at the median torque of `rows`.
+/// and the payload's: its features' weights, the links' from the joint outwards four each, the
+/// payload's four, then the constant) with a preload that puts the turn at the median torque
+/// of `rows`; and that torque on each row without the preload, ascending.
 fn flank_at_median_torque(
     errors: &Compliance,
     truth: &Robot,
     rows: &Observations,
     joint: usize,
-) -> robocal_robot::Flank {
+) -> (robocal_robot::Flank, Vec<f64>) {
     use robocal_robot::{JointErrors, MomentPart, TORQUE_FEATURES_PER_LINK};
     let dof = truth.dof();
     let mut weights = vec![0.0; JointErrors::torque_feature_count(dof, joint)];
@@ -1544,7 +1526,7 @@ fn flank_at_median_torque(
         .collect();
     torque.sort_by(f64::total_cmp);
     weights[payload + 4] = -torque[torque.len() / 2];
-    robocal_robot::Flank::Torque { weights }
+    (robocal_robot::Flank::Torque { weights }, torque)
 }
 
 /// Two torque-pressed joints side by side (the shoulder and the elbow, parallel, each turning
@@ -1564,7 +1546,7 @@ fn two_torque_pressed_flanks_side_by_side_are_both_found() {
     let rows = observe_loaded(&truth, &errors, &configs[..100], &loads);
     for (k, play) in [(0, 0.02f64), (1, 0.013)] {
         let joint = errors.backlash[k].joint;
-        errors.backlash[k].flank = flank_at_median_torque(&errors, &truth, &rows, joint);
+        errors.backlash[k].flank = flank_at_median_torque(&errors, &truth, &rows, joint).0;
         errors.backlash[k].value = play.to_radians();
     }
     let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
