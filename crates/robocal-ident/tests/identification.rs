@@ -1453,7 +1453,6 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
 /// configurations are predicted to a few micrometres.
 #[test]
 fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
-    use robocal_ident::JointErrorSettings;
     use robocal_robot::Flank;
     let nominal = nominal();
     let configs = configurations();
@@ -1467,16 +1466,7 @@ fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
     errors.backlash[0].flank = flank;
     errors.backlash[0].value = 0.013f64.to_radians();
     let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
-    let settings = with_joint_errors(
-        errors.payload_com,
-        JointErrorSettings {
-            harmonics: 0,
-            backlash: true,
-            link_weights: true,
-            flank_search: true,
-            ..JointErrorSettings::default()
-        },
-    );
+    let settings = flank_search_settings(errors.payload_com);
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
     let found = cal.compliance.as_ref().unwrap();
     let b = found.backlash.iter().find(|b| b.joint == 2).unwrap();
@@ -1496,6 +1486,22 @@ fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
     let left = held.errors_with(&plain.robot, plain.compliance.as_ref());
     let plain_mean = left.iter().sum::<f64>() / left.len() as f64;
     assert!(plain_mean > 5.0 * mean, "{plain_mean} vs {mean}");
+}
+
+/// Settings identifying the compliances, the links' weights and backlash on either flank, each
+/// torque flank by the search (`flank_search`), no harmonics (the payload's centre of mass at
+/// `payload_com`).
+fn flank_search_settings(payload_com: Vector3<f64>) -> KinematicSettings {
+    with_joint_errors(
+        payload_com,
+        robocal_ident::JointErrorSettings {
+            harmonics: 0,
+            backlash: true,
+            link_weights: true,
+            flank_search: true,
+            ..robocal_ident::JointErrorSettings::default()
+        },
+    )
 }
 
 /// A flank pressed by joint `joint`'s gravity torque (the injected links' weights of `errors`
@@ -1537,7 +1543,6 @@ fn flank_at_median_torque(
 /// configurations are predicted to a few micrometres.
 #[test]
 fn two_torque_pressed_flanks_side_by_side_are_both_found() {
-    use robocal_ident::JointErrorSettings;
     let nominal = nominal();
     let configs = configurations();
     let truth = injected(&nominal, &configs, 29);
@@ -1550,16 +1555,7 @@ fn two_torque_pressed_flanks_side_by_side_are_both_found() {
         errors.backlash[k].value = play.to_radians();
     }
     let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
-    let settings = with_joint_errors(
-        errors.payload_com,
-        JointErrorSettings {
-            harmonics: 0,
-            backlash: true,
-            link_weights: true,
-            flank_search: true,
-            ..JointErrorSettings::default()
-        },
-    );
+    let settings = flank_search_settings(errors.payload_com);
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
     let held = observe_loaded(&truth, &errors, &configs[100..], &[0.0, 12.0]);
     for joint in [1, 2] {
