@@ -7,7 +7,7 @@
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
 //!     [--effects all,modelled,beyond] [--budget S] [--no-compensation] [--verbose] [--networks]
-//!     [--physics full] [--export DIR] [--poses N]
+//!     [--physics full] [--export DIR] [--poses N] [--splits configurations,q1,window]
 //! ```
 //!
 //! The effect sets: *all* (what the twin file holds: every effect robocal's physics models),
@@ -196,11 +196,33 @@ fn beyond(twin: &TwinConfig, seed: u64) -> robocal_twin::Beyond {
 }
 
 /// Test rows: a random quarter of the configurations, or the quarter with the highest joint-1
-/// reading (the test poses lie outside the trained range of joint 1).
+/// reading (the test poses lie outside the trained range of joint 1), or — on the twin's poses
+/// laid around its base ([`ring`]) — every configuration outside a 90° window of joint 1.
 #[derive(Clone, Copy, PartialEq)]
 enum Split {
     Configurations,
     Extrapolation,
+    /// Trained on the configurations whose joint 1 lies within [`WINDOW`], tested on every
+    /// other: up to 150° beyond the readings on one side and 120° on the other.
+    Window,
+}
+
+/// The joint-1 readings (deg) the window split trains on.
+const WINDOW: [f64; 2] = [-60.0, 30.0];
+
+/// The twin with its pose grid laid all around its base (x and y each over ± the grid's largest
+/// reach along them) and three times its configurations (at most 300), for the window split:
+/// joint 1 then spans its whole turn.
+fn ring(twin: &TwinConfig) -> TwinConfig {
+    let mut ringed = twin.clone();
+    let g = &mut ringed.poses;
+    let r = [g.x[0], g.x[1], g.y[0], g.y[1]]
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    g.x = [-r, r];
+    g.y = [-r, r];
+    g.count = (3 * g.count).min(300);
+    ringed
 }
 
 fn split<'a>(
@@ -223,6 +245,16 @@ fn split<'a>(
             }
         }
         Split::Extrapolation => poses.sort_by(|a, b| b.1.total_cmp(&a.1)),
+        Split::Window => {
+            let [lo, hi] = WINDOW;
+            let test: std::collections::HashSet<&str> = (poses.iter())
+                .filter(|p| !(lo..=hi).contains(&p.1))
+                .map(|p| p.0)
+                .collect();
+            return rows
+                .iter()
+                .partition(|r| !test.contains(r.sample.pose.as_str()));
+        }
     }
     let test: std::collections::HashSet<&str> =
         poses[..poses.len() / 4].iter().map(|p| p.0).collect();
@@ -392,15 +424,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?,
         None => Effects::EVERY.to_vec(),
     };
-    // Which splits (`--splits configurations,q1`; default both).
+    // Which splits (`--splits configurations,q1,window`; default the first two).
     let splits: Vec<Split> = match value("--splits") {
         Some(list) => list
             .split(',')
             .map(|k| match k {
                 "configurations" => Ok(Split::Configurations),
                 "q1" => Ok(Split::Extrapolation),
+                "window" => Ok(Split::Window),
                 _ => Err(format!(
-                    "--splits: unknown split `{k}` (configurations, q1)"
+                    "--splits: unknown split `{k}` (configurations, q1, window)"
                 )),
             })
             .collect::<Result<_, _>>()?,
@@ -454,10 +487,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         }
                     }
                 }
-                let data = twin.generate()?;
-                let truth = truth_of(&data);
-                let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
+                let boxed = twin.generate()?;
+                let ringed = (splits.contains(&Split::Window))
+                    .then(|| ring(&twin).generate())
+                    .transpose()?;
                 for &how in &splits {
+                    let data = match (&ringed, how) {
+                        (Some(ringed), Split::Window) => ringed,
+                        _ => &boxed,
+                    };
+                    let truth = truth_of(data);
+                    let rows: Vec<&Measurement> = data.measurements.rows.iter().collect();
                     let (train, test) = split(&rows, how, seed);
                     if let Some(dir) = &export {
                         export_case(
@@ -468,6 +508,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                                 match how {
                                     Split::Configurations => "configurations",
                                     Split::Extrapolation => "q1",
+                                    Split::Window => "window",
                                 }
                             ),
                             &twin.nominal,
@@ -532,6 +573,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             match how {
                                 Split::Configurations => "configurations",
                                 Split::Extrapolation => "extrapolation (q1)",
+                                Split::Window => "window (joint 1 −60…30°)",
                             },
                         )
                     };
