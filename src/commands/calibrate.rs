@@ -364,7 +364,7 @@ fn harmonic_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                 .map(|h| format!("order {} {:.4}°", h.order, h.sin.hypot(h.cos).to_degrees()))
                 .collect();
             let reach = terms[0].reach.map_or_else(
-                || "continued at every angle".to_string(),
+                || "continued periodically at every angle".to_string(),
                 |[lo, hi]| {
                     format!(
                         "continued over {:.1}..{:.1}° (the readings widened by a quarter of their span), held beyond",

@@ -155,7 +155,9 @@ pub struct Harmonic {
     /// beyond them it keeps its value at the nearer end. `None`: every angle. Identification
     /// sets it to the joint's readings widened by [`HARMONIC_REACH`] of their span at each end:
     /// over a narrow window a harmonic may be fitting an effect it does not model (backlash,
-    /// a deflection), and continued far beyond the readings it would miss by millimetres.
+    /// a deflection), and continued far beyond the readings it would miss by millimetres. The
+    /// default calibration lifts joint 1's where its blocks of joint 1 show the harmonics
+    /// predicting beyond the readings better than held (`robocal-pipeline`'s selection).
     pub reach: Option<[f64; 2]>,
 }
 
@@ -1635,7 +1637,8 @@ impl JointErrors {
         let more = if self.has_configuration_terms() {
             "# harmonic: transmission error of a joint, sin · sin(order q) + cos · cos(order q), deg;\n\
              # reach = [lo, hi] (deg): beyond it, q is held at the nearer end (the readings it was\n\
-             # identified on, widened by a quarter of their span at each end).\n\
+             # identified on, widened by a quarter of their span at each end); without a reach the\n\
+             # harmonic is continued at every angle.\n\
              # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
              # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n\
              # backlash: the joint rests on one flank of its play, error +value (deg, half the\n\

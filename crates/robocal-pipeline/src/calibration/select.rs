@@ -401,6 +401,91 @@ fn score_physics(
     }
 }
 
+/// The share of the held predictions' error on the blocks of joint 1 that joint 1's harmonics,
+/// continued periodically, must take away for the final model to continue them at every angle
+/// ([`harmonic_reach`]). The blocks test a quarter of the readings' span beyond them; the model is
+/// continued as far as it is used: a harmonic that only just beats holding that near is too
+/// uncertain to carry farther (on the development twins, gains of 8–15 % there came with
+/// losses of 2–9 % a quarter to two fifths of the span beyond; `docs/accuracy.md`, session 34).
+pub const REACH_GAIN: f64 = 0.2;
+
+/// How far joint 1's transmission harmonics are continued beyond its readings, decided on the
+/// blocks of joint 1: each fold's model of the chosen physics predicts the rows of its block
+/// that lie beyond the joint-1 readings it was fitted on, once with joint 1's harmonics held at
+/// those readings' nearer end and once continued periodically. Where continued lowers held
+/// significantly ([`improves`], over configurations) and by at least [`REACH_GAIN`] of it,
+/// joint 1's harmonics are a gear's, well determined, not a fit of something else over a
+/// narrow window, and the final model continues them at every angle; elsewhere they keep their reach (a quarter of the readings' span beyond them,
+/// [`robocal_robot::HARMONIC_REACH`]). `None`: no blocks, or the physics holds no joint-1
+/// harmonic, or none of a block's rows lie beyond its fold's readings.
+fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
+    let mut held = Vec::new();
+    let mut continued = Vec::new();
+    let mut poses: Vec<&str> = Vec::new();
+    for (fold, model) in plan.splits.iter().zip(&scored.fitted) {
+        let Some(model) = model.as_ref().filter(|_| fold.blocked) else {
+            continue;
+        };
+        let joint1 = |r: &&Measurement| r.sample.joints.first().map(|q| q.to_radians());
+        let (lo, hi) = (fold.train.iter().filter_map(joint1))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q), hi.max(q))
+            });
+        let beyond: Vec<&Measurement> = (fold.test.iter())
+            .filter(|r| joint1(r).is_some_and(|q| q < lo || q > hi))
+            .copied()
+            .collect();
+        let reached = |reach: Option<[f64; 2]>| {
+            let mut m = model.clone();
+            let errors = m.joint_errors.as_mut()?;
+            let mut any = false;
+            for h in errors.harmonics.iter_mut().filter(|h| h.joint == 0) {
+                h.reach = reach;
+                any |= h.sin != 0.0 || h.cos != 0.0;
+            }
+            any.then_some(m)
+        };
+        let (Some(at_ends), Some(periodic)) = (reached(Some([lo, hi])), reached(None)) else {
+            continue;
+        };
+        held.extend(at_ends.errors(&beyond));
+        continued.extend(periodic.errors(&beyond));
+        poses.extend(beyond.iter().map(|r| r.sample.pose.as_str()));
+    }
+    if held.is_empty() {
+        return None;
+    }
+    let mut ids: Vec<&str> = poses.clone();
+    ids.sort_unstable();
+    ids.dedup();
+    let groups: Vec<usize> = (poses.iter())
+        .map(|p| ids.binary_search(p).unwrap_or(0))
+        .collect();
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+    let kept =
+        improves(&held, &continued, &groups) && mean(&continued) < (1.0 - REACH_GAIN) * mean(&held);
+    let (without, with) = (mean(&held), mean(&continued));
+    Some(Decision {
+        stage: "harmonic_reach",
+        kept,
+        held_out_without: Some(without),
+        held_out_with: Some(with),
+        reason: format!(
+            "{}: {without:.4} mm held at the readings' nearer end, {with:.4} mm with joint 1's harmonics continued periodically, on the {} rows of the blocks of joint 1 beyond their folds' readings{}",
+            if kept { "kept" } else { "dropped" },
+            held.len(),
+            if kept {
+                ": continued at every angle".to_string()
+            } else {
+                format!(
+                    " (continued must be lower by twice its standard error and by {:.0} % of held): continued a quarter of the readings' span beyond them, held farther",
+                    100.0 * REACH_GAIN
+                )
+            }
+        ),
+    })
+}
+
 /// Says a candidate's held-out numbers, or why it was skipped.
 fn report(c: &Candidate, observer: &dyn Observer) {
     observer.message(&match (&c.held_out, &c.held_out_blocks) {
@@ -1188,7 +1273,7 @@ pub fn automatic(
         None => (chain.current, chain.scored[chain.current].physics),
     };
     candidates[winner].status = "chosen".into();
-    let decisions = decisions(
+    let mut decisions = decisions(
         settings,
         &chain,
         &candidates,
@@ -1196,6 +1281,13 @@ pub fn automatic(
         best_residual,
         residual_wins.is_some(),
     );
+    let chosen_scored = if residual_wins.is_some() {
+        chain.identified()
+    } else {
+        chain.current
+    };
+    let reach = harmonic_reach(&chain.scored[chosen_scored], &plan);
+    decisions.extend(reach.clone());
     for d in &decisions {
         observer.message(&format!("stage {}: {}", d.stage, d.reason));
     }
@@ -1229,13 +1321,19 @@ pub fn automatic(
         built.kinematic.compliance = None;
         built.kinematic.covariance = None;
     }
+    if reach.is_some_and(|d| d.kept)
+        && let Some(errors) = built.kinematic.compliance.as_mut()
+    {
+        for h in errors.harmonics.iter_mut().filter(|h| h.joint == 0) {
+            h.reach = None;
+        }
+    }
     // Compliances the final fit found impossible and held (rigid, or at the value of its first
     // fit without the links' weights and backlash), in the decision.
     let implausible: Vec<&str> = (built.kinematic.report.fixed.iter())
         .filter(|f| f.reason.starts_with("implausible"))
         .map(|f| f.name.as_str())
         .collect();
-    let mut decisions = decisions;
     if let Some(d) = decisions.iter_mut().find(|d| d.stage == "compliance")
         && !implausible.is_empty()
     {
