@@ -405,7 +405,7 @@ fn score_physics(
 /// continued periodically, must take away for the final model to continue them at every angle
 /// ([`harmonic_reach`]). The blocks test a quarter of the readings' span beyond them; the model is
 /// continued as far as it is used: a harmonic that only just beats holding that near is too
-/// uncertain to carry farther (on the development twins, gains of 8–15 % there came with
+/// uncertain to carry farther (on the development twins, gains of 2–15 % there came with
 /// losses of 2–9 % a quarter to two fifths of the span beyond; `docs/accuracy.md`, session 34).
 pub const REACH_GAIN: f64 = 0.2;
 
