@@ -28,7 +28,8 @@ use crate::stages::Stages;
 /// What the default calibration decided about one stage.
 #[derive(Debug, Clone, Serialize)]
 pub struct Decision {
-    /// `kinematic`, `compliance`, `joint_errors` or `residual`.
+    /// `kinematic`, `compliance`, `joint_errors`, `flank_search`, `tilt`, `residual` or
+    /// `harmonic_reach`.
     pub stage: &'static str,
     /// Whether the stage is in the model.
     pub kept: bool,
@@ -415,9 +416,10 @@ pub const REACH_GAIN: f64 = 0.2;
 /// those readings' nearer end and once continued periodically. Where continued lowers held
 /// significantly ([`improves`], over configurations) and by at least [`REACH_GAIN`] of it,
 /// joint 1's harmonics are a gear's, well determined, not a fit of something else over a
-/// narrow window, and the final model continues them at every angle; elsewhere they keep their reach (a quarter of the readings' span beyond them,
-/// [`robocal_robot::HARMONIC_REACH`]). `None`: no blocks, or the physics holds no joint-1
-/// harmonic, or none of a block's rows lie beyond its fold's readings.
+/// narrow window, and the final model continues them at every angle; elsewhere they keep their
+/// reach (a quarter of the readings' span beyond them, [`robocal_robot::HARMONIC_REACH`]).
+/// `None`: no blocks, or the physics holds no joint-1 harmonic, or none of a block's rows lie
+/// beyond its fold's readings.
 fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
     let mut held = Vec::new();
     let mut continued = Vec::new();
