@@ -669,6 +669,44 @@ fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolat
     );
 }
 
+/// Where joint 1's harmonics, continued, only just beat holding them on the blocks of joint 1,
+/// the model keeps their quarter reach: the seven-axis twin with its poses laid all around its
+/// base, calibrated on the configurations whose joint 1 lies within −60…30°; continued lowers
+/// held on the blocks by less than [`REACH_GAIN`] of it, and joint 1's harmonics keep the reach
+/// of their readings widened by a quarter of their span (kept with the significance test alone,
+/// where a quarter to two fifths of the span beyond lost on the development twins).
+#[test]
+fn the_default_keeps_the_quarter_reach_where_continued_only_just_beats_held() {
+    use robocal_pipeline::calibration::REACH_GAIN;
+    use robocal_pipeline::{AutoSettings, automatic};
+    let mut twin = TwinConfig::load(root().join("configs/twin/arm7.toml")).unwrap();
+    twin.poses.x = [-700.0, 700.0];
+    twin.poses.y = [-700.0, 700.0];
+    twin.poses.count = 300;
+    let data = twin.generate().unwrap();
+    let rows: Vec<&robocal_data::Measurement> = (data.measurements.rows.iter())
+        .filter(|m| (-60.0..=30.0).contains(&m.sample.joints[0]))
+        .collect();
+    let settings = AutoSettings {
+        folds: 3,
+        residuals: Vec::new(),
+        ..AutoSettings::default()
+    };
+    let built = automatic(&settings, &twin.nominal, &rows, None, &Lines::default()).unwrap();
+    let selection = built.selection.as_ref().unwrap();
+    let d = (selection.decisions.iter())
+        .find(|d| d.stage == "harmonic_reach")
+        .expect("the reach decided");
+    let (held, continued) = (d.held_out_without.unwrap(), d.held_out_with.unwrap());
+    assert!(continued < held, "{d:?}");
+    assert!(continued > (1.0 - REACH_GAIN) * held, "{d:?}");
+    assert!(!d.kept, "{d:?}");
+    let errors = built.kinematic.compliance.as_ref().unwrap();
+    let joint1: Vec<_> = (errors.harmonics.iter()).filter(|h| h.joint == 0).collect();
+    assert!(!joint1.is_empty());
+    assert!(joint1.iter().all(|h| h.reach.is_some()), "{joint1:?}");
+}
+
 /// A heavy arm's own weight bends it enough that its rigid table, fitted on the unloaded rows,
 /// moves a length the poses barely see by more than the plausibility rule allows (ARM6H's
 /// j5.d by 13 mm): the check then fits the arm's deflection too and accepts the data; the same

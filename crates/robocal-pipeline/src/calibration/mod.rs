@@ -50,7 +50,8 @@ pub use folds::{SIGNIFICANCE, blocks, folds, improves};
 pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers};
 pub use plausibility::{Implausible, check_plausible};
 pub use select::{
-    AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, Selection, automatic,
+    AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, REACH_GAIN,
+    Selection, automatic,
 };
 
 /// The geometric (and elastic) model of an identification, without a residual model, with its
