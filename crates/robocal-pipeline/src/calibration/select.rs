@@ -404,10 +404,11 @@ fn score_physics(
 
 /// The share of the held predictions' error on the blocks of joint 1 that joint 1's harmonics,
 /// continued periodically, must take away for the final model to continue them at every angle
-/// (the default calibration's `harmonic_reach` decision). The blocks test a quarter of the readings' span beyond them; the model is
-/// continued as far as it is used: a harmonic that only just beats holding that near is too
-/// uncertain to carry farther (on the development twins, gains of 2–15 % there came with
-/// losses of 2–9 % a quarter to two fifths of the span beyond; `docs/accuracy.md`, session 34).
+/// (the default calibration's `harmonic_reach` decision). The blocks test a quarter of the
+/// readings' span beyond them; the model is continued as far as it is used: a harmonic that
+/// only just beats holding that near is too uncertain to carry farther (on the development
+/// twins, gains of 2–15 % there came with losses of 2–9 % a quarter to two fifths of the span
+/// beyond; `docs/accuracy.md`, session 34).
 pub const REACH_GAIN: f64 = 0.2;
 
 /// How far joint 1's transmission harmonics are continued beyond its readings, decided on the
