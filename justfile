@@ -86,6 +86,11 @@ network-seeds seeds="2" effects="all,beyond":
 accuracy-outliers seeds="3":
     cargo run --release -p robocal-pipeline --example accuracy -- --outliers --seeds {{seeds}}
 
+# how far the model carries across a cell: each development twin's poses laid all around its base,
+# trained within -60..30 deg of joint 1, tested on every other pose (docs/accuracy.md, session 34)
+accuracy-window seeds="1" effects="all,beyond":
+    cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} --arms arm7,arm5,pmc6va030 --splits window --effects {{effects}} --no-compensation
+
 # the residual models side by side on the identified physics (paper's SOMM, robocal's, GP)
 accuracy-networks seeds="1":
     cargo run --release -p robocal-pipeline --example accuracy -- --networks --seeds {{seeds}}
