@@ -647,10 +647,8 @@ fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolat
     assert!(joint1.iter().all(|h| h.reach.is_none()), "{joint1:?}");
     // The same model with the quarter reach: joint 1's readings widened by a quarter of their
     // span, held beyond.
-    let (lo, hi) = (rows.iter().map(|r| r.sample.joints[0].to_radians()))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
-            (lo.min(q), hi.max(q))
-        });
+    let domain = robocal_model::Domain::of(rows.iter().map(|r| &r.sample)).unwrap();
+    let [lo, hi] = domain.joints[0].map(f64::to_radians);
     let mut quarter = built.model();
     for h in (quarter.joint_errors.as_mut().unwrap().harmonics.iter_mut()).filter(|h| h.joint == 0)
     {

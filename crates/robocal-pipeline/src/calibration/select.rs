@@ -11,7 +11,7 @@ use robocal_ident::{
     ComplianceSettings, FitMemo, JointErrorSettings, KinematicCalibration, KinematicSettings,
     MOUNTING_ANGLE_DEG, Observations, calibrate_kinematics, tracker_down,
 };
-use robocal_model::CalibratedModel;
+use robocal_model::{CalibratedModel, Domain};
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
 use robocal_robot::Robot;
 use serde::Serialize;
@@ -424,18 +424,16 @@ pub const REACH_GAIN: f64 = 0.2;
 fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
     let mut held = Vec::new();
     let mut continued = Vec::new();
-    let mut poses: Vec<&str> = Vec::new();
+    let mut rows: Vec<&Measurement> = Vec::new();
     for (fold, model) in plan.splits.iter().zip(&scored.fitted) {
         let Some(model) = model.as_ref().filter(|_| fold.blocked) else {
             continue;
         };
-        let joint1 = |r: &&Measurement| r.sample.joints.first().map(|q| q.to_radians());
-        let (lo, hi) = (fold.train.iter().filter_map(joint1))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
-                (lo.min(q), hi.max(q))
-            });
+        let Some(domain) = Domain::of(fold.train.iter().map(|r| &r.sample)) else {
+            continue;
+        };
         let beyond: Vec<&Measurement> = (fold.test.iter())
-            .filter(|r| joint1(r).is_some_and(|q| q < lo || q > hi))
+            .filter(|r| domain.excess(&r.sample).iter().any(|e| e.joint == 0))
             .copied()
             .collect();
         let reached = |reach: Option<[f64; 2]>| {
@@ -448,21 +446,20 @@ fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
             }
             any.then_some(m)
         };
-        let (Some(at_ends), Some(periodic)) = (reached(Some([lo, hi])), reached(None)) else {
+        let at_readings = domain.joints.first().map(|r| r.map(f64::to_radians));
+        let (Some(at_ends), Some(periodic)) = (reached(at_readings), reached(None)) else {
             continue;
         };
         held.extend(at_ends.errors(&beyond));
         continued.extend(periodic.errors(&beyond));
-        poses.extend(beyond.iter().map(|r| r.sample.pose.as_str()));
+        rows.extend(beyond);
     }
     if held.is_empty() {
         return None;
     }
-    let mut ids: Vec<&str> = poses.clone();
-    ids.sort_unstable();
-    ids.dedup();
-    let groups: Vec<usize> = (poses.iter())
-        .map(|p| ids.binary_search(p).unwrap_or(0))
+    let ids = configurations(&rows);
+    let groups: Vec<usize> = (rows.iter())
+        .map(|r| ids.binary_search(&r.sample.pose.as_str()).unwrap_or(0))
         .collect();
     let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
     let kept =
@@ -1268,13 +1265,13 @@ pub fn automatic(
     let physics_mean = chain.scored[chain.current].score.unwrap_or(f64::INFINITY);
     let residual_wins =
         best_residual.filter(|&(r, m)| m < physics_mean && residuals[r].significant);
-    let (winner, chosen_physics) = match residual_wins {
-        Some((r, _)) => (
-            chain.scored.len() + r,
-            chain.scored[chain.identified()].physics,
-        ),
-        None => (chain.current, chain.scored[chain.current].physics),
+    // The winner, and the physical candidate it holds (a residual model's is the one it was
+    // trained on).
+    let (winner, chosen_scored) = match residual_wins {
+        Some((r, _)) => (chain.scored.len() + r, chain.identified()),
+        None => (chain.current, chain.current),
     };
+    let chosen_physics = chain.scored[chosen_scored].physics;
     candidates[winner].status = "chosen".into();
     let mut decisions = decisions(
         settings,
@@ -1284,11 +1281,6 @@ pub fn automatic(
         best_residual,
         residual_wins.is_some(),
     );
-    let chosen_scored = if residual_wins.is_some() {
-        chain.identified()
-    } else {
-        chain.current
-    };
     let reach = harmonic_reach(&chain.scored[chosen_scored], &plan);
     decisions.extend(reach.clone());
     for d in &decisions {
