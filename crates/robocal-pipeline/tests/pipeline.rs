@@ -602,10 +602,11 @@ fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_m
 
 /// Where the blocks of joint 1 show its harmonics predicting beyond the readings better than
 /// held, the model continues them at every angle: the five-axis twin (its gears and compliance,
-/// without its backlash) with its poses laid all around its base, calibrated on the configurations whose
-/// joint 1 lies within −60…30°; on the others more than 60° beyond them the model is closer to
-/// the noise-free points than the same model with joint 1's harmonics held beyond a quarter of
-/// the readings' span, as before (fails with the decision off: 0.116 mm against 0.038).
+/// without its backlash) with its poses laid all around its base, calibrated on the
+/// configurations whose joint 1 lies within −60…30°; on the others more than 60° beyond them
+/// the model is closer to the noise-free points than the same model with joint 1's harmonics
+/// held beyond a quarter of the readings' span, as before (fails with the decision off: 0.116
+/// mm against 0.038).
 #[test]
 fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolate() {
     use robocal_pipeline::{AutoSettings, automatic};
