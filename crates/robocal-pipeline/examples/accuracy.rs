@@ -215,13 +215,7 @@ const WINDOW: [f64; 2] = [-60.0, 30.0];
 /// joint 1 then spans its whole turn.
 fn ring(twin: &TwinConfig) -> TwinConfig {
     let mut ringed = twin.clone();
-    let g = &mut ringed.poses;
-    let r = [g.x[0], g.x[1], g.y[0], g.y[1]]
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    g.x = [-r, r];
-    g.y = [-r, r];
-    g.count = (3 * g.count).min(300);
+    ringed.poses = twin.poses.around_base((3 * twin.poses.count).min(300));
     ringed
 }
 

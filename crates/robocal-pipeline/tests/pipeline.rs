@@ -612,9 +612,7 @@ fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolat
     use robocal_pipeline::{AutoSettings, automatic};
     use robocal_robot::Harmonic;
     let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
-    twin.poses.x = [-550.0, 550.0];
-    twin.poses.y = [-550.0, 550.0];
-    twin.poses.count = 240;
+    twin.poses = twin.poses.around_base(240);
     twin.backlash.clear();
     let data = twin.generate().unwrap();
     let inside = |q: f64| (-60.0..=30.0).contains(&q);
@@ -679,9 +677,7 @@ fn the_default_keeps_the_quarter_reach_where_continued_only_just_beats_held() {
     use robocal_pipeline::calibration::REACH_GAIN;
     use robocal_pipeline::{AutoSettings, automatic};
     let mut twin = TwinConfig::load(root().join("configs/twin/arm7.toml")).unwrap();
-    twin.poses.x = [-700.0, 700.0];
-    twin.poses.y = [-700.0, 700.0];
-    twin.poses.count = 300;
+    twin.poses = twin.poses.around_base(300);
     let data = twin.generate().unwrap();
     let rows: Vec<&robocal_data::Measurement> = (data.measurements.rows.iter())
         .filter(|m| (-60.0..=30.0).contains(&m.sample.joints[0]))

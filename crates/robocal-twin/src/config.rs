@@ -264,6 +264,24 @@ pub struct PoseGrid {
     pub min_conditioning: f64,
 }
 
+impl PoseGrid {
+    /// The grid laid all around the base: x and y each over ± the grid's largest reach along
+    /// either, the other settings kept, `count` configurations. Joint 1 then spans its whole
+    /// turn (the accuracy suite's window split, and the tests of how far a model carries beyond
+    /// joint 1's readings).
+    pub fn around_base(&self, count: usize) -> Self {
+        let r = [self.x[0], self.x[1], self.y[0], self.y[1]]
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        Self {
+            x: [-r, r],
+            y: [-r, r],
+            count,
+            ..self.clone()
+        }
+    }
+}
+
 /// Load conditions, kg.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Loads {

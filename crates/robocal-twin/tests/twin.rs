@@ -517,3 +517,39 @@ fn a_bad_beyond_section_is_named() {
         "{err}"
     );
 }
+
+/// The grid laid around the base spans ± the grid's largest reach in x and y, keeps the rest,
+/// and its configurations turn joint 1 through most of its turn, on both sides of zero (the
+/// five-axis twin's grid lies ahead of its base, x 250…550 mm, y ±300: joint 1 within ±50°).
+#[test]
+fn a_grid_around_the_base_turns_joint_1_all_the_way_round() {
+    let arm5 = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    let g = arm5.poses.around_base(40);
+    assert_eq!((g.x, g.y, g.count), ([-550.0, 550.0], [-550.0, 550.0], 40));
+    assert_eq!(
+        (g.z, g.step, &g.home),
+        (arm5.poses.z, arm5.poses.step, &arm5.poses.home)
+    );
+    let joint1 = |twin: &TwinConfig| -> [f64; 2] {
+        let data = twin.generate().unwrap();
+        (data.measurements.rows.iter()).fold([f64::MAX, f64::MIN], |[lo, hi], r| {
+            [lo.min(r.sample.joints[0]), hi.max(r.sample.joints[0])]
+        })
+    };
+    let around = joint1(&TwinConfig {
+        poses: g,
+        ..arm5.clone()
+    });
+    let [lo, hi] = joint1(&TwinConfig {
+        poses: robocal_twin::PoseGrid {
+            count: 40,
+            ..arm5.poses.clone()
+        },
+        ..arm5.clone()
+    });
+    assert!(lo > -60.0 && hi < 60.0, "ahead of the base: {lo}..{hi}°");
+    assert!(
+        around[0] < -135.0 && around[1] > 135.0,
+        "around: {around:?}°"
+    );
+}
