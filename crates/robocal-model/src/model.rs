@@ -229,6 +229,8 @@ impl CalibratedModel {
     /// it of zero). There the side without the jump is the slope, and the jump `J` itself is a
     /// two-valued uncertainty: the flank either holds or turns, whose variance is at most
     /// `|J|²/4` — added once (every direction that turns the same flank sees the same jump).
+    /// Beyond a transmission harmonic's reach, where the model holds it, what the parameters
+    /// cannot say is added too ([`Self::held_variance`]).
     /// `None` without a covariance, or one that names a parameter the model lacks (checked
     /// when a directory is read).
     pub fn physics_sigmas(&self, samples: &[&Sample]) -> Option<Vec<f64>> {
@@ -258,10 +260,40 @@ impl CalibratedModel {
             }
         }
         Some(
-            (variance.iter().zip(&jump))
-                .map(|(v, j)| (v + j * j / 4.0).sqrt())
+            (variance.iter().zip(&jump).zip(samples))
+                .map(|((v, j), s)| (v + j * j / 4.0 + self.held_variance(s)).sqrt())
                 .collect(),
         )
+    }
+
+    /// What holding the transmission harmonics beyond their reach may miss at `s`, mm²: each
+    /// joint's [`robocal_robot::Harmonic::held_variance`] (rad²) summed over its harmonics,
+    /// through the point's derivative in that joint (central differences of 10⁻³°). 0 where
+    /// every reading lies within its harmonics' reach.
+    pub fn held_variance(&self, s: &Sample) -> f64 {
+        const STEP_DEG: f64 = 1e-3;
+        let Some(errors) = &self.joint_errors else {
+            return 0.0;
+        };
+        let q = s.joints_rad();
+        let mut total = 0.0;
+        for (j, &qj) in q.iter().enumerate() {
+            let v: f64 = (errors.harmonics.iter())
+                .filter(|h| h.joint == j)
+                .map(|h| h.held_variance(qj))
+                .sum();
+            if v <= 0.0 {
+                continue;
+            }
+            let moved = |d: f64| {
+                let mut t = s.clone();
+                t.joints[j] += d;
+                self.base_point(&t)
+            };
+            let slope = (moved(STEP_DEG) - moved(-STEP_DEG)) / (2.0 * STEP_DEG.to_radians());
+            total += slope.norm_squared() * v;
+        }
+        total
     }
 
     /// Measured − predicted position of every row, mm, world frame.

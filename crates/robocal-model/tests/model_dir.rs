@@ -321,3 +321,67 @@ fn the_covariance_round_trips_and_a_bad_one_is_refused_with_its_key() {
     assert!(old.covariance.is_none());
     assert!(old.predict_with_sigma(&poses, true).1.is_none());
 }
+
+/// Beyond a harmonic's reach the model holds it; its deviation there adds what holding may miss,
+/// checked against the mean square, over a grid of the harmonics' phases, of the point moved
+/// from the held harmonics to the continued ones (each order's amplitude kept): 0 within the
+/// reach, the same within 1 % beyond it, and in the deviation on top of the covariance's.
+#[test]
+fn beyond_a_harmonics_reach_the_deviation_adds_what_holding_may_miss() {
+    let mut model = physical_model_with_covariance();
+    let reach = [(-30.0f64).to_radians(), 30.0f64.to_radians()];
+    let amplitude = [0.02f64.to_radians(), 0.012f64.to_radians()];
+    let errors = model.joint_errors.as_mut().unwrap();
+    errors.harmonics.retain(|h| h.joint != 0);
+    for (k, a) in amplitude.iter().enumerate() {
+        errors.harmonics.push(robocal_robot::Harmonic {
+            joint: 0,
+            order: k as u32 + 1,
+            sin: a * 0.6,
+            cos: a * 0.8,
+            reach: Some(reach),
+        });
+    }
+    let at = |q1: f64| Sample {
+        joints: vec![q1, -40.0, 20.0, 35.0, 50.0, -20.0],
+        ..samples(1, 3).remove(0)
+    };
+    let inside = at(25.0);
+    assert_eq!(model.held_variance(&inside), 0.0);
+    let phases = 48;
+    let turned = |s: &Sample, reach: Option<[f64; 2]>, p1: usize, p2: usize| {
+        let mut m = model.clone();
+        let hs = &mut m.joint_errors.as_mut().unwrap().harmonics;
+        for h in hs.iter_mut().filter(|h| h.joint == 0) {
+            let phi = std::f64::consts::TAU * [p1, p2][h.order as usize - 1] as f64 / phases as f64;
+            let a = amplitude[h.order as usize - 1];
+            (h.sin, h.cos, h.reach) = (a * phi.cos(), a * phi.sin(), reach);
+        }
+        m.base_point(s)
+    };
+    for q1 in [50.0, 100.0, 170.0] {
+        let s = at(q1);
+        let mut mean_square = 0.0;
+        for p1 in 0..phases {
+            for p2 in 0..phases {
+                let miss = turned(&s, None, p1, p2) - turned(&s, Some(reach), p1, p2);
+                mean_square += miss.norm_squared() / (phases * phases) as f64;
+            }
+        }
+        let held = model.held_variance(&s);
+        assert!(
+            (held - mean_square).abs() < 0.01 * mean_square && held > 1e-4,
+            "q1 {q1}°: {held} mm² against {mean_square}"
+        );
+        let sigma = |m: &CalibratedModel| m.physics_sigmas(&[&s]).unwrap()[0];
+        let mut unheld = model.clone();
+        for h in &mut unheld.joint_errors.as_mut().unwrap().harmonics {
+            h.reach = None;
+        }
+        let (with, without) = (sigma(&model), sigma(&unheld));
+        assert!(
+            (with * with - without * without - held).abs() < 0.01 * held,
+            "q1 {q1}°: σ {with} with, {without} continued, held variance {held}"
+        );
+    }
+}

@@ -186,6 +186,17 @@ impl Harmonic {
         self.sin * s + self.cos * c
     }
 
+    /// What holding the harmonic beyond its reach may miss at joint angle `q`, as a variance
+    /// (rad²): the mean square, over the harmonic's phase, of the difference between its value
+    /// at `q` and at the held angle, `A² (1 − cos(k d))` with `A` its amplitude and `d` the
+    /// distance from `q` to the held angle (0 within the reach). Beyond the reach the model
+    /// claims nothing of the harmonic but its size: if it is a gear's, it moves on there, by a
+    /// turn of phase the readings did not show.
+    pub fn held_variance(&self, q: f64) -> f64 {
+        let d = q - self.angle(q);
+        (self.sin * self.sin + self.cos * self.cos) * (1.0 - (f64::from(self.order) * d).cos())
+    }
+
     /// The reach for readings from `lo` to `hi` (rad): widened by [`HARMONIC_REACH`] of the
     /// span at each end.
     pub fn reach_of(lo: f64, hi: f64) -> [f64; 2] {
