@@ -24,12 +24,12 @@ pub mod stage;
 
 pub use calibrate::{
     BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport,
-    FAR_FROM_NOMINAL, FitMemo, FixedParameter, HARMONIC_BOUND_DEG, HUBER_K, ILL_CONDITIONED,
-    IRLS_ROUNDS, JointCompliance, JointErrorSettings, KinematicCalibration, KinematicReport,
-    KinematicSettings, Loss, MOUNTING_ANGLE_DEG, OrientationReport, PAYLOAD_COM_BOUND, POOR_FIT,
-    ParameterReport, SolverKind, TORQUE_SHARE, align, calibrate_kinematics,
-    calibrate_kinematics_with, default_compliance_joints, far_from_nominal, prior_spread,
-    tracker_down,
+    FAR_FROM_NOMINAL, FLANK_ROUNDS, FitMemo, FixedParameter, HARMONIC_BOUND_DEG, HUBER_K,
+    ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance, JointErrorSettings, KinematicCalibration,
+    KinematicReport, KinematicSettings, Loss, MOUNTING_ANGLE_DEG, OrientationReport,
+    PAYLOAD_COM_BOUND, POOR_FIT, ParameterReport, SEARCH_FLANK_ROUNDS, SolverKind, TORQUE_SHARE,
+    align, calibrate_kinematics, calibrate_kinematics_with, default_compliance_joints,
+    far_from_nominal, prior_spread, tracker_down,
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{

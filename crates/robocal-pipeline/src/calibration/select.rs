@@ -8,8 +8,9 @@ use rayon::prelude::*;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{
-    ComplianceSettings, FitMemo, JointErrorSettings, KinematicCalibration, KinematicSettings,
-    MOUNTING_ANGLE_DEG, Observations, calibrate_kinematics, tracker_down,
+    ComplianceSettings, FLANK_ROUNDS, FitMemo, JointErrorSettings, KinematicCalibration,
+    KinematicSettings, MOUNTING_ANGLE_DEG, Observations, SEARCH_FLANK_ROUNDS, calibrate_kinematics,
+    tracker_down,
 };
 use robocal_model::{CalibratedModel, Domain};
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
@@ -645,10 +646,17 @@ fn physics_chain(
     over_budget: &dyn Fn(f64) -> bool,
 ) -> Chain {
     let mut score = |physics: Physics| {
-        // A joint-error candidate does not start when the budget would be spent before it ends,
-        // projected from the slowest candidate so far (it holds at least as many terms).
+        // A joint-error candidate does not start when the budget would be spent before it and the
+        // final fit of its physics end, projected from the slowest candidate so far (it holds at
+        // least as many terms); the flank search's fits choose the flanks up to
+        // SEARCH_FLANK_ROUNDS times where the others choose them FLANK_ROUNDS times.
         let slowest = candidates.iter().map(|c| c.seconds).fold(0.0, f64::max);
-        if physics.has_joint_errors() && over_budget(slowest) {
+        let projected = if physics.flank_search {
+            slowest * SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
+        } else {
+            slowest
+        } * (1.0 + FINAL_FIT_SHARE);
+        if physics.has_joint_errors() && over_budget(projected) {
             let c = Candidate {
                 name: physics.name(),
                 held_out: None,
@@ -656,7 +664,7 @@ fn physics_chain(
                 score: None,
                 seconds: 0.0,
                 status: format!(
-                    "skipped: the time budget ({} s) would be spent before its folds end (projected from the slowest candidate, {slowest:.1} s)",
+                    "skipped: the time budget ({} s) would be spent before its folds and the final fit end (projected from the slowest candidate, {slowest:.1} s: {projected:.1} s)",
                     settings.budget_seconds
                 ),
             };
