@@ -939,9 +939,10 @@ fn residual_candidates(
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
                     pending_final = pending_final.max(slowest);
                     spread = spread::calibrate(&spread_pairs);
+                    let all = held.all();
                     significant = (chain.scored[chain.current].errors.as_ref())
-                        .is_some_and(|base| improves(base, &held.all(), groups));
-                    errors = Some(held.all());
+                        .is_some_and(|base| improves(base, &all, groups));
+                    errors = Some(all);
                     c.status = if significant {
                         "evaluated".into()
                     } else {
@@ -966,10 +967,10 @@ fn residual_candidates(
 /// significantly lower than the physical model's (and whose score is lower), the first
 /// configured — the GP, which says how sure it is and reverts to the physics beyond its data —
 /// unless a later one lowers the pick's held-out errors significantly in turn ([`improves`],
-/// over configurations). A lower score alone does not replace it: two residual models a few
-/// micrometre apart on the folds are a draw there, and far from the data a
-/// network continues whatever its last layer extrapolates (the paper's arm's window twin: a
-/// SOMM 0.0403 mm on the folds against the GP's 0.0411, 0.22 mm beyond 67° from the readings).
+/// over configurations). A lower score alone does not replace it: two residual models a
+/// micrometre apart on the folds (the paper's arm's window twin: a SOMM 0.0403 mm against the
+/// GP's 0.0411) are a draw there, and far from the data a network continues whatever its last
+/// layer extrapolates, where the GP gives way to the physics and says so in its deviation.
 fn pick_residual(
     residuals: &[ResidualScore],
     physics_mean: f64,
