@@ -805,7 +805,6 @@ fn physics_chain(
 }
 
 /// A residual candidate's result.
-#[derive(Clone)]
 struct ResidualScore {
     /// Its selection score (none when skipped or abandoned).
     score: Option<f64>,
@@ -813,9 +812,6 @@ struct ResidualScore {
     significant: bool,
     /// Its standard deviations calibrated on the held-out rows (a model that gives them).
     spread: Option<SpreadCalibration>,
-    /// Its held-out errors, in the order of the physical candidates' (none when skipped or
-    /// abandoned).
-    errors: Option<Vec<f64>>,
 }
 
 /// Each residual model of `settings`, trained on every fold on what the identified chain model
@@ -858,7 +854,6 @@ fn residual_candidates(
             status: String::new(),
         };
         let mut significant = false;
-        let mut errors = None;
         let mut spread_pairs: Vec<(f64, f64)> = Vec::new();
         let mut spread = None;
         if fewest < settings.min_residual_configurations {
@@ -939,10 +934,8 @@ fn residual_candidates(
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
                     pending_final = pending_final.max(slowest);
                     spread = spread::calibrate(&spread_pairs);
-                    let all = held.all();
                     significant = (chain.scored[chain.current].errors.as_ref())
-                        .is_some_and(|base| improves(base, &all, groups));
-                    errors = Some(all);
+                        .is_some_and(|base| improves(base, &held.all(), groups));
                     c.status = if significant {
                         "evaluated".into()
                     } else {
@@ -956,7 +949,6 @@ fn residual_candidates(
             score: c.score,
             significant,
             spread,
-            errors,
         });
         candidates.push(c);
     }
@@ -964,34 +956,17 @@ fn residual_candidates(
 }
 
 /// The residual model the default keeps, with its score: of those whose held-out errors are
-/// significantly lower than the physical model's (and whose score is lower), the first
-/// configured — the GP, which says how sure it is and reverts to the physics beyond its data —
-/// unless a later one lowers the pick's held-out errors significantly in turn ([`improves`],
-/// over configurations). A lower score alone does not replace it: two residual models a
-/// micrometre apart on the folds (the paper's arm's window twin: a SOMM 0.0403 mm against the
-/// GP's 0.0411) are a draw there, and far from the data a network continues whatever its last
-/// layer extrapolates, where the GP gives way to the physics and says so in its deviation.
-fn pick_residual(
-    residuals: &[ResidualScore],
-    physics_mean: f64,
-    groups: &[usize],
-) -> Option<(usize, f64)> {
-    let mut pick: Option<(usize, f64)> = None;
-    for (r, s) in residuals.iter().enumerate() {
-        let (Some(score), Some(errors)) = (s.score, s.errors.as_ref()) else {
-            continue;
-        };
-        if !(s.significant && score < physics_mean) {
-            continue;
-        }
-        let replaces = pick.is_none_or(|(p, _)| {
-            (residuals[p].errors.as_ref()).is_some_and(|before| improves(before, errors, groups))
-        });
-        if replaces {
-            pick = Some((r, score));
-        }
-    }
-    pick
+/// significantly lower than the physical model's (and whose score is lower), the one with the
+/// lowest score. Until session 35 the lowest score was taken first and the paired test asked of
+/// it alone, so a lowest-scoring network that failed the test left no residual model where the
+/// GP had passed it. (Preferring the GP unless a network beat it significantly was measured in
+/// session 35 and not kept: one row of the families kept aside 9 % higher, `docs/accuracy.md`.)
+fn pick_residual(residuals: &[ResidualScore], physics_mean: f64) -> Option<(usize, f64)> {
+    (residuals.iter().enumerate())
+        .filter(|(_, s)| s.significant)
+        .filter_map(|(r, s)| s.score.map(|m| (r, m)))
+        .filter(|&(_, m)| m < physics_mean)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 /// A decision with its reason: `kept`/`dropped`, the scores without and with the stage.
@@ -1143,7 +1118,7 @@ fn decisions(
             Some(physics_mean),
             Some(mean),
             &format!(
-                "a {} residual model ({} tried: the first configured of those significantly better than the physical model, unless a later one is significantly better than it)",
+                "a {} residual model (of {} tried, the lowest-scoring of those significantly better than the physical model)",
                 settings.residuals[r].settings.kind.name(),
                 settings.residuals.len()
             ),
@@ -1310,7 +1285,7 @@ pub fn automatic(
         .filter_map(|(r, s)| s.score.map(|m| (r, m)))
         .min_by(|a, b| a.1.total_cmp(&b.1));
     let physics_mean = chain.scored[chain.current].score.unwrap_or(f64::INFINITY);
-    let residual_wins = pick_residual(&residuals, physics_mean, &groups);
+    let residual_wins = pick_residual(&residuals, physics_mean);
     // The winner, and the physical candidate it holds (a residual model's is the one it was
     // trained on).
     let (winner, chosen_scored) = match residual_wins {
@@ -1412,56 +1387,38 @@ mod tests {
 
     use super::*;
 
-    /// The residual pick, on errors made up by hand over four configurations of one row each:
-    /// the physics leaves 1.0 everywhere; the GP 0.8 (significant); a network a little lower on
-    /// average but not consistently (0.5, 0.9, 0.9, 0.7: mean 0.75, its gain over the GP 0.05
-    /// ± 0.096 standard error) does not replace it, whatever its score; one consistently lower
-    /// (0.7, 0.72, 0.68, 0.7) does; where the GP is not significant a significant network is
-    /// taken, and with neither, none (the lowest score alone would take the first network).
+    /// The residual pick: the lowest score among the models that pass the paired test against
+    /// the physics (1.0); a lower-scoring model that fails it does not hide one that passes, and
+    /// one that passes but scores above the physics is not taken.
     #[test]
-    fn the_first_significant_residual_model_stays_unless_a_later_one_beats_it_significantly() {
-        let groups = [0, 1, 2, 3];
-        let score = |errors: &[f64], significant: bool| ResidualScore {
-            score: Some(errors.iter().sum::<f64>() / errors.len() as f64),
+    fn the_residual_pick_is_the_lowest_score_among_the_significant() {
+        let model = |score: f64, significant: bool| ResidualScore {
+            score: Some(score),
             significant,
             spread: None,
-            errors: Some(errors.to_vec()),
         };
-        let gp = score(&[0.8; 4], true);
-        let draw = score(&[0.5, 0.9, 0.9, 0.7], true);
-        let better = score(&[0.7, 0.72, 0.68, 0.7], true);
-        assert!(draw.score < gp.score);
-        assert_eq!(
-            pick_residual(&[gp.clone(), draw.clone()], 1.0, &groups),
-            Some((0, 0.8))
-        );
-        let picked = pick_residual(&[gp.clone(), better.clone()], 1.0, &groups).unwrap();
-        assert_eq!(picked.0, 1);
-        assert!((picked.1 - 0.7).abs() < 1e-12);
-        let unsure = ResidualScore {
-            significant: false,
-            ..gp.clone()
-        };
-        assert_eq!(
-            pick_residual(&[unsure.clone(), draw.clone()], 1.0, &groups).map(|p| p.0),
-            Some(1)
-        );
         let skipped = ResidualScore {
             score: None,
-            errors: None,
-            ..gp.clone()
+            significant: false,
+            spread: None,
         };
         assert_eq!(
-            pick_residual(&[skipped, draw.clone()], 1.0, &groups).map(|p| p.0),
-            Some(1)
+            pick_residual(&[model(0.8, true), model(0.75, true)], 1.0),
+            Some((1, 0.75))
         );
-        let unsure_draw = ResidualScore {
-            significant: false,
-            ..draw
-        };
-        assert_eq!(pick_residual(&[unsure, unsure_draw], 1.0, &groups), None);
-        // Significant against the groups but scoring above the physics: not taken.
-        assert_eq!(pick_residual(&[gp], 0.7, &groups), None);
+        assert_eq!(
+            pick_residual(&[model(0.8, true), model(0.75, false)], 1.0),
+            Some((0, 0.8))
+        );
+        assert_eq!(
+            pick_residual(&[skipped, model(0.9, true)], 1.0),
+            Some((1, 0.9))
+        );
+        assert_eq!(
+            pick_residual(&[model(0.8, false), model(0.75, false)], 1.0),
+            None
+        );
+        assert_eq!(pick_residual(&[model(0.8, true)], 0.7), None);
     }
 
     /// A twin's rows, `count` configurations at its trained loads.
