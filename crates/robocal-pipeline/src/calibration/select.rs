@@ -341,7 +341,11 @@ struct Scored {
     fitted: Vec<Option<CalibratedModel>>,
 }
 
-/// Fits `physics` on every fold and scores it on the fold's held-out rows.
+/// Fits `physics` on every fold and scores it on the fold's held-out rows. A joint-error
+/// candidate is abandoned once its remaining folds, at the pace of those fitted, and the final
+/// fit would run past the time budget (`over_budget`): the folds not yet started are not fitted
+/// and the candidate has no score. Its start was projected from the candidates before it
+/// ([`physics_chain`]); one that unites more blocks than any before can take twice that.
 fn score_physics(
     physics: Physics,
     auto: &AutoSettings,
@@ -349,25 +353,52 @@ fn score_physics(
     plan: &FoldPlan<'_>,
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
+    over_budget: &(dyn Fn(f64) -> bool + Sync),
 ) -> Scored {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     let splits = &plan.splits;
     let t = std::time::Instant::now();
     let kinematic = physics.settings(auto);
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
+    let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let at_once = rayon::current_num_threads().max(1);
     // The folds' fits are independent: on every core at once, taken in fold order (the same
     // results on any number of cores), each sharing with the candidates before it the fits of
-    // its rows they made.
+    // its rows they made. Before a fold starts, once a core's worth are fitted, the rest are
+    // projected at their pace.
     let fits: Vec<_> = (splits.par_iter())
         .zip(&plan.memos)
         .map(|(fold, memo)| {
+            let n = done.load(Ordering::SeqCst);
+            if physics.has_joint_errors() && n >= at_once {
+                let pace = t.elapsed().as_secs_f64() / n as f64;
+                let left = pace * (splits.len() - n) as f64;
+                if over_budget(left * (1.0 + FINAL_FIT_SHARE)) {
+                    abandoned.store(true, Ordering::SeqCst);
+                }
+            }
+            if abandoned.load(Ordering::SeqCst) {
+                return None;
+            }
             let fit = fit_kinematic_with(nominal, &fold.train, &kinematic, memo);
+            done.fetch_add(1, Ordering::SeqCst);
             observer.advance(1);
-            fit
+            Some(fit)
         })
         .collect();
+    if abandoned.load(Ordering::SeqCst) {
+        failure = Some(format!(
+            "abandoned: its folds would run past the time budget ({} s)",
+            auto.budget_seconds
+        ));
+    }
     for (fold, fit) in splits.iter().zip(fits) {
+        let Some(fit) = fit.filter(|_| failure.is_none()) else {
+            fitted.push(None);
+            continue;
+        };
         match fit {
             Ok(fit) => {
                 let model = physics.model(&fit);
@@ -643,7 +674,7 @@ fn physics_chain(
     groups: &[usize],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
-    over_budget: &dyn Fn(f64) -> bool,
+    over_budget: &(dyn Fn(f64) -> bool + Sync),
 ) -> Chain {
     let mut score = |physics: Physics| {
         // A joint-error candidate does not start when the budget would be spent before it and the
@@ -677,7 +708,15 @@ fn physics_chain(
                 fitted: vec![None; plan.splits.len()],
             };
         }
-        score_physics(physics, settings, nominal, plan, candidates, observer)
+        score_physics(
+            physics,
+            settings,
+            nominal,
+            plan,
+            candidates,
+            observer,
+            over_budget,
+        )
     };
     let mut chain = Chain {
         scored: vec![score(Physics::ALIGNED)],
