@@ -395,7 +395,8 @@ fn score_physics(
         ));
     }
     for (fold, fit) in splits.iter().zip(fits) {
-        let Some(fit) = fit.filter(|_| failure.is_none()) else {
+        // A fold not fitted (the candidate abandoned).
+        let Some(fit) = fit else {
             fitted.push(None);
             continue;
         };
