@@ -495,9 +495,8 @@ fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
         .map(|r| ids.binary_search(&r.sample.pose.as_str()).unwrap_or(0))
         .collect();
     let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
-    let kept =
-        improves(&held, &continued, &groups) && mean(&continued) < (1.0 - REACH_GAIN) * mean(&held);
     let (without, with) = (mean(&held), mean(&continued));
+    let kept = improves(&held, &continued, &groups) && with < (1.0 - REACH_GAIN) * without;
     Some(Decision {
         stage: "harmonic_reach",
         kept,
