@@ -122,7 +122,9 @@ fn bad_shots_are_named_and_left_out_and_clean_rows_are_not() {
 /// decimals would give them): calibrate warns, naming the joints, the step and what the rounding
 /// leaves (about 0.1 mm at these poses: the estimate is checked against forward kinematics in
 /// `readings.rs`), on stderr and in report.json; the same rows as the twin logged them (0.0001°)
-/// get no such warning.
+/// get no such warning. The estimate is the fitted arm's: a robot file that guesses no tool
+/// (the reflector on the flange, 100 mm nearer the wrist axes than the file's guess) gives the
+/// same number.
 #[test]
 fn joint_readings_rounded_when_logged_are_warned_of() {
     let dir = tempfile::tempdir().unwrap();
@@ -132,10 +134,33 @@ fn joint_readings_rounded_when_logged_are_warned_of() {
             *q = format!("{:.2}", q.parse::<f64>().unwrap());
         }
     });
-    for (file, warned) in [(&data, false), (&rounded, true)] {
-        let model = dir.path().join(format!("model-{warned}"));
-        let (ok, stderr) = calibrate(file, &model, &[]);
-        assert!(ok, "{stderr}");
+    let guessed = std::fs::read_to_string(ROBOT).unwrap();
+    assert!(guessed.contains("xyz = [0.0, 0.0, 100.0]"));
+    let no_tool = write(
+        dir.path(),
+        "no-tool.toml",
+        &guessed.replace("xyz = [0.0, 0.0, 100.0]", "xyz = [0.0, 0.0, 0.0]"),
+    );
+    let mut estimates = Vec::new();
+    for (file, robot, warned) in [
+        (&data, Path::new(ROBOT), false),
+        (&rounded, Path::new(ROBOT), true),
+        (&rounded, no_tool.as_path(), true),
+    ] {
+        let model = dir.path().join(format!("model-{}", estimates.len() + 1));
+        let o = robocal(&[
+            "calibrate",
+            "--robot",
+            s(robot),
+            "--data",
+            s(file),
+            "--out",
+            s(&model),
+            "--config",
+            STAGE,
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{stderr}");
         let said = "warning: the joint readings are rounded (q1 to 0.01°, q2 to 0.01°, q3 to 0.01°, q4 to 0.01°, q5 to 0.01°, q6 to 0.01°): the rounding alone leaves about ";
         let left = (stderr.split_once(said)).map(|(_, rest)| {
             let mm: f64 = rest.split(' ').next().unwrap().parse().unwrap();
@@ -144,6 +169,9 @@ fn joint_readings_rounded_when_logged_are_warned_of() {
         assert_eq!(left.is_some(), warned, "{stderr}");
         if let Some(mm) = left {
             assert!((0.07..0.13).contains(&mm), "{mm} mm: {stderr}");
+            estimates.push(mm);
+        } else {
+            estimates.push(0.0);
         }
         let warnings = report(&model)["kinematic"]["warnings"].to_string();
         assert_eq!(
@@ -152,6 +180,13 @@ fn joint_readings_rounded_when_logged_are_warned_of() {
             "{warnings}"
         );
     }
+    // The warning prints three decimals.
+    assert!(
+        (estimates[1] - estimates[2]).abs() <= 0.0015,
+        "with the file's tool guess {} mm, without {} mm",
+        estimates[1],
+        estimates[2]
+    );
 }
 
 #[test]

@@ -181,8 +181,9 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
         }
     };
-    // Readings rounded when logged: what the rounding alone leaves, against what the fit leaves.
-    let rounded = rounded_joints(input.nominal, &rows);
+    // Readings rounded when logged: what the rounding alone leaves (the joint Jacobian of the
+    // fitted table: its tool and base, not the robot file's guesses), against what the fit leaves.
+    let rounded = rounded_joints(&built.kinematic.robot, &rows);
     if let Some(w) = rounding_warning(&rounded, built.kinematic.report.after.rms) {
         built.kinematic.report.warnings.push(w);
     }
