@@ -84,7 +84,8 @@ pub enum Command {
         #[arg(long, value_name = "CSV")]
         out: PathBuf,
         /// Add a column `sigma`: each point's standard deviation, mm (a model with a
-        /// Gaussian-process residual: the GP's; a physical model: its identified parameters').
+        /// Gaussian-process residual: the GP's, with what holding a harmonic beyond its reach
+        /// may miss; a physical model: its identified parameters').
         #[arg(long)]
         sigma: bool,
     },

@@ -189,8 +189,11 @@ impl CalibratedModel {
 
     /// Predicted points for `samples` (mm, world frame) and, with `sigma`, each point's standard
     /// deviation (the root sum of the axes' variances, mm) where the model knows how sure it is:
-    /// a residual model that gives one (the GP) gives it; a physical model without a residual
-    /// model gives its parameters' ([`Self::physics_sigmas`]); otherwise `None`.
+    /// a residual model that gives one (the GP) gives it, with what holding a transmission
+    /// harmonic beyond its reach may miss ([`Self::held_variance`]: the residual model learned
+    /// nothing there, and the GP's prior knows nothing of the physics beneath it; 0 inside every
+    /// reach); a physical model without a residual model gives its parameters'
+    /// ([`Self::physics_sigmas`]); otherwise `None`.
     pub fn predict_with_sigma<'a>(
         &self,
         samples: impl IntoIterator<Item = &'a Sample>,
@@ -211,8 +214,10 @@ impl CalibratedModel {
             *p += Vector3::from(e);
         }
         let sigmas = std.map(|sd| {
-            sd.iter()
-                .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
+            (sd.iter().zip(&samples))
+                .map(|(s, sample)| {
+                    (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + self.held_variance(sample)).sqrt()
+                })
                 .collect()
         });
         (points, sigmas)

@@ -325,7 +325,8 @@ fn the_covariance_round_trips_and_a_bad_one_is_refused_with_its_key() {
 /// Beyond a harmonic's reach the model holds it; its deviation there adds what holding may miss,
 /// checked against the mean square, over a grid of the harmonics' phases, of the point moved
 /// from the held harmonics to the continued ones (each order's amplitude kept): 0 within the
-/// reach, the same within 1 % beyond it, and in the deviation on top of the covariance's.
+/// reach, the same within 1 % beyond it, and in the deviation on top of the covariance's, or of
+/// a GP residual's.
 #[test]
 fn beyond_a_harmonics_reach_the_deviation_adds_what_holding_may_miss() {
     let mut model = physical_model_with_covariance();
@@ -348,6 +349,22 @@ fn beyond_a_harmonics_reach_the_deviation_adds_what_holding_may_miss() {
     };
     let inside = at(25.0);
     assert_eq!(model.held_variance(&inside), 0.0);
+    // With a GP residual on top: the GP's deviation (it learned nothing beyond its rows, and
+    // knows nothing of the physics beneath it) and what holding may miss, in quadrature.
+    let with_gp = CalibratedModel {
+        residual: full_model().residual,
+        ..model.clone()
+    };
+    let gp_sigma = |s: &Sample| {
+        let rows = with_gp.residual_rows(&[s]);
+        let sd = (with_gp.residual.as_ref().unwrap())
+            .predict_with_std(&rows, true)
+            .1
+            .unwrap()[0];
+        sd.iter().map(|v| v * v).sum::<f64>().sqrt()
+    };
+    let stack_sigma = |s: &Sample| with_gp.predict_with_sigma([s], true).1.unwrap()[0];
+    assert_eq!(stack_sigma(&inside), gp_sigma(&inside));
     let phases = 48;
     let turned = |s: &Sample, reach: Option<[f64; 2]>, p1: usize, p2: usize| {
         let mut m = model.clone();
@@ -372,6 +389,11 @@ fn beyond_a_harmonics_reach_the_deviation_adds_what_holding_may_miss() {
         assert!(
             (held - mean_square).abs() < 0.01 * mean_square && held > 1e-4,
             "q1 {q1}°: {held} mm² against {mean_square}"
+        );
+        let (stack, gp) = (stack_sigma(&s), gp_sigma(&s));
+        assert!(
+            (stack * stack - gp * gp - held).abs() < 1e-9 * held,
+            "q1 {q1}°: σ {stack} with a GP whose own is {gp}, held variance {held}"
         );
         let sigma = |m: &CalibratedModel| m.physics_sigmas(&[&s]).unwrap()[0];
         let mut unheld = model.clone();
