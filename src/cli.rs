@@ -85,7 +85,8 @@ pub enum Command {
         out: PathBuf,
         /// Add a column `sigma`: each point's standard deviation, mm (a model with a
         /// Gaussian-process residual: the GP's, with what holding a harmonic beyond its reach
-        /// may miss; a physical model: its identified parameters').
+        /// may miss; a network residual: the physics' deviation with the spread its folds
+        /// found beside it; a physical model: its identified parameters').
         #[arg(long)]
         sigma: bool,
     },

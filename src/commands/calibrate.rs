@@ -197,6 +197,16 @@ pub fn run(
                 100.0 * s.within_after,
             );
         }
+        if let Some(b) = &r.spread_beside {
+            eprintln!(
+                "robocal: residual ({}): spread {:.4} mm beside the physics' standard deviation, as its folds' {} held-out rows found it (within one predicted spread of the measured point: {:.0} % with the physics' alone, {:.0} % with the spread, 61 % if it is right; it holds the tracker's noise too)",
+                r.model,
+                b.spread,
+                b.rows,
+                100.0 * b.within_physics,
+                100.0 * b.within_after,
+            );
+        }
     }
     if let Some(v) = &report.validation {
         eprintln!(

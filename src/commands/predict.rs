@@ -10,7 +10,8 @@ use crate::cli::ModelSource;
 
 /// Predicts every row of `data` and writes `pose,load,x,y,z` to `out`, atomically; with
 /// `sigma`, also each point's standard deviation (a model with a Gaussian-process residual: the
-/// GP's; a physical model without a residual model: its identified parameters');
+/// GP's; a network residual: the physics' deviation with the network's spread; a physical
+/// model without a residual model: its identified parameters');
 /// with `rx, ry, rz` columns in `data` (a 6-DoF probe's file), the tool frame's predicted
 /// orientation in them.
 pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result<()> {
@@ -21,7 +22,7 @@ pub fn run(source: &ModelSource, data: &Path, out: &Path, sigma: bool) -> Result
     let (points, sigmas) = model.predict_with_sigma(&samples.rows, sigma);
     if sigma && sigmas.is_none() {
         bail!(
-            "--sigma: this model gives no standard deviation (a model with a Gaussian-process residual gives the GP's, a physical model without a residual model its parameters' covariance's; a network residual gives none, and a table alone, or a model directory without covariance.json, has no covariance); nothing written"
+            "--sigma: this model gives no standard deviation (a model with a Gaussian-process residual gives the GP's, a physical model without a residual model its parameters' covariance's; a network residual gives the physics' with its spread when the default calibration estimated one, else none; a table alone, or a model directory without covariance.json, has no covariance); nothing written"
         );
     }
     let rows: Vec<Prediction> = (samples.rows.iter().zip(points).enumerate())

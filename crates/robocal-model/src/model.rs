@@ -192,7 +192,9 @@ impl CalibratedModel {
     /// a residual model that gives one (the GP) gives it, with what holding a transmission
     /// harmonic beyond its reach may miss ([`Self::held_variance`]: the residual model learned
     /// nothing there, and the GP's prior knows nothing of the physics beneath it; 0 inside every
-    /// reach); a physical model without a residual model gives its parameters'
+    /// reach); a network residual whose folds estimated its spread
+    /// ([`ResidualModel::spread_mm`]) gives the physics' deviation and that spread in
+    /// quadrature; a physical model without a residual model gives its parameters'
     /// ([`Self::physics_sigmas`]); otherwise `None`.
     pub fn predict_with_sigma<'a>(
         &self,
@@ -209,9 +211,19 @@ impl CalibratedModel {
             };
             return (points, sigmas);
         };
+        // A network's spread beside the physics' deviation, about the physical points.
+        let beside = match (sigma, residual.spread_mm) {
+            (true, Some(spread)) if !residual.kind().gives_std() => self
+                .physics_sigmas_about(&samples, &points)
+                .map(|p| p.iter().map(|s| s.hypot(spread)).collect::<Vec<f64>>()),
+            _ => None,
+        };
         let (mean, std) = residual.predict_with_std(&self.residual_rows(&samples), sigma);
         for (p, e) in points.iter_mut().zip(mean) {
             *p += Vector3::from(e);
+        }
+        if beside.is_some() {
+            return (points, beside);
         }
         let sigmas = std.map(|sd| {
             (sd.iter().zip(&samples))

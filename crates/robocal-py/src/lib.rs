@@ -431,7 +431,8 @@ impl PyModel {
 
     /// The predicted point (world frame, mm) for each row of `q` (rows × joints, deg) under
     /// `load` (kg: one per row or one number). With `sigma=True`, also each point's standard
-    /// deviation (mm; a model with a Gaussian-process residual: the GP's; a physical model: its
+    /// deviation (mm; a model with a Gaussian-process residual: the GP's; a network the default
+    /// calibration chose: the physics' with the network's spread; a physical model: its
     /// identified parameters'): `(points, sigma)`. `target`:
     /// one point name per row (`[tool.points]`; empty: the default point).
     #[pyo3(signature = (q, load, sigma=false, *, target=None))]

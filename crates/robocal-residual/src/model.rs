@@ -95,6 +95,12 @@ pub struct ResidualModel {
     /// CA-SOMM with a fallback whose gate left a class (`'A'` or `'B'`) with fewer than two
     /// training rows: the model is one SOMM on every row, and this says why.
     pub empty_class: Option<char>,
+    /// A model that gives no standard deviation of its own (a network): the spread of what it
+    /// leaves beside the physics' deviation, as the folds' held-out rows found it (mm, the root
+    /// of the three axes' variances together; it holds the tracker's noise too). The model's
+    /// point then has the standard deviation `√(σ_physics² + spread_mm²)`. `None`: not
+    /// estimated (a model fitted without folds, or one that gives its own).
+    pub spread_mm: Option<f64>,
 }
 
 /// CA-SOMM's fallback decision: the two classes' error on the validation rows against a SOMM
@@ -239,6 +245,7 @@ impl ResidualModel {
             fitted,
             gate_decision: None,
             empty_class,
+            spread_mm: None,
         };
         if matches!(model.fitted, Fitted::CaSomm(_))
             && settings.classifier.fallback == Some(true)
@@ -282,6 +289,7 @@ impl ResidualModel {
             fitted: Fitted::Somm(Somm { members: sets }),
             gate_decision: None,
             empty_class: None,
+            spread_mm: None,
         })
     }
 

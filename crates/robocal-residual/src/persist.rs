@@ -60,6 +60,9 @@ struct Manifest {
     /// turn). Absent: one.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     members: usize,
+    /// A network's spread beside the physics' deviation, mm ([`ResidualModel::spread_mm`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    spread_mm: Option<f64>,
 }
 
 fn one() -> usize {
@@ -131,6 +134,7 @@ impl ResidualModel {
             gate_decision: self.gate_decision,
             empty_class: self.empty_class,
             members: self.members(),
+            spread_mm: self.spread_mm,
         };
         let path = dir.join(MANIFEST);
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| ResidualError::Format {
@@ -209,6 +213,18 @@ impl ResidualModel {
         }
         if let Some(gp) = &m.gp {
             gp.check(features).map_err(format)?;
+        }
+        if let Some(spread) = m.spread_mm {
+            if !(spread.is_finite() && spread >= 0.0) {
+                return Err(format(format!(
+                    "spread_mm {spread}: must be finite and not negative (mm)"
+                )));
+            }
+            if m.kind.gives_std() {
+                return Err(format(
+                    "spread_mm: a GP gives its own standard deviation (gp.std_scale), not a spread beside the physics'".into(),
+                ));
+            }
         }
         if let Some(class) = m.empty_class {
             if !matches!(class, 'A' | 'B') {
@@ -307,6 +323,7 @@ impl ResidualModel {
             fitted,
             gate_decision: m.gate_decision,
             empty_class: m.empty_class,
+            spread_mm: m.spread_mm,
         })
     }
 }

@@ -84,8 +84,13 @@ fn training_is_deterministic_and_a_saved_model_predicts_bit_identically() {
     let (pa, pb) = (a.predict(&val), b.predict(&val));
     assert_eq!(pa, pb, "same seed, same model");
     let dir = tempfile::tempdir().unwrap();
+    let mut a = a;
+    // The spread the default calibration's folds find beside the physics' deviation travels
+    // with the networks.
+    a.spread_mm = Some(0.0375);
     a.save(dir.path()).unwrap();
     let loaded = ResidualModel::load(dir.path()).unwrap();
+    assert_eq!(loaded.spread_mm, Some(0.0375));
     let pl = loaded.predict(&val);
     for (x, y) in pa.iter().flatten().zip(pl.iter().flatten()) {
         assert_eq!(x.to_bits(), y.to_bits());
@@ -326,6 +331,9 @@ fn bad_settings_and_bad_files_are_refused() {
         m["nets"][1]["file"] = "../../elsewhere.bpk".into();
     });
     refused_after(dir.path(), "inputs 0", |m| m["inputs"] = 0.into());
+    refused_after(dir.path(), "spread_mm -0.01", |m| {
+        m["spread_mm"] = (-0.01).into()
+    });
     refused_after(dir.path(), "scaling", |m| {
         m["nets"][2]["input_scale"]["std"][0] = 0.0.into();
     });
@@ -467,6 +475,14 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("gp.std_scale"), "{err}");
+    // A GP gives its own deviation: a spread beside the physics' is not its.
+    json["gp"]["std_scale"] = 2.5.into();
+    json["spread_mm"] = 0.02.into();
+    std::fs::write(&file, json.to_string()).unwrap();
+    let err = ResidualModel::load(scaled_dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("spread_mm"), "{err}");
     // The networks give no standard deviation.
     let text = std::fs::read_to_string(dir.path().join("residual.json")).unwrap();
     let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();

@@ -123,6 +123,11 @@ pub struct ResidualReport {
     /// rows, and the factor it put on them (a GP chosen by cross-validation).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spread: Option<spread::SpreadCalibration>,
+    /// The default calibration's estimate, on its folds' held-out rows, of a network's spread
+    /// beside the physics' deviation (`spread_mm` in `residual.json`; a network chosen by
+    /// cross-validation).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spread_beside: Option<spread::SpreadBeside>,
 }
 
 /// The CA-SOMM gate, in the report.
@@ -482,6 +487,7 @@ fn residual_report(
                 .collect()
         }),
         spread: None,
+        spread_beside: None,
     }
 }
 

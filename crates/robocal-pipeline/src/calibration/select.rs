@@ -851,6 +851,9 @@ struct ResidualScore {
     significant: bool,
     /// Its standard deviations calibrated on the held-out rows (a model that gives them).
     spread: Option<SpreadCalibration>,
+    /// Its spread beside the physics' deviation, from the held-out rows (a model that gives
+    /// no deviation of its own).
+    beside: Option<spread::SpreadBeside>,
 }
 
 /// Each residual model of `settings`, trained on every fold on what the identified chain model
@@ -895,6 +898,7 @@ fn residual_candidates(
         let mut significant = false;
         let mut spread_pairs: Vec<(f64, f64)> = Vec::new();
         let mut spread = None;
+        let mut beside = None;
         if fewest < settings.min_residual_configurations {
             c.status = format!(
                 "skipped: {fewest} configurations to train on; a residual model needs at least {}",
@@ -937,10 +941,13 @@ fn residual_candidates(
                             };
                             // A model that says how sure it is: its deviations on (some of)
                             // the held-out rows, against the errors there.
+                            // A network: the physics' deviations there, beside which its
+                            // own spread is estimated.
+                            let seed = settings.seed + k as u64;
                             let pairs = if stage.settings.kind.gives_std() {
-                                spread::held_out_pairs(&model, &fold.test, settings.seed + k as u64)
+                                spread::held_out_pairs(&model, &fold.test, seed)
                             } else {
-                                Vec::new()
+                                spread::held_out_pairs_beside(&model, &fold.test, seed)
                             };
                             (model.errors(&fold.test), pairs)
                         })
@@ -972,7 +979,11 @@ fn residual_candidates(
                     let (random, blocked, score) = held.summary();
                     (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
                     pending_final = pending_final.max(slowest);
-                    spread = spread::calibrate(&spread_pairs);
+                    if stage.settings.kind.gives_std() {
+                        spread = spread::calibrate(&spread_pairs);
+                    } else {
+                        beside = spread::spread_beside(&spread_pairs);
+                    }
                     significant = (chain.scored[chain.current].errors.as_ref())
                         .is_some_and(|base| improves(base, &held.all(), groups));
                     c.status = if significant {
@@ -988,6 +999,7 @@ fn residual_candidates(
             score: c.score,
             significant,
             spread,
+            beside,
         });
         candidates.push(c);
     }
@@ -1364,11 +1376,16 @@ pub fn automatic(
     let mut built = configured(&stages, nominal, rows, validation.clone(), &Silent)?;
     observer.advance(1);
     // The chosen residual model's deviations, scaled as its folds found.
-    if let (Some((r, _)), Some((model, report))) = (residual_wins, built.residual.as_mut())
-        && let Some(s) = residuals[r].spread
-    {
-        model.set_std_scale(s.scale);
-        report.spread = Some(s);
+    if let (Some((r, _)), Some((model, report))) = (residual_wins, built.residual.as_mut()) {
+        if let Some(s) = residuals[r].spread {
+            model.set_std_scale(s.scale);
+            report.spread = Some(s);
+        }
+        // A network's spread beside the physics' deviation.
+        if let Some(b) = residuals[r].beside {
+            model.spread_mm = Some(b.spread);
+            report.spread_beside = Some(b);
+        }
     }
     observer.finish();
     if chosen_physics.aligned {
@@ -1435,11 +1452,13 @@ mod tests {
             score: Some(score),
             significant,
             spread: None,
+            beside: None,
         };
         let skipped = ResidualScore {
             score: None,
             significant: false,
             spread: None,
+            beside: None,
         };
         assert_eq!(
             pick_residual(&[model(0.8, true), model(0.75, true)], 1.0),
@@ -1541,6 +1560,59 @@ mod tests {
             for k in 0..3 {
                 assert!((x[k] - spread.scale * y[k]).abs() <= 1e-12 * x[k].abs().max(1e-9));
             }
+        }
+    }
+    /// ARM5's gear harmonics left out of the physics and a network as the only residual model:
+    /// the chosen network carries the spread its folds found beside the physics' deviation — in
+    /// the report, in the model, and in what it predicts (the physical model's own deviation
+    /// and that spread in quadrature, the points as the network's).
+    #[test]
+    fn the_chosen_network_carries_the_spread_its_folds_found() {
+        let (twin, rows) = twin_rows("configs/twin/arm5.toml", 40);
+        let rows: Vec<&Measurement> = rows.iter().collect();
+        let mut somm = ResidualSettings::robocal(ResidualKind::Somm, 3);
+        for net in &mut somm.axes {
+            net.max_epochs = 60;
+        }
+        let settings = AutoSettings {
+            harmonics: 0,
+            self_weight: false,
+            backlash: false,
+            outliers: None,
+            residuals: vec![ResidualStage {
+                settings: somm,
+                holdout: 0.2,
+            }],
+            ..AutoSettings::default()
+        };
+        let built = automatic(&settings, &twin.nominal, &rows, None, &Silent).unwrap();
+        let (network, report) = built.residual.as_ref().expect("the network chosen");
+        assert!(report.spread.is_none());
+        let beside = report.spread_beside.expect("its spread estimated");
+        let held: usize = (FoldPlan::new(&settings, &rows, None).unwrap().splits.iter())
+            .map(|f| f.test.len().min(spread::ROWS_PER_FOLD))
+            .sum();
+        assert_eq!(beside.rows, held);
+        assert_eq!(network.spread_mm, Some(beside.spread));
+        assert!(beside.spread > 0.0, "{beside:?}");
+        assert!(
+            beside.within_physics < beside.within_after && beside.within_after > 0.3,
+            "{beside:?}"
+        );
+        let model = built.model();
+        let physical = CalibratedModel {
+            residual: None,
+            ..model.clone()
+        };
+        let samples: Vec<&robocal_data::Sample> = rows.iter().take(20).map(|m| &m.sample).collect();
+        let (points, sigmas) = model.predict_with_sigma(samples.iter().copied(), true);
+        assert_eq!(points, model.predict(samples.iter().copied()));
+        let own = physical.physics_sigmas(&samples).expect("a covariance");
+        for (s, p) in sigmas.expect("a deviation").iter().zip(own) {
+            assert!(
+                (s * s - p * p - beside.spread * beside.spread).abs() < 1e-12,
+                "{s} {p}"
+            );
         }
     }
 }
