@@ -6,7 +6,16 @@ use std::path::Path;
 
 use crate::common::{calibrate_with, robocal, s, select_rows, twin_rows, write};
 
-const STEMS: [&str; 5] = ["histogram", "per-pose", "axes-joints", "load", "workspace"];
+/// The figures of every report, and of a model that gives standard deviations (this physical
+/// model's, from its parameters' covariance).
+const STEMS: [&str; 6] = [
+    "histogram",
+    "per-pose",
+    "axes-joints",
+    "load",
+    "workspace",
+    "sigma",
+];
 
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
@@ -123,6 +132,51 @@ fn report_draws_a_calibration_on_held_out_rows_and_its_numbers_match_evaluate() 
         assert_eq!(l["rows"].as_u64().unwrap() as usize, n);
         assert!((l["after"].as_f64().unwrap() - sum / n as f64).abs() < 1e-5);
     }
+    // The σ check, by hand from `predict --sigma` and the measured points (6 decimals).
+    let predicted = dir.path().join("predicted.csv");
+    let o = robocal(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--data",
+        s(&test),
+        "--out",
+        s(&predicted),
+        "--sigma",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let measured: Vec<[f64; 3]> = (std::fs::read_to_string(&test).unwrap().lines().skip(1))
+        .map(|l| {
+            let f: Vec<f64> = l.split(',').skip(8).map(|v| v.parse().unwrap()).collect();
+            [f[0], f[1], f[2]]
+        })
+        .collect();
+    let pairs: Vec<(f64, f64)> = (std::fs::read_to_string(&predicted).unwrap().lines().skip(1))
+        .zip(&measured)
+        .map(|(l, m)| {
+            let f: Vec<f64> = l.split(',').skip(2).map(|v| v.parse().unwrap()).collect();
+            let e = ((0..3).map(|k| (m[k] - f[k]).powi(2)).sum::<f64>()).sqrt();
+            (e, f[3])
+        })
+        .collect();
+    let n = pairs.len() as f64;
+    let check = &stats["sigma"];
+    let ratio = (pairs.iter().map(|(e, s)| (e / s).powi(2)).sum::<f64>() / n).sqrt();
+    let within = |k: f64| pairs.iter().filter(|(e, s)| *e <= k * s).count() as f64 / n;
+    let mean_sigma = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+    let got = |key: &str| check[key].as_f64().unwrap();
+    assert!(
+        (got("ratio_rms") / ratio - 1.0).abs() < 1e-3,
+        "{check} vs {ratio}"
+    );
+    assert!((got("mean_sigma") - mean_sigma).abs() < 1e-5, "{check}");
+    // A row within a micrometre of a boundary may fall either side after rounding.
+    for (key, k) in [("within_one", 1.0), ("within_two", 2.0)] {
+        assert!((got(key) - within(k)).abs() <= 2.0 / n, "{key}: {check}");
+    }
+    assert!((-1.0..=1.0).contains(&got("rank_correlation")), "{check}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## How sure the model is"), "{md}");
     // Before is the registered nominal table: millimetres, against a fraction of one after.
     let (before, after) = (
         stats["before"]["mean"].as_f64().unwrap(),

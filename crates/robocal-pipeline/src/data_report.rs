@@ -112,6 +112,24 @@ pub struct OrientationStats {
     pub after: ErrorStats,
 }
 
+/// The model's standard deviations checked against the errors on the rows (a model that gives
+/// them: `predict --sigma`'s).
+#[derive(Debug, Clone, Serialize)]
+pub struct SigmaCheck {
+    /// Mean standard deviation the model gives, mm (root sum of the axes' variances).
+    pub mean_sigma: f64,
+    /// Root mean square of error / σ over the rows (1 for errors drawn as the model says).
+    pub ratio_rms: f64,
+    /// Share of the rows whose error lies within σ (61 % for errors drawn as the model says:
+    /// an isotropic Gaussian's `P(χ²₃ ≤ 3)`).
+    pub within_one: f64,
+    /// Share within 2σ (99 %: `P(χ²₃ ≤ 12)`).
+    pub within_two: f64,
+    /// Spearman rank correlation of σ and the error: whether the poses it is least sure of
+    /// are those it misses most.
+    pub rank_correlation: f64,
+}
+
 /// `statistics.json`: what `report.md` states.
 #[derive(Debug, Clone, Serialize)]
 pub struct DataReport {
@@ -145,6 +163,9 @@ pub struct DataReport {
     /// of the registered nominal table (when the model carries it) and of the model.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orientation: Option<OrientationStats>,
+    /// The model's standard deviations against the errors (a model that gives them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<SigmaCheck>,
     /// The five worst rows after calibration.
     pub worst: Vec<WorstRow>,
     /// The figures.
@@ -234,6 +255,7 @@ fn draw(
     kinematic: Option<&[f64]>,
     after: &[f64],
     signed: &[Vector3<f64>],
+    sigmas: Option<&[f64]>,
 ) -> Result<Vec<Figure>> {
     let mut figures = Vec::new();
     let n = rows.len();
@@ -401,6 +423,49 @@ fn draw(
         stem: "workspace".into(),
         caption: "Where in the workspace the error after calibration is: every measured point coloured by its error".into(),
     });
+
+    // The model's standard deviation against the error (a model that gives one).
+    if let Some(sigmas) = sigmas {
+        let top = sigmas
+            .iter()
+            .copied()
+            .filter(|s| s.is_finite())
+            .fold(0.0, f64::max);
+        let line = |k: f64| vec![(0.0, 0.0), (top, k * top)];
+        figure_grid(
+            dir,
+            out,
+            "sigma",
+            (900, 700),
+            &[Panel {
+                title: "Error against the model's standard deviation".into(),
+                x_label: "σ the model gives (mm)".into(),
+                y_label: "error after (mm)".into(),
+                series: vec![
+                    Series {
+                        name: "rows".into(),
+                        points: sigmas.iter().copied().zip(after.iter().copied()).collect(),
+                        draw: Draw::Points,
+                    },
+                    Series {
+                        name: "error = σ (61 % below, if σ is right)".into(),
+                        points: line(1.0),
+                        draw: Draw::Line,
+                    },
+                    Series {
+                        name: "error = 2σ (99 % below)".into(),
+                        points: line(2.0),
+                        draw: Draw::Line,
+                    },
+                ],
+            }],
+            1,
+        )?;
+        figures.push(Figure {
+            stem: "sigma".into(),
+            caption: "Each row's error after calibration against the standard deviation the model gives it (`predict --sigma`): rows far above the 2σ line are poses the model is surer of than it should be".into(),
+        });
+    }
     Ok(figures)
 }
 
@@ -430,6 +495,60 @@ fn by_target(rows: &[&Measurement], before: Option<&[f64]>, after: &[f64]) -> Ve
             }
         })
         .collect()
+}
+
+/// Ranks of `v` (0-based; ties share their mean rank).
+fn ranks(v: &[f64]) -> Vec<f64> {
+    let mut order: Vec<usize> = (0..v.len()).collect();
+    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+    let mut r = vec![0.0; v.len()];
+    let mut i = 0;
+    while i < order.len() {
+        let mut j = i;
+        while j + 1 < order.len() && v[order[j + 1]] == v[order[i]] {
+            j += 1;
+        }
+        for &k in &order[i..=j] {
+            r[k] = (i + j) as f64 / 2.0;
+        }
+        i = j + 1;
+    }
+    r
+}
+
+/// Pearson correlation of the ranks of `a` and `b` (0 where either does not vary).
+fn rank_correlation(a: &[f64], b: &[f64]) -> f64 {
+    let (ra, rb) = (ranks(a), ranks(b));
+    let (ma, mb) = (mean(&ra), mean(&rb));
+    let cov: f64 = ra.iter().zip(&rb).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = ra.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = rb.iter().map(|y| (y - mb).powi(2)).sum();
+    if va > 0.0 && vb > 0.0 {
+        cov / (va * vb).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// The standard deviations `sigmas` against the errors `after` (rows with a positive σ).
+fn sigma_check(after: &[f64], sigmas: &[f64]) -> Option<SigmaCheck> {
+    let pairs: Vec<(f64, f64)> = (after.iter().zip(sigmas))
+        .filter(|(e, s)| e.is_finite() && s.is_finite() && **s > 0.0)
+        .map(|(e, s)| (*e, *s))
+        .collect();
+    if pairs.is_empty() {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let share = |k: f64| pairs.iter().filter(|(e, s)| *e <= k * s).count() as f64 / n;
+    let (errors, sigmas): (Vec<f64>, Vec<f64>) = pairs.iter().copied().unzip();
+    Some(SigmaCheck {
+        mean_sigma: mean(&sigmas),
+        ratio_rms: (pairs.iter().map(|(e, s)| (e / s).powi(2)).sum::<f64>() / n).sqrt(),
+        within_one: share(1.0),
+        within_two: share(2.0),
+        rank_correlation: rank_correlation(&sigmas, &errors),
+    })
 }
 
 /// Statistics of the signed errors along each axis.
@@ -482,6 +601,9 @@ pub fn write_data_report(
         }
         .errors(rows)
     });
+    let sigmas = model
+        .predict_with_sigma(rows.iter().map(|m| &m.sample), true)
+        .1;
     let before_by_load = before.as_ref().map(|b| mean_by_load(rows, b));
     let mut order: Vec<usize> = (0..rows.len()).collect();
     order.sort_by(|&a, &b| after[b].total_cmp(&after[a]));
@@ -519,6 +641,7 @@ pub fn write_data_report(
                 }),
                 after: ErrorStats::from_errors(&model.orientation_errors(rows)),
             }),
+        sigma: sigmas.as_deref().and_then(|s| sigma_check(&after, s)),
         worst: order
             .iter()
             .take(5)
@@ -540,6 +663,7 @@ pub fn write_data_report(
             kinematic.as_deref(),
             &after,
             &signed,
+            sigmas.as_deref(),
         )?;
         let json = serde_json::to_string_pretty(&report)
             .map_err(|e| PipelineError::Stage(format!("statistics.json: {e}")))?;
@@ -712,10 +836,48 @@ fn sections(r: &DataReport) -> Vec<(String, Vec<String>, Vec<Table>)> {
             },
             orientation,
         ),
+        (
+            "How sure the model is".into(),
+            sigma_paragraphs(r),
+            sigma_table(r),
+        ),
         ("Per load (mm)".into(), Vec::new(), vec![by_load]),
         ("Per reflector (mm)".into(), Vec::new(), by_reflector),
         ("The worst rows after calibration (mm)".into(), Vec::new(), vec![worst]),
     ]
+}
+
+/// The σ check's text (none for a model that gives no standard deviation).
+fn sigma_paragraphs(r: &DataReport) -> Vec<String> {
+    if r.sigma.is_none() {
+        return Vec::new();
+    }
+    vec!["The standard deviation the model gives each row (`predict --sigma`: a GP's, scaled as its folds found; a network's, the physics' with the spread its folds found beside it; a physical model's, from its parameters' covariance) against the row's error. For errors drawn as the model says, the root mean square of error/σ is 1, 61 % of the rows lie within σ and 99 % within 2σ. The errors here are from the measured points, which carry the tracker's noise and the arm's repeatability besides the model's error: a physical model's or a GP's σ leaves those out, so on rows predicted to the noise the ratio lies above 1 by them. A ratio well above 1 says the model is surer than it should be: read its σ as a floor.".into()]
+}
+
+/// The σ check's table.
+fn sigma_table(r: &DataReport) -> Vec<Table> {
+    let Some(c) = &r.sigma else {
+        return Vec::new();
+    };
+    vec![Table {
+        header: [
+            "mean σ (mm)",
+            "RMS of error/σ",
+            "within σ",
+            "within 2σ",
+            "rank correlation of σ and error",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: vec![vec![
+            format!("{:.4}", c.mean_sigma),
+            format!("{:.2}", c.ratio_rms),
+            format!("{:.0} %", 100.0 * c.within_one),
+            format!("{:.0} %", 100.0 * c.within_two),
+            format!("{:.2}", c.rank_correlation),
+        ]],
+    }]
 }
 
 fn markdown(r: &DataReport) -> String {
@@ -830,6 +992,42 @@ mod tests {
     use super::*;
     use robocal_data::Sample;
     use robocal_robot::Robot;
+
+    /// Errors drawn as the deviations say (isotropic, three axes): the check's shares near the
+    /// χ²₃ values it states; a ranking by hand; σ of none is no check.
+    #[test]
+    fn the_sigma_check_states_what_errors_drawn_as_sigma_says_give() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let unit = Normal::new(0.0, 1.0).unwrap();
+        let sigmas: Vec<f64> = (0..20000)
+            .map(|i| 0.01 + 0.0001 * (i % 100) as f64)
+            .collect();
+        let errors: Vec<f64> = (sigmas.iter())
+            .map(|s| {
+                let v: f64 = (0..3).map(|_| f64::powi(unit.sample(&mut rng), 2)).sum();
+                s * (v / 3.0).sqrt()
+            })
+            .collect();
+        let c = sigma_check(&errors, &sigmas).unwrap();
+        assert!((c.ratio_rms - 1.0).abs() < 0.02, "{c:?}");
+        assert!((c.within_one - 0.608).abs() < 0.01, "{c:?}");
+        assert!((c.within_two - 0.9926).abs() < 0.003, "{c:?}");
+        assert!(
+            c.rank_correlation > 0.1 && c.rank_correlation < 0.6,
+            "{c:?}"
+        );
+        // Ranks with a tie, and correlations of ±1.
+        assert_eq!(ranks(&[3.0, 1.0, 3.0, 2.0]), vec![2.5, 0.0, 2.5, 1.0]);
+        let up = [0.1, 0.2, 0.5, 0.9];
+        assert!((rank_correlation(&up, &[1.0, 2.0, 3.0, 40.0]) - 1.0).abs() < 1e-12);
+        assert!((rank_correlation(&up, &[4.0, 3.0, 2.0, 1.0]) + 1.0).abs() < 1e-12);
+        let c = sigma_check(&[0.1, 0.3], &[0.2, 0.1]).unwrap();
+        assert_eq!((c.within_one, c.within_two), (0.5, 0.5));
+        assert!((c.ratio_rms - ((0.25f64 + 9.0) / 2.0).sqrt()).abs() < 1e-12);
+        assert!(sigma_check(&[0.1], &[0.0]).is_none());
+    }
 
     fn rows(robot: &Robot) -> Vec<Measurement> {
         (0..12)
