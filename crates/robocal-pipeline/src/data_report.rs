@@ -255,7 +255,6 @@ fn draw(
     kinematic: Option<&[f64]>,
     after: &[f64],
     signed: &[Vector3<f64>],
-    sigmas: Option<&[f64]>,
 ) -> Result<Vec<Figure>> {
     let mut figures = Vec::new();
     let n = rows.len();
@@ -424,49 +423,50 @@ fn draw(
         caption: "Where in the workspace the error after calibration is: every measured point coloured by its error".into(),
     });
 
-    // The model's standard deviation against the error (a model that gives one).
-    if let Some(sigmas) = sigmas {
-        let top = sigmas
-            .iter()
-            .copied()
-            .filter(|s| s.is_finite())
-            .fold(0.0, f64::max);
-        let line = |k: f64| vec![(0.0, 0.0), (top, k * top)];
-        figure_grid(
-            dir,
-            out,
-            "sigma",
-            (900, 700),
-            &[Panel {
-                title: "Error against the model's standard deviation".into(),
-                x_label: "σ the model gives (mm)".into(),
-                y_label: "error after (mm)".into(),
-                series: vec![
-                    Series {
-                        name: "rows".into(),
-                        points: sigmas.iter().copied().zip(after.iter().copied()).collect(),
-                        draw: Draw::Points,
-                    },
-                    Series {
-                        name: "error = σ (61 % below, if σ is right)".into(),
-                        points: line(1.0),
-                        draw: Draw::Line,
-                    },
-                    Series {
-                        name: "error = 2σ (99 % below)".into(),
-                        points: line(2.0),
-                        draw: Draw::Line,
-                    },
-                ],
-            }],
-            1,
-        )?;
-        figures.push(Figure {
-            stem: "sigma".into(),
-            caption: "Each row's error after calibration against the standard deviation the model gives it (`predict --sigma`): rows far above the 2σ line are poses the model is surer of than it should be".into(),
-        });
-    }
     Ok(figures)
+}
+
+/// The figure of each row's error against the standard deviation the model gives it.
+fn draw_sigma(dir: &Path, out: &Path, after: &[f64], sigmas: &[f64]) -> Result<Figure> {
+    let top = sigmas
+        .iter()
+        .copied()
+        .filter(|s| s.is_finite())
+        .fold(0.0, f64::max);
+    let line = |k: f64| vec![(0.0, 0.0), (top, k * top)];
+    figure_grid(
+        dir,
+        out,
+        "sigma",
+        (900, 700),
+        &[Panel {
+            title: "Error against the model's standard deviation".into(),
+            x_label: "σ the model gives (mm)".into(),
+            y_label: "error after (mm)".into(),
+            series: vec![
+                Series {
+                    name: "rows".into(),
+                    points: sigmas.iter().copied().zip(after.iter().copied()).collect(),
+                    draw: Draw::Points,
+                },
+                Series {
+                    name: "error = σ (61 % below, if σ is right)".into(),
+                    points: line(1.0),
+                    draw: Draw::Line,
+                },
+                Series {
+                    name: "error = 2σ (99 % below)".into(),
+                    points: line(2.0),
+                    draw: Draw::Line,
+                },
+            ],
+        }],
+        1,
+    )?;
+    Ok(Figure {
+        stem: "sigma".into(),
+        caption: "Each row's error after calibration against the standard deviation the model gives it (`predict --sigma`): rows far above the 2σ line are poses the model is surer of than it should be".into(),
+    })
 }
 
 /// Mean errors per target, in order of first appearance (none when no row names a target).
@@ -663,8 +663,10 @@ pub fn write_data_report(
             kinematic.as_deref(),
             &after,
             &signed,
-            sigmas.as_deref(),
         )?;
+        if let Some(sigmas) = sigmas.as_deref() {
+            report.figures.push(draw_sigma(dir, out, &after, sigmas)?);
+        }
         let json = serde_json::to_string_pretty(&report)
             .map_err(|e| PipelineError::Stage(format!("statistics.json: {e}")))?;
         write_text_in(dir, out, "statistics.json", &(json + "\n"))?;
