@@ -1515,34 +1515,44 @@ mod tests {
         assert!(mounting(&AutoSettings::default(), &upright.nominal, &rows).is_none());
     }
 
-    /// ARM5's gear harmonics left out of the physics: the GP takes them, and the chosen GP's
-    /// standard deviations carry the factor its folds found — in the report, in the model, and
-    /// in what it predicts (the same model at factor 1 gives deviations smaller by exactly it).
-    #[test]
-    fn the_chosen_gp_carries_the_factor_its_folds_found() {
-        let (twin, rows) = twin_rows("configs/twin/arm5.toml", 40);
-        let rows: Vec<&Measurement> = rows.iter().collect();
-        let mut gp = ResidualSettings::gp(3);
-        gp.gp.iterations = 20;
-        gp.gp.hyper_rows = 150;
+    /// ARM5's twin (40 configurations) calibrated by default with its gear harmonics left out
+    /// of the physics and `residual` the only residual model: the settings, the rows, the
+    /// result, and how many held-out rows the folds' deviations are computed on (every one of
+    /// the five random folds and five blocks, at most 150 a fold).
+    fn arm5_with_only(
+        residual: ResidualSettings,
+    ) -> (AutoSettings, Vec<Measurement>, Built, usize) {
+        let (twin, owned) = twin_rows("configs/twin/arm5.toml", 40);
+        let rows: Vec<&Measurement> = owned.iter().collect();
         let settings = AutoSettings {
             harmonics: 0,
             self_weight: false,
             backlash: false,
             outliers: None,
             residuals: vec![ResidualStage {
-                settings: gp,
+                settings: residual,
                 holdout: 0.2,
             }],
             ..AutoSettings::default()
         };
         let built = automatic(&settings, &twin.nominal, &rows, None, &Silent).unwrap();
-        let (model, report) = built.residual.as_ref().expect("the GP chosen");
-        let spread = report.spread.expect("its deviations calibrated");
-        // Every held-out row of the five random folds and five blocks (at most 150 a fold).
         let held: usize = (FoldPlan::new(&settings, &rows, None).unwrap().splits.iter())
             .map(|f| f.test.len().min(spread::ROWS_PER_FOLD))
             .sum();
+        (settings, owned, built, held)
+    }
+
+    /// ARM5's gear harmonics left out of the physics: the GP takes them, and the chosen GP's
+    /// standard deviations carry the factor its folds found — in the report, in the model, and
+    /// in what it predicts (the same model at factor 1 gives deviations smaller by exactly it).
+    #[test]
+    fn the_chosen_gp_carries_the_factor_its_folds_found() {
+        let mut gp = ResidualSettings::gp(3);
+        gp.gp.iterations = 20;
+        gp.gp.hyper_rows = 150;
+        let (_, rows, built, held) = arm5_with_only(gp);
+        let (model, report) = built.residual.as_ref().expect("the GP chosen");
+        let spread = report.spread.expect("its deviations calibrated");
         assert_eq!(spread.rows, held);
         assert!((0.1..=100.0).contains(&spread.scale), "{spread:?}");
         assert_eq!(model.gp().unwrap().std_scale, spread.scale);
@@ -1562,36 +1572,21 @@ mod tests {
             }
         }
     }
+
     /// ARM5's gear harmonics left out of the physics and a network as the only residual model:
     /// the chosen network carries the spread its folds found beside the physics' deviation — in
     /// the report, in the model, and in what it predicts (the physical model's own deviation
     /// and that spread in quadrature, the points as the network's).
     #[test]
     fn the_chosen_network_carries_the_spread_its_folds_found() {
-        let (twin, rows) = twin_rows("configs/twin/arm5.toml", 40);
-        let rows: Vec<&Measurement> = rows.iter().collect();
         let mut somm = ResidualSettings::robocal(ResidualKind::Somm, 3);
         for net in &mut somm.axes {
             net.max_epochs = 60;
         }
-        let settings = AutoSettings {
-            harmonics: 0,
-            self_weight: false,
-            backlash: false,
-            outliers: None,
-            residuals: vec![ResidualStage {
-                settings: somm,
-                holdout: 0.2,
-            }],
-            ..AutoSettings::default()
-        };
-        let built = automatic(&settings, &twin.nominal, &rows, None, &Silent).unwrap();
+        let (_, rows, built, held) = arm5_with_only(somm);
         let (network, report) = built.residual.as_ref().expect("the network chosen");
         assert!(report.spread.is_none());
         let beside = report.spread_beside.expect("its spread estimated");
-        let held: usize = (FoldPlan::new(&settings, &rows, None).unwrap().splits.iter())
-            .map(|f| f.test.len().min(spread::ROWS_PER_FOLD))
-            .sum();
         assert_eq!(beside.rows, held);
         assert_eq!(network.spread_mm, Some(beside.spread));
         assert!(beside.spread > 0.0, "{beside:?}");

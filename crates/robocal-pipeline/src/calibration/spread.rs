@@ -18,9 +18,10 @@
 //! also takes what its kernel cannot follow). The final model's deviations are multiplied by
 //! `c` (`std_scale` in `residual.json`).
 
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use robocal_data::Measurement;
+use robocal_data::{Measurement, Sample};
 use robocal_model::CalibratedModel;
 use robocal_residual::gp::subset;
 use serde::Serialize;
@@ -50,6 +51,28 @@ pub struct SpreadCalibration {
     pub within_after: f64,
 }
 
+/// `(|y − ŷ|², σ²)` (mm²) of at most [`ROWS_PER_FOLD`] of `test`'s rows (seeded), with the
+/// points and deviations `predicted` gives for them; empty when it gives none.
+fn pairs_of(
+    test: &[&Measurement],
+    seed: u64,
+    predicted: impl FnOnce(&[&Sample]) -> Option<(Vec<Vector3<f64>>, Vec<f64>)>,
+) -> Vec<(f64, f64)> {
+    let idx = subset(
+        test.len(),
+        ROWS_PER_FOLD,
+        &mut ChaCha8Rng::seed_from_u64(seed),
+    );
+    let rows: Vec<&Sample> = idx.iter().map(|&i| &test[i].sample).collect();
+    let Some((points, sigmas)) = predicted(&rows) else {
+        return Vec::new();
+    };
+    (idx.iter().zip(points).zip(sigmas))
+        .map(|((&i, p), s)| ((test[i].position - p).norm_squared(), s * s))
+        .filter(|(e, s)| e.is_finite() && s.is_finite())
+        .collect()
+}
+
 /// `(|y − ŷ|², σ²)` (mm²) of at most [`ROWS_PER_FOLD`] of `test`'s rows (seeded), under a fold
 /// model whose residual gives standard deviations; empty when it gives none.
 pub fn held_out_pairs(
@@ -57,20 +80,10 @@ pub fn held_out_pairs(
     test: &[&Measurement],
     seed: u64,
 ) -> Vec<(f64, f64)> {
-    let idx = subset(
-        test.len(),
-        ROWS_PER_FOLD,
-        &mut ChaCha8Rng::seed_from_u64(seed),
-    );
-    let rows: Vec<&Measurement> = idx.iter().map(|&i| test[i]).collect();
-    let (points, sigmas) = model.predict_with_sigma(rows.iter().map(|m| &m.sample), true);
-    let Some(sigmas) = sigmas else {
-        return Vec::new();
-    };
-    (rows.iter().zip(points).zip(sigmas))
-        .map(|((m, p), s)| ((m.position - p).norm_squared(), s * s))
-        .filter(|(e, s)| e.is_finite() && s.is_finite())
-        .collect()
+    pairs_of(test, seed, |rows| {
+        let (points, sigmas) = model.predict_with_sigma(rows.iter().copied(), true);
+        sigmas.map(|s| (points, s))
+    })
 }
 
 /// Negative log-likelihood (constants dropped) of the pairs at noise `nu` and squared factor `c2`.
@@ -187,20 +200,10 @@ pub fn held_out_pairs_beside(
     test: &[&Measurement],
     seed: u64,
 ) -> Vec<(f64, f64)> {
-    let idx = subset(
-        test.len(),
-        ROWS_PER_FOLD,
-        &mut ChaCha8Rng::seed_from_u64(seed),
-    );
-    let rows: Vec<&robocal_data::Sample> = idx.iter().map(|&i| &test[i].sample).collect();
-    let Some(sigmas) = model.physics_sigmas(&rows) else {
-        return Vec::new();
-    };
-    let points = model.predict(rows.iter().copied());
-    (idx.iter().zip(points).zip(sigmas))
-        .map(|((&i, p), s)| ((test[i].position - p).norm_squared(), s * s))
-        .filter(|(e, s)| e.is_finite() && s.is_finite())
-        .collect()
+    pairs_of(test, seed, |rows| {
+        let sigmas = model.physics_sigmas(rows)?;
+        Some((model.predict(rows.iter().copied()), sigmas))
+    })
 }
 
 /// The spread `ν` beside the deviations that makes the held-out errors most likely
