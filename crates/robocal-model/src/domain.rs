@@ -66,6 +66,22 @@ impl Domain {
             .collect()
     }
 
+    /// `s` with every joint reading and the payload moved to the nearest point of the domain;
+    /// `None` when `s` lies inside it (or has another number of joints).
+    pub fn clamped(&self, s: &Sample) -> Option<Sample> {
+        if s.joints.len() != self.joints.len()
+            || (self.excess(s).is_empty() && self.load_excess(s) == 0.0)
+        {
+            return None;
+        }
+        let mut inside = s.clone();
+        for (q, &[lo, hi]) in inside.joints.iter_mut().zip(&self.joints) {
+            *q = q.clamp(lo, hi);
+        }
+        inside.load = inside.load.clamp(self.load[0], self.load[1]);
+        Some(inside)
+    }
+
     /// How far the payload of `s` lies outside the calibrated loads, kg (0 inside).
     pub fn load_excess(&self, s: &Sample) -> f64 {
         (self.load[0] - s.load).max(s.load - self.load[1]).max(0.0)

@@ -192,7 +192,8 @@ impl CalibratedModel {
     /// a residual model that gives one (the GP) gives it, with what holding a transmission
     /// harmonic beyond its reach may miss ([`Self::held_variance`]: the residual model learned
     /// nothing there, and the GP's prior knows nothing of the physics beneath it; 0 inside every
-    /// reach); a network residual whose folds estimated its spread
+    /// reach) and how much the physics' own deviation grows outside the domain
+    /// ([`Self::outside_variance`]); a network residual whose folds estimated its spread
     /// ([`ResidualModel::spread_mm`]) gives the physics' deviation and that spread in
     /// quadrature; a physical model without a residual model gives its parameters'
     /// ([`Self::physics_sigmas`]); otherwise `None`.
@@ -226,9 +227,11 @@ impl CalibratedModel {
             return (points, beside);
         }
         let sigmas = std.map(|sd| {
-            (sd.iter().zip(&samples))
-                .map(|(s, sample)| {
-                    (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + self.held_variance(sample)).sqrt()
+            let outside = self.outside_variance(&samples);
+            (sd.iter().zip(&samples).zip(outside))
+                .map(|((s, sample), o)| {
+                    (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + self.held_variance(sample) + o)
+                        .sqrt()
                 })
                 .collect()
         });
@@ -281,6 +284,36 @@ impl CalibratedModel {
                 .map(|((v, j), s)| (v + j * j / 4.0 + self.held_variance(s)).sqrt())
                 .collect(),
         )
+    }
+
+    /// How much the physical model's variance grows outside the readings and loads it was
+    /// calibrated on, mm², per sample: its parameters' variance there ([`Self::physics_sigmas`]
+    /// without [`Self::held_variance`]) less that at the nearest point of the domain
+    /// ([`crate::Domain::clamped`]), floored at 0. A residual model's deviation, calibrated on
+    /// the folds within the domain, holds the physics' uncertainty there but not its growth
+    /// beyond. 0 inside the domain, and for a model without a domain or a covariance.
+    pub fn outside_variance(&self, samples: &[&Sample]) -> Vec<f64> {
+        let mut growth = vec![0.0; samples.len()];
+        let Some(domain) = &self.domain else {
+            return growth;
+        };
+        let (outside, clamped): (Vec<usize>, Vec<Sample>) = (samples.iter().enumerate())
+            .filter_map(|(i, s)| domain.clamped(s).map(|c| (i, c)))
+            .unzip();
+        if outside.is_empty() {
+            return growth;
+        }
+        let beyond: Vec<&Sample> = outside.iter().map(|&i| samples[i]).collect();
+        let inside: Vec<&Sample> = clamped.iter().collect();
+        let (Some(at), Some(near)) = (self.physics_sigmas(&beyond), self.physics_sigmas(&inside))
+        else {
+            return growth;
+        };
+        for (k, &i) in outside.iter().enumerate() {
+            let own = at[k] * at[k] - self.held_variance(samples[i]);
+            growth[i] = (own - near[k] * near[k]).max(0.0);
+        }
+        growth
     }
 
     /// What holding the transmission harmonics beyond their reach may miss at `s`, mm²: each

@@ -407,3 +407,59 @@ fn beyond_a_harmonics_reach_the_deviation_adds_what_holding_may_miss() {
         );
     }
 }
+
+/// A GP residual's deviation is calibrated within the readings and loads the model was fitted
+/// on; outside them the physics' own deviation grows, and that growth is added: at a point
+/// outside, `σ² − σ_GP²` is the physical model's variance there less that at the nearest point
+/// inside (here a payload three times the heaviest, the compliance's spread carried further);
+/// inside, the GP's deviation alone.
+#[test]
+fn outside_the_domain_a_gps_deviation_adds_the_growth_of_the_physics() {
+    let physical = CalibratedModel {
+        domain: Some(robocal_model::Domain {
+            joints: vec![[-60.0, 60.0]; 6],
+            load: [0.0, 20.0],
+        }),
+        ..physical_model_with_covariance()
+    };
+    let with_gp = CalibratedModel {
+        residual: full_model().residual,
+        ..physical.clone()
+    };
+    let gp_sigma = |s: &Sample| {
+        let rows = with_gp.residual_rows(&[s]);
+        let sd = (with_gp.residual.as_ref().unwrap())
+            .predict_with_std(&rows, true)
+            .1
+            .unwrap()[0];
+        sd.iter().map(|v| v * v).sum::<f64>().sqrt()
+    };
+    let inside = Sample {
+        joints: vec![25.0, -40.0, 20.0, 35.0, 50.0, -20.0],
+        load: 15.0,
+        ..samples(1, 3).remove(0)
+    };
+    let outside = Sample {
+        joints: vec![25.0, -40.0, 20.0, 35.0, 50.0, -20.0],
+        load: 60.0,
+        ..inside.clone()
+    };
+    let nearest = Sample {
+        load: 20.0,
+        ..outside.clone()
+    };
+    let sigmas = with_gp
+        .predict_with_sigma([&inside, &outside], true)
+        .1
+        .unwrap();
+    // (The GP's batch of two and its single row agree to rounding.)
+    assert!((sigmas[0] - gp_sigma(&inside)).abs() < 1e-12 * sigmas[0]);
+    let phys = |s: &Sample| physical.physics_sigmas(&[s]).unwrap()[0];
+    let growth = phys(&outside).powi(2) - phys(&nearest).powi(2);
+    assert!(growth > 1e-6, "{growth}");
+    let added = sigmas[1].powi(2) - gp_sigma(&outside).powi(2);
+    assert!(
+        (added - growth).abs() < 1e-9 * growth.max(1e-12) + 1e-15,
+        "{added} added, growth {growth}"
+    );
+}
