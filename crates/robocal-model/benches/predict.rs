@@ -63,3 +63,52 @@ fn predict_1000_samples_with_sigma(b: Bencher) {
     );
     b.bench(|| black_box(model.predict_with_sigma(&samples, true)));
 }
+
+/// The same model with a GP residual (on what the physics leaves on 1000 rows), its domain the
+/// rows with joint 1 below its median: the standard deviations of 1000 rows, about half of
+/// them outside the domain, where the physics' growth is computed (two more physical
+/// deviations per such row), against the same rows with the domain taken as all of them.
+fn with_gp() -> (CalibratedModel, Vec<Sample>, robocal_model::Domain) {
+    use robocal_residual::{ResidualModel, ResidualSettings, Samples};
+    let (physical, samples) = setup();
+    let points = physical.predict(&samples);
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let twin = TwinConfig::load(root.join("configs/twin/pmc6va030.toml")).expect("twin");
+    let measured = twin.generate().expect("data").measurements;
+    let set = Samples {
+        inputs: samples.iter().map(robocal_residual::inputs_of).collect(),
+        errors: (measured.rows.iter().zip(&points))
+            .map(|(m, p)| (m.position - p).into())
+            .collect(),
+        physics: Vec::new(),
+    };
+    let mut settings = ResidualSettings::gp(7);
+    settings.gp.iterations = 20;
+    let residual = ResidualModel::fit(&settings, &set, &Samples::default(), &robocal_data::Silent)
+        .expect("GP");
+    let mut q1: Vec<f64> = samples.iter().map(|s| s.joints[0]).collect();
+    q1.sort_by(f64::total_cmp);
+    let median = q1[q1.len() / 2];
+    let narrow =
+        robocal_model::Domain::of(samples.iter().filter(|s| s.joints[0] <= median)).expect("rows");
+    let model = CalibratedModel {
+        residual: Some(residual),
+        domain: Some(narrow),
+        ..physical
+    };
+    let all = robocal_model::Domain::of(&samples).expect("rows");
+    (model, samples, all)
+}
+
+#[divan::bench(sample_count = 10)]
+fn gp_sigma_1000_samples_half_outside_the_domain(b: Bencher) {
+    let (model, samples, _) = with_gp();
+    b.bench(|| black_box(model.predict_with_sigma(&samples, true)));
+}
+
+#[divan::bench(sample_count = 10)]
+fn gp_sigma_1000_samples_inside_the_domain(b: Bencher) {
+    let (mut model, samples, all) = with_gp();
+    model.domain = Some(all);
+    b.bench(|| black_box(model.predict_with_sigma(&samples, true)));
+}
