@@ -438,7 +438,7 @@ fn draw_sigma(dir: &Path, out: &Path, after: &[f64], sigmas: &[f64]) -> Result<F
         dir,
         out,
         "sigma",
-        (900, 700),
+        (1200, 700),
         &[Panel {
             title: "Error against the model's standard deviation".into(),
             x_label: "σ the model gives (mm)".into(),
