@@ -261,6 +261,18 @@ impl CalibratedModel {
     /// [`Self::physics_sigmas`] about the samples' points `at` ([`Self::base_point`]'s),
     /// already predicted.
     fn physics_sigmas_about(&self, samples: &[&Sample], at: &[Vector3<f64>]) -> Option<Vec<f64>> {
+        let variances = self.parameter_variances(samples, at)?;
+        Some(
+            (variances.iter().zip(samples))
+                .map(|(v, s)| (v + self.held_variance(s)).sqrt())
+                .collect(),
+        )
+    }
+
+    /// The variance (mm²) the identified parameters' covariance gives each sample's point,
+    /// about `at`: the slopes' and a flank's jump ([`Self::physics_sigmas`]), without what
+    /// holding a harmonic may miss.
+    fn parameter_variances(&self, samples: &[&Sample], at: &[Vector3<f64>]) -> Option<Vec<f64>> {
         let cov = self.covariance.as_ref()?;
         let parameters = cov.resolve(&self.robot, self.joint_errors.as_ref()).ok()?;
         let mut variance = vec![0.0; samples.len()];
@@ -280,15 +292,16 @@ impl CalibratedModel {
             }
         }
         Some(
-            (variance.iter().zip(&jump).zip(samples))
-                .map(|((v, j), s)| (v + j * j / 4.0 + self.held_variance(s)).sqrt())
+            (variance.iter().zip(&jump))
+                .map(|(v, j)| v + j * j / 4.0)
                 .collect(),
         )
     }
 
     /// How much the physical model's variance grows outside the readings and loads it was
-    /// calibrated on, mm², per sample: its parameters' variance there ([`Self::physics_sigmas`]
-    /// without [`Self::held_variance`]) less that at the nearest point of the domain
+    /// calibrated on, mm², per sample: its parameters' variance there (that of
+    /// [`Self::physics_sigmas`], without [`Self::held_variance`]) less that at the nearest point
+    /// of the domain
     /// ([`crate::Domain::clamped`]), floored at 0. A residual model's deviation, calibrated on
     /// the folds within the domain, holds the physics' uncertainty there but not its growth
     /// beyond. 0 inside the domain, and for a model without a domain or a covariance.
@@ -305,13 +318,15 @@ impl CalibratedModel {
         }
         let beyond: Vec<&Sample> = outside.iter().map(|&i| samples[i]).collect();
         let inside: Vec<&Sample> = clamped.iter().collect();
-        let (Some(at), Some(near)) = (self.physics_sigmas(&beyond), self.physics_sigmas(&inside))
-        else {
+        let variances = |rows: &[&Sample]| {
+            let at: Vec<Vector3<f64>> = rows.iter().map(|s| self.base_point(s)).collect();
+            self.parameter_variances(rows, &at)
+        };
+        let (Some(there), Some(near)) = (variances(&beyond), variances(&inside)) else {
             return growth;
         };
         for (k, &i) in outside.iter().enumerate() {
-            let own = at[k] * at[k] - self.held_variance(samples[i]);
-            growth[i] = (own - near[k] * near[k]).max(0.0);
+            growth[i] = (there[k] - near[k]).max(0.0);
         }
         growth
     }

@@ -322,6 +322,17 @@ fn the_covariance_round_trips_and_a_bad_one_is_refused_with_its_key() {
     assert!(old.predict_with_sigma(&poses, true).1.is_none());
 }
 
+/// The standard deviation `model`'s residual model alone gives `s` (root sum of the axes'
+/// variances, mm).
+fn residual_sigma(model: &CalibratedModel, s: &Sample) -> f64 {
+    let rows = model.residual_rows(&[s]);
+    let sd = (model.residual.as_ref().unwrap())
+        .predict_with_std(&rows, true)
+        .1
+        .unwrap()[0];
+    sd.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
 /// Beyond a harmonic's reach the model holds it; its deviation there adds what holding may miss,
 /// checked against the mean square, over a grid of the harmonics' phases, of the point moved
 /// from the held harmonics to the continued ones (each order's amplitude kept): 0 within the
@@ -355,14 +366,7 @@ fn beyond_a_harmonics_reach_the_deviation_adds_what_holding_may_miss() {
         residual: full_model().residual,
         ..model.clone()
     };
-    let gp_sigma = |s: &Sample| {
-        let rows = with_gp.residual_rows(&[s]);
-        let sd = (with_gp.residual.as_ref().unwrap())
-            .predict_with_std(&rows, true)
-            .1
-            .unwrap()[0];
-        sd.iter().map(|v| v * v).sum::<f64>().sqrt()
-    };
+    let gp_sigma = |s: &Sample| residual_sigma(&with_gp, s);
     let stack_sigma = |s: &Sample| with_gp.predict_with_sigma([s], true).1.unwrap()[0];
     assert_eq!(stack_sigma(&inside), gp_sigma(&inside));
     let phases = 48;
@@ -426,14 +430,7 @@ fn outside_the_domain_a_gps_deviation_adds_the_growth_of_the_physics() {
         residual: full_model().residual,
         ..physical.clone()
     };
-    let gp_sigma = |s: &Sample| {
-        let rows = with_gp.residual_rows(&[s]);
-        let sd = (with_gp.residual.as_ref().unwrap())
-            .predict_with_std(&rows, true)
-            .1
-            .unwrap()[0];
-        sd.iter().map(|v| v * v).sum::<f64>().sqrt()
-    };
+    let gp_sigma = |s: &Sample| residual_sigma(&with_gp, s);
     let inside = Sample {
         joints: vec![25.0, -40.0, 20.0, 35.0, 50.0, -20.0],
         load: 15.0,
