@@ -40,10 +40,21 @@ fn calibrate(data: &Path, out: &Path, extra: &[&str]) -> (bool, String) {
 
 /// `calibrate` with the stage file `stage`: (success, stderr).
 fn calibrate_with_stage(data: &Path, out: &Path, stage: &str, extra: &[&str]) -> (bool, String) {
+    calibrate_robot(Path::new(ROBOT), data, out, stage, extra)
+}
+
+/// `calibrate` of the robot file `robot` with the stage file `stage`: (success, stderr).
+fn calibrate_robot(
+    robot: &Path,
+    data: &Path,
+    out: &Path,
+    stage: &str,
+    extra: &[&str],
+) -> (bool, String) {
     let mut args = vec![
         "calibrate",
         "--robot",
-        ROBOT,
+        s(robot),
         "--data",
         s(data),
         "--out",
@@ -148,19 +159,8 @@ fn joint_readings_rounded_when_logged_are_warned_of() {
         (&rounded, no_tool.as_path(), true),
     ] {
         let model = dir.path().join(format!("model-{}", estimates.len() + 1));
-        let o = robocal(&[
-            "calibrate",
-            "--robot",
-            s(robot),
-            "--data",
-            s(file),
-            "--out",
-            s(&model),
-            "--config",
-            STAGE,
-        ]);
-        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
-        assert!(o.status.success(), "{stderr}");
+        let (ok, stderr) = calibrate_robot(robot, file, &model, STAGE, &[]);
+        assert!(ok, "{stderr}");
         let said = "warning: the joint readings are rounded (q1 to 0.01°, q2 to 0.01°, q3 to 0.01°, q4 to 0.01°, q5 to 0.01°, q6 to 0.01°): the rounding alone leaves about ";
         let left = (stderr.split_once(said)).map(|(_, rest)| {
             let mm: f64 = rest.split(' ').next().unwrap().parse().unwrap();
