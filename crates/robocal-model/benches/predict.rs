@@ -18,6 +18,12 @@ fn main() {
 
 /// The identified model and 1000 of the twin's rows to predict.
 fn setup() -> (CalibratedModel, Vec<Sample>) {
+    let (model, rows) = fitted();
+    (model, rows.into_iter().map(|m| m.sample).collect())
+}
+
+/// The identified model and 1000 of the twin's measurements.
+fn fitted() -> (CalibratedModel, Vec<robocal_data::Measurement>) {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let twin = TwinConfig::load(root.join("configs/twin/pmc6va030.toml")).expect("twin");
     let data = twin.generate().expect("data").measurements;
@@ -39,13 +45,7 @@ fn setup() -> (CalibratedModel, Vec<Sample>) {
         covariance: fit.covariance,
         ..CalibratedModel::new(fit.robot, fit.compliance, None)
     };
-    let samples = data
-        .rows
-        .iter()
-        .take(1000)
-        .map(|m| m.sample.clone())
-        .collect();
-    (model, samples)
+    (model, data.rows.into_iter().take(1000).collect())
 }
 
 #[divan::bench(sample_count = 10)]
@@ -70,15 +70,14 @@ fn predict_1000_samples_with_sigma(b: Bencher) {
 /// deviations per such row), against the same rows with the domain taken as all of them.
 fn with_gp() -> (CalibratedModel, Vec<Sample>, robocal_model::Domain) {
     use robocal_residual::{ResidualModel, ResidualSettings, Samples};
-    let (physical, samples) = setup();
-    let points = physical.predict(&samples);
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let twin = TwinConfig::load(root.join("configs/twin/pmc6va030.toml")).expect("twin");
-    let measured = twin.generate().expect("data").measurements;
+    let (physical, measured) = fitted();
+    let samples: Vec<Sample> = measured.iter().map(|m| m.sample.clone()).collect();
     let set = Samples {
         inputs: samples.iter().map(robocal_residual::inputs_of).collect(),
-        errors: (measured.rows.iter().zip(&points))
-            .map(|(m, p)| (m.position - p).into())
+        errors: physical
+            .residuals(&measured)
+            .into_iter()
+            .map(Into::into)
             .collect(),
         physics: Vec::new(),
     };
