@@ -241,6 +241,39 @@ struct Parsed {
     orientation: Option<Vector3<f64>>,
 }
 
+/// Where each line of a file starts, to name a record's line from its byte offset: the csv
+/// crate's own line count stays one short after every `\r\n` (BurntSushi/rust-csv#395), and
+/// tracker software on Windows writes `\r\n`. A line ends at `\n`, at `\r\n`, or at a lone
+/// `\r`, as the reader takes them.
+struct LineStarts<'a> {
+    bytes: &'a [u8],
+    starts: Vec<usize>,
+}
+
+impl<'a> LineStarts<'a> {
+    fn of(bytes: &'a [u8]) -> Self {
+        let mut starts = vec![0];
+        for (i, &b) in bytes.iter().enumerate() {
+            if b == b'\n' || (b == b'\r' && bytes.get(i + 1) != Some(&b'\n')) {
+                starts.push(i + 1);
+            }
+        }
+        Self { bytes, starts }
+    }
+
+    /// The 1-based line of the record at byte `offset`: the reader may place a record's start
+    /// on the end of the line before it (the `\n` of a `\r\n`), so line ends are skipped first.
+    fn line_of(&self, offset: u64) -> u64 {
+        let offset = usize::try_from(offset).unwrap_or(usize::MAX);
+        let rest = self.bytes.get(offset..).unwrap_or_default();
+        let first = offset
+            + (rest.iter())
+                .take_while(|b| matches!(b, b'\r' | b'\n'))
+                .count();
+        self.starts.partition_point(|&s| s <= first) as u64
+    }
+}
+
 /// The rows of a file, and whether its header has the orientation columns.
 fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool)> {
     let bytes = std::fs::read(path).map_err(|source| DataError::Io {
@@ -252,9 +285,10 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
             path: path.to_path_buf(),
         });
     }
+    let lines = LineStarts::of(&bytes);
     let malformed = |e: csv::Error| DataError::Malformed {
         path: path.to_path_buf(),
-        line: e.position().map_or(1, csv::Position::line),
+        line: e.position().map_or(1, |p| lines.line_of(p.byte())),
         message: match e.kind() {
             csv::ErrorKind::UnequalLengths {
                 expected_len, len, ..
@@ -274,7 +308,7 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
     let mut first_seen: HashMap<String, (u64, Vec<f64>)> = HashMap::new();
     for record in reader.records() {
         let record = record.map_err(malformed)?;
-        let line = record.position().map_or(0, csv::Position::line);
+        let line = record.position().map_or(0, |p| lines.line_of(p.byte()));
         let field = |i: usize| record.get(i).unwrap_or("");
         let number = |i: usize| -> Result<f64> {
             let column = cols.names[i].clone();

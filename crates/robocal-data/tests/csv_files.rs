@@ -152,6 +152,40 @@ fn empty_file_and_header_only() {
     assert!(matches!(read_err(HEADER, 3), DataError::NoRows { .. }));
 }
 
+/// Lines are named alike whatever ends them: `\n`, `\r\n` (tracker software on Windows) or
+/// a lone `\r`; the rows read keep their lines too (a bad shot is named by it).
+#[test]
+fn line_numbers_with_every_line_ending() {
+    for end in ["\n", "\r\n", "\r"] {
+        let rows = [
+            "p,1,2,3,0,4,5,6",
+            "q,1,2,3,0,4,5,6",
+            "r,1,2,3,0,4,5,6",
+            "s,1,2,3,0,4,abc,6",
+        ];
+        let text = format!("pose,q1,q2,q3,load,x,y,z{end}{}{end}", rows.join(end));
+        let err = read_err(&text, 3);
+        assert!(
+            matches!(&err, DataError::NotANumber { line: 5, column, .. } if column == "y"),
+            "{end:?}: {err}"
+        );
+        let ragged = format!(
+            "pose,q1,q2,q3,load,x,y,z{end}{}{end}p,1{end}",
+            rows[..3].join(end)
+        );
+        assert!(
+            matches!(read_err(&ragged, 3), DataError::Malformed { line: 5, .. }),
+            "{end:?}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let good = format!("pose,q1,q2,q3,load,x,y,z{end}{}{end}", rows[..3].join(end));
+        let path = write(dir.path(), "m.csv", &good);
+        let set = MeasurementSet::read(&path, 3).unwrap();
+        let lines: Vec<u64> = set.rows.iter().map(|r| r.sample.line).collect();
+        assert_eq!(lines, [2, 3, 4], "{end:?}");
+    }
+}
+
 #[test]
 fn ragged_row() {
     let err = read_err(&format!("{HEADER}p,1,2,3,0,4,5\n"), 3);
