@@ -79,6 +79,30 @@ pub fn run(
                 }
             );
         }
+        if let (Some(held), false) = (o.held_out_std, o.suspects.is_empty()) {
+            let named: Vec<String> = (o.suspects.iter().take(10))
+                .map(|r| {
+                    format!(
+                        "line {} (pose {}, load {} kg) {:.3} mm",
+                        r.line, r.pose, r.load, r.error
+                    )
+                })
+                .collect();
+            eprintln!(
+                "robocal: warning: {}: too few configurations for the parameters to tell a bad shot from the model's own error (a fit without a configuration misses its rows by {:.3} mm, robust standard deviation): {} row(s) the fit of every row leaves beyond {:.0} robust standard deviations ({:.4} mm) were kept; check them: {}{}",
+                data.display(),
+                held,
+                o.suspects.len(),
+                o.threshold,
+                o.robust_std,
+                named.join(", "),
+                if o.suspects.len() > named.len() {
+                    ", …"
+                } else {
+                    ""
+                }
+            );
+        }
     }
     let r = &built.kinematic.report;
     eprintln!(

@@ -129,6 +129,52 @@ fn bad_shots_are_named_and_left_out_and_clean_rows_are_not() {
     assert!(clean_mean(&kept) > 1.5 * a, "kept bad shots pull the fit");
 }
 
+/// Few configurations for the parameters (9 of the twin's at six loads; the compliance stage
+/// identifies about 34): the fit of every row bends to each of them, and its errors called seven
+/// clean rows bad shots (14–55 robust standard deviations out). A row is a bad shot now only
+/// when a fit without its configuration leaves it beyond the threshold too: none here; the rows
+/// the fit of every row leaves beyond it are kept and named in a warning. With 12
+/// configurations a 30 mm shot is still found, and alone.
+#[test]
+fn few_configurations_call_no_clean_row_a_bad_shot() {
+    let dir = tempfile::tempdir().unwrap();
+    let six = [0.0, 4.0, 8.0, 12.0, 16.0, 20.0];
+    let rows = |every: usize| select_rows(&twin_rows(), |c, l| c % every == 0 && six.contains(&l));
+    let nine = write(dir.path(), "nine.csv", &rows(20));
+    let model = dir.path().join("nine-model");
+    let (ok, stderr) = calibrate(&nine, &model, &["--force"]);
+    assert!(ok, "{stderr}");
+    assert!(!stderr.contains("bad shot:"), "{stderr}");
+    let found = outliers(&model);
+    assert_eq!(found["rows"].as_array().unwrap().len(), 0);
+    let (fitted, held) = (
+        found["robust_std"].as_f64().unwrap(),
+        found["held_out_std"].as_f64().unwrap(),
+    );
+    assert!(held > 10.0 * fitted, "{fitted} {held}");
+    assert!(!found["suspects"].as_array().unwrap().is_empty());
+    assert!(
+        stderr.contains("too few configurations for the parameters to tell a bad shot"),
+        "{stderr}"
+    );
+
+    let twelve = write(dir.path(), "twelve.csv", &rows(14));
+    let dirty = edited(&twelve, "dirty.csv", |line, f| {
+        if line == 30 {
+            f[8] = format!("{}", f[8].parse::<f64>().unwrap() + 30.0);
+        }
+    });
+    let model = dir.path().join("dirty-model");
+    let (ok, stderr) = calibrate(&dirty, &model, &[]);
+    assert!(ok, "{stderr}");
+    let found = outliers(&model);
+    let lines: Vec<u64> = (found["rows"].as_array().unwrap().iter())
+        .map(|r| r["line"].as_u64().unwrap())
+        .collect();
+    assert_eq!(lines, [30], "{stderr}");
+    assert!(found["held_out_std"].as_f64().is_some());
+}
+
 /// Joint readings rounded to 0.01° when logged (the twin's rows as a controller exporting two
 /// decimals would give them): calibrate warns, naming the joints, the step and what the rounding
 /// leaves (about 0.1 mm at these poses: the estimate is checked against forward kinematics in

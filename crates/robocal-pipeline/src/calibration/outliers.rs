@@ -5,12 +5,13 @@
 
 use std::collections::BTreeSet;
 
+use nalgebra::Vector3;
 use robocal_data::{Measurement, robust_std};
-use robocal_ident::{ComplianceSettings, KinematicSettings};
+use robocal_ident::{ComplianceSettings, KinematicCalibration, KinematicSettings};
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::{fit_kinematic, loads, physical_model};
+use super::{configurations, fit_kinematic, loads, physical_model};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -40,6 +41,17 @@ impl Default for OutlierSettings {
     }
 }
 
+/// Fewer coordinates than this many times the identified parameters (three per configuration
+/// and reflector: the loads add nothing to the geometry) and a fit of every row bends to each
+/// of them, so that its errors are no measure of the model's: with 8 configurations of the
+/// paper's arm at six loads the clean rows of four lay 37–55 robust standard deviations out
+/// (the joint-4 backlash that flips with the payload, which such a fit absorbs elsewhere),
+/// while a fit without a configuration may miss it by tens of millimetres (12 configurations:
+/// one 73 mm, 27 of its robust standard deviations). Below it a row is a bad shot only when
+/// both leave it beyond the threshold: the fit of every row, and the fit without its
+/// configuration.
+pub const HELD_OUT_REDUNDANCY: f64 = 2.0;
+
 /// A row found to be a bad shot.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Outlier {
@@ -64,8 +76,18 @@ pub struct OutlierReport {
     pub threshold: f64,
     /// Whether the outliers were left out of the fit.
     pub left_out: bool,
+    /// With too few configurations for the parameters ([`HELD_OUT_REDUNDANCY`]): the robust
+    /// standard deviation of the rows' errors under fits without their configurations, mm; a
+    /// row flagged was beyond the threshold in both.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_std: Option<f64>,
     /// The rows flagged, in file order.
     pub rows: Vec<Outlier>,
+    /// With too few configurations: the rows the fit of every row leaves beyond the threshold
+    /// but a fit without their configuration does not (kept, and named for checking), in file
+    /// order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub suspects: Vec<Outlier>,
 }
 
 /// The physics the search fits: `settings`, with joint compliances when the data hold two or
@@ -83,7 +105,9 @@ fn search_physics(settings: &KinematicSettings, rows: &[&Measurement]) -> Kinema
 
 /// The bad shots of `rows` under the physics of `settings`: fit, flag the rows beyond the
 /// threshold, fit again without them, until the flagged set repeats (at most `rounds` fits).
-/// Returns the report and the rows to calibrate on (all of them with `keep`).
+/// With too few configurations for the parameters ([`HELD_OUT_REDUNDANCY`]) each row's error is
+/// its configuration's fold's under a fit of the other folds. Returns the report and the rows
+/// to calibrate on (all of them with `keep`).
 pub fn find_outliers<'a>(
     nominal: &Robot,
     rows: &[&'a Measurement],
@@ -94,41 +118,83 @@ pub fn find_outliers<'a>(
     let mut flagged: BTreeSet<usize> = BTreeSet::new();
     let mut errors = Vec::new();
     let mut sigma = 0.0;
-    for _ in 0..outliers.rounds.max(1) {
-        let inliers: Vec<&Measurement> = (rows.iter().enumerate())
-            .filter(|(i, _)| !flagged.contains(i))
-            .map(|(_, r)| *r)
-            .collect();
-        let model = physical_model(&fit_kinematic(nominal, &inliers, &physics)?);
-        let residuals = model.residuals(rows.iter().copied());
-        let components: Vec<f64> = (residuals.iter().enumerate())
-            .filter(|(i, _)| !flagged.contains(i))
-            .flat_map(|(_, r)| [r.x, r.y, r.z])
-            .collect();
-        sigma = robust_std(&components);
+    let mut folds: Option<Vec<usize>> = None;
+    let mut held_sigma = None;
+    for round in 0..outliers.rounds.max(1) {
+        let inliers = |keep: &dyn Fn(usize) -> bool| -> Vec<&Measurement> {
+            (rows.iter().enumerate())
+                .filter(|&(i, _)| !flagged.contains(&i) && keep(i))
+                .map(|(_, r)| *r)
+                .collect()
+        };
+        let fit = fit_kinematic(nominal, &inliers(&|_| true), &physics)?;
+        if round == 0 && too_few_configurations(&fit, rows) {
+            folds = Some(configuration_folds(rows));
+        }
+        let residuals = physical_model(&fit).residuals(rows.iter().copied());
+        let spread = |residuals: &[Vector3<f64>]| {
+            let components: Vec<f64> = (residuals.iter().enumerate())
+                .filter(|(i, _)| !flagged.contains(i))
+                .flat_map(|(_, r)| [r.x, r.y, r.z])
+                .collect();
+            robust_std(&components)
+        };
+        sigma = spread(&residuals);
         errors = residuals.iter().map(|r| r.norm()).collect::<Vec<f64>>();
-        let next: BTreeSet<usize> = (errors.iter().enumerate())
-            .filter(|(_, e)| sigma > 0.0 && **e > outliers.threshold * sigma)
-            .map(|(i, _)| i)
-            .collect();
+        let beyond = |errors: &[f64], sigma: f64| -> BTreeSet<usize> {
+            (errors.iter().enumerate())
+                .filter(|(_, e)| sigma > 0.0 && **e > outliers.threshold * sigma)
+                .map(|(i, _)| i)
+                .collect()
+        };
+        let mut next = beyond(&errors, sigma);
+        if let Some(fold) = &folds {
+            let mut held = vec![Vector3::zeros(); rows.len()];
+            for k in 0..configurations(rows).len() {
+                let test: Vec<usize> = (0..rows.len()).filter(|&i| fold[i] == k).collect();
+                if test.is_empty() {
+                    continue;
+                }
+                // A fold whose others cannot be fitted leaves nothing to tell a bad shot by.
+                let Ok(without) = fit_kinematic(nominal, &inliers(&|i| fold[i] != k), &physics)
+                else {
+                    return Ok(none_found(rows, outliers, sigma));
+                };
+                let model = physical_model(&without);
+                for (&i, r) in test
+                    .iter()
+                    .zip(model.residuals(test.iter().map(|&i| rows[i])))
+                {
+                    held[i] = r;
+                }
+            }
+            let held_std = spread(&held);
+            let held_errors: Vec<f64> = held.iter().map(|r| r.norm()).collect();
+            next = &next & &beyond(&held_errors, held_std);
+            held_sigma = Some(held_std);
+        }
         if next == flagged {
             break;
         }
         flagged = next;
     }
+    let outlier = |i: usize| Outlier {
+        pose: rows[i].sample.pose.clone(),
+        load: rows[i].sample.load,
+        line: rows[i].sample.line,
+        error: errors[i],
+        sigmas: errors[i] / sigma,
+    };
     let report = OutlierReport {
         robust_std: sigma,
         threshold: outliers.threshold,
         left_out: !outliers.keep,
-        rows: flagged
-            .iter()
-            .map(|&i| Outlier {
-                pose: rows[i].sample.pose.clone(),
-                load: rows[i].sample.load,
-                line: rows[i].sample.line,
-                error: errors[i],
-                sigmas: errors[i] / sigma,
-            })
+        held_out_std: held_sigma,
+        rows: flagged.iter().map(|&i| outlier(i)).collect(),
+        suspects: (0..rows.len())
+            .filter(|i| held_sigma.is_some() && !flagged.contains(i))
+            .filter(|&i| sigma > 0.0 && errors[i] > outliers.threshold * sigma)
+            .map(outlier)
             .collect(),
     };
     let kept = if outliers.keep {
@@ -140,4 +206,50 @@ pub fn find_outliers<'a>(
             .collect()
     };
     Ok((report, kept))
+}
+
+/// Whether `rows` hold fewer coordinates than [`HELD_OUT_REDUNDANCY`] times the parameters
+/// `fit` identified (three per configuration and reflector).
+fn too_few_configurations(fit: &KinematicCalibration, rows: &[&Measurement]) -> bool {
+    let parameters = fit.covariance.as_ref().map_or_else(
+        || {
+            (fit.report.parameters.iter())
+                .filter(|p| p.identified_flag)
+                .count()
+        },
+        |c| c.parameters.len(),
+    );
+    let mut points: Vec<(&str, &str)> = (rows.iter())
+        .map(|r| (r.sample.pose.as_str(), r.sample.target.as_str()))
+        .collect();
+    points.sort_unstable();
+    points.dedup();
+    ((3 * points.len()) as f64) < HELD_OUT_REDUNDANCY * parameters as f64
+}
+
+/// Each row's configuration's place among the sorted configurations (every load and reflector
+/// of a configuration held out together).
+fn configuration_folds(rows: &[&Measurement]) -> Vec<usize> {
+    let poses = configurations(rows);
+    (rows.iter())
+        .map(|r| poses.binary_search(&r.sample.pose.as_str()).unwrap_or(0))
+        .collect()
+}
+
+/// No bad shot found (a fold could not be fitted without its configurations: nothing could
+/// be told), every row kept; `sigma` the fit of every row's robust standard deviation.
+fn none_found<'a>(
+    rows: &[&'a Measurement],
+    outliers: &OutlierSettings,
+    sigma: f64,
+) -> (OutlierReport, Vec<&'a Measurement>) {
+    let report = OutlierReport {
+        robust_std: sigma,
+        threshold: outliers.threshold,
+        left_out: !outliers.keep,
+        held_out_std: None,
+        rows: Vec::new(),
+        suspects: Vec::new(),
+    };
+    (report, rows.to_vec())
 }
