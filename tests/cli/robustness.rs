@@ -359,6 +359,28 @@ fn few_poses_are_warned_about_not_refused_as_wrong_units() {
     assert!(!ok && err.contains("metres"), "{err}");
 }
 
+/// Five configurations of one load: no more coordinates than the parameters they identify, so
+/// the fit passes through every point and its lengths moved far from the drawing; refused as
+/// too few poses (it used to say the data did not fit the robot file), nothing written.
+#[test]
+fn as_many_parameters_as_coordinates_are_refused_as_too_few_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(
+        dir.path(),
+        "five.csv",
+        &select_rows(&twin_rows(), |c, l| c < 5 && l == 0.0),
+    );
+    let model = dir.path().join("model");
+    let (ok, err) = calibrate_with_stage(&data, &model, "configs/stages/kinematic-lm.toml", &[]);
+    assert!(!ok, "{err}");
+    assert!(
+        err.contains("too few poses to calibrate: 5 configurations give 15 coordinates"),
+        "{err}"
+    );
+    assert!(!err.contains("do not fit the robot file"), "{err}");
+    assert!(!model.exists());
+}
+
 /// The model keeps the joint readings and loads it was calibrated on (`domain.toml`, recomputed
 /// here from the training file): `predict`, `evaluate` and `compensate` warn, naming the file,
 /// the rows outside and joint 1's farthest reading, when rows or commands lie beyond joint 1's

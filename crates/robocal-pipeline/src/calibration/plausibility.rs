@@ -10,7 +10,7 @@ use robocal_ident::{
 };
 use robocal_robot::Robot;
 
-use super::{fit_kinematic, loads};
+use super::{configurations, fit_kinematic, loads};
 use crate::error::Result;
 
 /// Why a calibration is not plausible, and what probably went wrong.
@@ -20,13 +20,21 @@ pub struct Implausible {
     pub symptom: String,
     /// The hypothesis that would make the data fit, if one does.
     pub likely_cause: Option<String>,
+    /// No more coordinates than parameters: the fit passes through every point, and nothing
+    /// tells whether the data fit the robot file.
+    pub too_few: bool,
 }
 
 impl std::fmt::Display for Implausible {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the data do not fit the robot file: {}; {}",
+            "{}: {}; {}",
+            if self.too_few {
+                "too few poses to calibrate"
+            } else {
+                "the data do not fit the robot file"
+            },
             self.symptom,
             self.likely_cause
                 .as_deref()
@@ -61,6 +69,29 @@ fn fits(rigid: &KinematicCalibration, nominal: &Robot, rows: &[&Measurement]) ->
     fit_kinematic(nominal, rows, &elastic).is_ok_and(|f| plausible(&f, nominal))
 }
 
+/// The distinct coordinates the rigid fit `fit` of `rows` had (three per configuration and
+/// reflector of its load) and the parameters it identified.
+fn redundancy(fit: &KinematicCalibration, rows: &[&Measurement]) -> (usize, usize) {
+    let lightest = (rows.iter())
+        .map(|r| r.sample.load)
+        .fold(f64::INFINITY, f64::min);
+    let mut points: Vec<(&str, &str)> = (rows.iter())
+        .filter(|r| r.sample.load == lightest)
+        .map(|r| (r.sample.pose.as_str(), r.sample.target.as_str()))
+        .collect();
+    points.sort_unstable();
+    points.dedup();
+    let parameters = fit.covariance.as_ref().map_or_else(
+        || {
+            (fit.report.parameters.iter())
+                .filter(|p| p.identified_flag)
+                .count()
+        },
+        |c| c.parameters.len(),
+    );
+    (3 * points.len(), parameters)
+}
+
 /// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average and no
 /// link length moved far from the drawing.
 fn plausible(fit: &KinematicCalibration, nominal: &Robot) -> bool {
@@ -77,6 +108,21 @@ pub fn check_plausible(nominal: &Robot, rows: &[&Measurement]) -> Result<Option<
     let fit = fit_kinematic(nominal, rows, &settings)?;
     if fits(&fit, nominal, rows) {
         return Ok(None);
+    }
+    // As many parameters as coordinates: the fit passes through every point, and no
+    // hypothesis of units or joint order can be told from another.
+    let (coordinates, parameters) = redundancy(&fit, rows);
+    if coordinates <= parameters {
+        return Ok(Some(Implausible {
+            symptom: format!(
+                "{} configurations give {coordinates} coordinates for {parameters} parameters: the fit passes through every point, so its lengths say nothing",
+                configurations(rows).len()
+            ),
+            likely_cause: Some(
+                "measure more configurations, spread over the joint ranges (a calibration wants several times as many coordinates, three per configuration, as parameters)".into(),
+            ),
+            too_few: true,
+        }));
     }
     let far = far_lengths(&fit, nominal);
     let symptom = if fit.report.after.mean > POOR_FIT {
@@ -142,6 +188,7 @@ pub fn check_plausible(nominal: &Robot, rows: &[&Measurement]) -> Result<Option<
         }
     }
     Ok(Some(Implausible {
+        too_few: false,
         symptom,
         likely_cause: best.map(|(cause, mean)| {
             format!(
