@@ -175,6 +175,90 @@ fn few_configurations_call_no_clean_row_a_bad_shot() {
     assert!(found["held_out_std"].as_f64().is_some());
 }
 
+/// Shots taken again (every load of every ninth configuration measured twice, the second 0.03
+/// mm further along x and 0.03 mm back along y): each pair's spread about its mean is
+/// `(0.03² + 0.03²) / 2` over 3 degrees of freedom, a pooled 0.01732 mm per coordinate; the
+/// floor is `2√(2/π)` of it; the default calibration sets its held-out error against it, in
+/// report.json and on stderr. A stage config has no held-out error to set against it.
+#[test]
+fn repeated_shots_give_the_measurements_own_spread_and_the_floor() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = clean(dir.path());
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut out = String::new();
+    let mut repeated = 0;
+    for (i, line) in text.lines().enumerate() {
+        out += line;
+        out += "\n";
+        let fields: Vec<&str> = line.split(',').collect();
+        let pose: usize = fields[0].trim_start_matches('g').parse().unwrap_or(1);
+        if i > 0 && pose % 9 == 0 {
+            let shift = |v: &str, d: f64| format!("{}", v.parse::<f64>().unwrap() + d);
+            let mut again: Vec<String> = fields.iter().map(|f| f.to_string()).collect();
+            again[8] = shift(fields[8], 0.03);
+            again[9] = shift(fields[9], -0.03);
+            out += &again.join(",");
+            out += "\n";
+            repeated += 1;
+        }
+    }
+    let twice = write(dir.path(), "twice.csv", &out);
+    let expected = (0.0018f64 / 2.0 / 3.0).sqrt();
+    let check = |model: &Path| {
+        let r = report(model)["repeats"].clone();
+        assert_eq!(r["groups"].as_u64(), Some(repeated), "{r}");
+        assert_eq!(r["rows"].as_u64(), Some(2 * repeated), "{r}");
+        let std = r["std_mm"].as_f64().unwrap();
+        assert!((std - expected).abs() < 1e-6, "{std} vs {expected}");
+        let floor = r["floor_mm"].as_f64().unwrap();
+        assert!((floor - std * 2.0 * (2.0 / std::f64::consts::PI).sqrt()).abs() < 1e-9);
+        r
+    };
+    let staged = dir.path().join("staged");
+    let (ok, stderr) = calibrate(&twice, &staged, &[]);
+    assert!(
+        ok && stderr.contains("robocal: repeated shots: "),
+        "{stderr}"
+    );
+    assert!(check(&staged)["held_out_over_floor"].is_null());
+
+    let model = dir.path().join("default");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        ROBOT,
+        "--data",
+        s(&twice),
+        "--out",
+        s(&model),
+        "--budget",
+        "60",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let r = check(&model);
+    let chosen = (report(&model)["selection"]["candidates"]
+        .as_array()
+        .unwrap()
+        .iter())
+    .find(|c| c["status"] == "chosen")
+    .map(|c| c["held_out"]["mean"].as_f64().unwrap())
+    .unwrap();
+    let ratio = r["held_out_over_floor"].as_f64().unwrap();
+    assert!(
+        (ratio - chosen / r["floor_mm"].as_f64().unwrap()).abs() < 1e-9,
+        "{r}"
+    );
+    assert!(
+        stderr.contains(&format!("held-out error on random folds is {ratio:.2}×")),
+        "{stderr}"
+    );
+    let once = dir.path().join("once");
+    let (ok, stderr) = calibrate(&data, &once, &[]);
+    assert!(ok && !stderr.contains("repeated shots"), "{stderr}");
+    assert!(report(&once).get("repeats").is_none());
+}
+
 /// Joint readings rounded to 0.01° when logged (the twin's rows as a controller exporting two
 /// decimals would give them): calibrate warns, naming the joints, the step and what the rounding
 /// leaves (about 0.1 mm at these poses: the estimate is checked against forward kinematics in

@@ -11,9 +11,10 @@ use robocal_robot::{JointErrors, Robot};
 use serde::Serialize;
 
 use super::{
-    AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, ResidualReport,
-    Selection, check_plausible, configured, find_outliers,
+    AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, Repeats,
+    ResidualReport, Selection, check_plausible, configured, find_outliers,
     readings::{rounded_joints, rounding_warning},
+    repeats::repeats,
     select::automatic,
 };
 use crate::error::{PipelineError, Result};
@@ -65,6 +66,10 @@ pub struct CalibrationReport {
     /// The bad shots found (rows far beyond the data's own spread), and whether they were left
     /// out.
     pub outliers: Option<OutlierReport>,
+    /// What the repeated shots (the same readings, load and reflector measured again) say of
+    /// the measurement's own spread, and the held-out error against the floor it sets.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub repeats: Option<Repeats>,
 }
 
 /// What a calibration is given.
@@ -216,6 +221,24 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             after: model.stats(&rows),
         }
     });
+    // The measurement's own spread, from the shots taken again (the bad shots left out), and
+    // the chosen model's held-out error against the floor it sets.
+    let flagged: Vec<u64> = (built.outliers.iter())
+        .filter(|o| o.left_out)
+        .flat_map(|o| o.rows.iter().map(|r| r.line))
+        .collect();
+    let kept: Vec<&Measurement> = (rows.iter().copied())
+        .filter(|r| r.sample.line == 0 || !flagged.contains(&r.sample.line))
+        .collect();
+    let repeats = repeats(&kept).map(|mut r| {
+        r.held_out_over_floor = (built.selection.iter())
+            .flat_map(|s| s.candidates.iter())
+            .find(|c| c.status == "chosen")
+            .and_then(|c| c.held_out.as_ref())
+            .filter(|_| r.floor_mm > 0.0)
+            .map(|h| h.mean / r.floor_mm);
+        r
+    });
     let report = CalibrationReport {
         robot_file: input.robot_file.to_path_buf(),
         data_file: data.clone(),
@@ -231,6 +254,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         residual: built.residual.as_ref().map(|(_, r)| r.clone()),
         validation,
         outliers: built.outliers.clone(),
+        repeats,
     };
     let name = &input.nominal.name;
     model.robot.name = format!("{name} (calibrated by robocal)");

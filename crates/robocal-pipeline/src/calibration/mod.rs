@@ -19,6 +19,7 @@ pub mod folds;
 pub mod outliers;
 pub mod plausibility;
 pub mod readings;
+pub mod repeats;
 pub mod select;
 pub mod spread;
 
@@ -49,6 +50,7 @@ pub use calibrate::{
 pub use folds::{SIGNIFICANCE, blocks, folds, improves};
 pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers};
 pub use plausibility::{Implausible, check_plausible};
+pub use repeats::{Repeats, repeats};
 pub use select::{
     AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, REACH_GAIN,
     Selection, automatic,
