@@ -195,6 +195,29 @@ pub(crate) fn configurations<'a>(rows: &[&'a Measurement]) -> Vec<&'a str> {
     poses
 }
 
+/// Three coordinates per configuration and reflector of `rows` (the loads add nothing to the
+/// geometry), and the parameters `fit` identified (its covariance's, or the table's identified
+/// entries where it kept none).
+pub(crate) fn coordinates_and_parameters(
+    fit: &KinematicCalibration,
+    rows: &[&Measurement],
+) -> (usize, usize) {
+    let mut points: Vec<(&str, &str)> = (rows.iter())
+        .map(|r| (r.sample.pose.as_str(), r.sample.target.as_str()))
+        .collect();
+    points.sort_unstable();
+    points.dedup();
+    let parameters = fit.covariance.as_ref().map_or_else(
+        || {
+            (fit.report.parameters.iter())
+                .filter(|p| p.identified_flag)
+                .count()
+        },
+        |c| c.parameters.len(),
+    );
+    (3 * points.len(), parameters)
+}
+
 /// The loads (kg) of `rows`, ascending, each once.
 pub(crate) fn loads(rows: &[&Measurement]) -> Vec<f64> {
     let mut loads: Vec<f64> = rows.iter().map(|r| r.sample.load).collect();

@@ -11,7 +11,7 @@ use robocal_ident::{ComplianceSettings, KinematicCalibration, KinematicSettings}
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::{configurations, fit_kinematic, loads, physical_model};
+use super::{configurations, coordinates_and_parameters, fit_kinematic, loads, physical_model};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -211,20 +211,8 @@ pub fn find_outliers<'a>(
 /// Whether `rows` hold fewer coordinates than [`HELD_OUT_REDUNDANCY`] times the parameters
 /// `fit` identified (three per configuration and reflector).
 fn too_few_configurations(fit: &KinematicCalibration, rows: &[&Measurement]) -> bool {
-    let parameters = fit.covariance.as_ref().map_or_else(
-        || {
-            (fit.report.parameters.iter())
-                .filter(|p| p.identified_flag)
-                .count()
-        },
-        |c| c.parameters.len(),
-    );
-    let mut points: Vec<(&str, &str)> = (rows.iter())
-        .map(|r| (r.sample.pose.as_str(), r.sample.target.as_str()))
-        .collect();
-    points.sort_unstable();
-    points.dedup();
-    ((3 * points.len()) as f64) < HELD_OUT_REDUNDANCY * parameters as f64
+    let (coordinates, parameters) = coordinates_and_parameters(fit, rows);
+    (coordinates as f64) < HELD_OUT_REDUNDANCY * parameters as f64
 }
 
 /// Each row's configuration's place among the sorted configurations (every load and reflector

@@ -10,7 +10,7 @@ use robocal_ident::{
 };
 use robocal_robot::Robot;
 
-use super::{configurations, fit_kinematic, loads};
+use super::{configurations, coordinates_and_parameters, fit_kinematic, loads};
 use crate::error::Result;
 
 /// Why a calibration is not plausible, and what probably went wrong.
@@ -70,26 +70,15 @@ fn fits(rigid: &KinematicCalibration, nominal: &Robot, rows: &[&Measurement]) ->
 }
 
 /// The distinct coordinates the rigid fit `fit` of `rows` had (three per configuration and
-/// reflector of its load) and the parameters it identified.
+/// reflector of its load: [`coordinates_and_parameters`]) and the parameters it identified.
 fn redundancy(fit: &KinematicCalibration, rows: &[&Measurement]) -> (usize, usize) {
     let lightest = (rows.iter())
         .map(|r| r.sample.load)
         .fold(f64::INFINITY, f64::min);
-    let mut points: Vec<(&str, &str)> = (rows.iter())
+    let fitted: Vec<&Measurement> = (rows.iter().copied())
         .filter(|r| r.sample.load == lightest)
-        .map(|r| (r.sample.pose.as_str(), r.sample.target.as_str()))
         .collect();
-    points.sort_unstable();
-    points.dedup();
-    let parameters = fit.covariance.as_ref().map_or_else(
-        || {
-            (fit.report.parameters.iter())
-                .filter(|p| p.identified_flag)
-                .count()
-        },
-        |c| c.parameters.len(),
-    );
-    (3 * points.len(), parameters)
+    coordinates_and_parameters(fit, &fitted)
 }
 
 /// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average and no
