@@ -32,10 +32,14 @@ pub struct Repeats {
     pub held_out_over_floor: Option<f64>,
 }
 
+/// What makes two rows shots of the same point: the joint readings (bits), the load (bits) and
+/// the reflector.
+type ShotKey<'a> = (Vec<u64>, u64, &'a str);
+
 /// The repeated shots of `rows`; `None` when no configuration, load and reflector was measured
 /// twice.
 pub fn repeats(rows: &[&Measurement]) -> Option<Repeats> {
-    let mut groups: HashMap<(Vec<u64>, u64, &str), Vec<Vector3<f64>>> = HashMap::new();
+    let mut groups: HashMap<ShotKey<'_>, Vec<Vector3<f64>>> = HashMap::new();
     for r in rows {
         let joints = r.sample.joints.iter().map(|q| q.to_bits()).collect();
         let key = (joints, r.sample.load.to_bits(), r.sample.target.as_str());
