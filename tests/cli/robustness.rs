@@ -192,7 +192,7 @@ fn repeated_shots_give_the_measurements_own_spread_and_the_floor() {
         out += "\n";
         let fields: Vec<&str> = line.split(',').collect();
         let pose: usize = fields[0].trim_start_matches('g').parse().unwrap_or(1);
-        if i > 0 && pose % 9 == 0 {
+        if i > 0 && pose.is_multiple_of(9) {
             let shift = |v: &str, d: f64| format!("{}", v.parse::<f64>().unwrap() + d);
             let mut again: Vec<String> = fields.iter().map(|f| f.to_string()).collect();
             again[8] = shift(fields[8], 0.03);
