@@ -222,7 +222,8 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         }
     });
     // The measurement's own spread, from the shots taken again (the bad shots left out), and
-    // the chosen model's held-out error against the floor it sets.
+    // the chosen model's held-out error on random folds against the floor it sets (none with a
+    // validation file, which scores the candidates instead).
     let flagged: Vec<u64> = (built.outliers.iter())
         .filter(|o| o.left_out)
         .flat_map(|o| o.rows.iter().map(|r| r.line))
@@ -232,6 +233,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         .collect();
     let repeats = repeats(&kept).map(|mut r| {
         r.held_out_over_floor = (built.selection.iter())
+            .filter(|_| input.validation.is_none())
             .flat_map(|s| s.candidates.iter())
             .find(|c| c.status == "chosen")
             .and_then(|c| c.held_out.as_ref())

@@ -46,10 +46,9 @@ impl Default for OutlierSettings {
 /// of them, so that its errors are no measure of the model's: with 8 configurations of the
 /// paper's arm at six loads the clean rows of four lay 37–55 robust standard deviations out
 /// (the joint-4 backlash that flips with the payload, which such a fit absorbs elsewhere),
-/// while a fit without a configuration may miss it by tens of millimetres (12 configurations:
-/// one 73 mm, 27 of its robust standard deviations). Below it a row is a bad shot only when
-/// both leave it beyond the threshold: the fit of every row, and the fit without its
-/// configuration.
+/// while a fit without a configuration may miss it by tens of millimetres, so that neither
+/// alone tells a bad shot. Below it a row is a bad shot only when both leave it beyond the
+/// threshold: the fit of every row, and the fit without its configuration.
 pub const HELD_OUT_REDUNDANCY: f64 = 2.0;
 
 /// A row found to be a bad shot.
@@ -105,9 +104,10 @@ fn search_physics(settings: &KinematicSettings, rows: &[&Measurement]) -> Kinema
 
 /// The bad shots of `rows` under the physics of `settings`: fit, flag the rows beyond the
 /// threshold, fit again without them, until the flagged set repeats (at most `rounds` fits).
-/// With too few configurations for the parameters ([`HELD_OUT_REDUNDANCY`]) each row's error is
-/// its configuration's fold's under a fit of the other folds. Returns the report and the rows
-/// to calibrate on (all of them with `keep`).
+/// With too few configurations for the parameters ([`HELD_OUT_REDUNDANCY`]) a row is flagged
+/// only when the fit without its configuration (each left out in turn) also leaves it beyond
+/// the threshold of that fit's own spread. Returns the report and the rows to calibrate on
+/// (all of them with `keep`).
 pub fn find_outliers<'a>(
     nominal: &Robot,
     rows: &[&'a Measurement],
