@@ -16,7 +16,7 @@ use super::configurations;
 /// (a reference pose measured again under a new id, as a drift check is, is one configuration:
 /// held out with its first measurement, never predicted from it). Ids whose readings no other id
 /// shares are their own.
-fn configuration_of<'a>(rows: &[&'a Measurement]) -> HashMap<&'a str, &'a str> {
+pub(crate) fn configuration_of<'a>(rows: &[&'a Measurement]) -> HashMap<&'a str, &'a str> {
     let mut first: HashMap<Vec<u64>, &str> = HashMap::new();
     for pose in configurations(rows) {
         let joints = (rows.iter().find(|r| r.sample.pose == pose))

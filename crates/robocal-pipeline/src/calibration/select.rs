@@ -584,15 +584,22 @@ impl<'a> FoldPlan<'a> {
     }
 
     /// One group per configuration and kind of fold, in the order [`Held::all`] keeps the
-    /// errors: the units of the paired test.
+    /// errors: the units of the paired test (a configuration: a pose id and every id with the
+    /// same joint readings, as the folds deal them).
     fn groups(&self) -> Vec<usize> {
+        let tested: Vec<&Measurement> = (self.splits.iter())
+            .flat_map(|f| f.test.iter().copied())
+            .collect();
+        let of = super::folds::configuration_of(&tested);
         let mut ids: std::collections::HashMap<(&str, bool), usize> = Default::default();
         let mut out = Vec::new();
         for blocked in [false, true] {
             for fold in self.splits.iter().filter(|f| f.blocked == blocked) {
                 for r in &fold.test {
+                    let pose = r.sample.pose.as_str();
+                    let configuration = of.get(pose).copied().unwrap_or(pose);
                     let next = ids.len();
-                    out.push(*ids.entry((r.sample.pose.as_str(), blocked)).or_insert(next));
+                    out.push(*ids.entry((configuration, blocked)).or_insert(next));
                 }
             }
         }
