@@ -320,7 +320,7 @@ fn joint_readings_rounded_when_logged_are_warned_of() {
 }
 
 #[test]
-fn inches_radians_and_swapped_joints_are_refused_unless_forced() {
+fn inches_radians_swapped_and_negated_joints_are_refused_unless_forced() {
     let dir = tempfile::tempdir().unwrap();
     let data = clean(dir.path());
     let cases = [
@@ -343,6 +343,21 @@ fn inches_radians_and_swapped_joints_are_refused_unless_forced() {
         (
             edited(&data, "swapped.csv", |_, f| f.swap(2, 3)),
             "columns q2 and q3 look swapped",
+        ),
+        // A joint counted the other way round: the table fits it as well with an angle turned
+        // half round (q3: j3.alpha and j4.alpha by 180°; q6: j5.theta), which the physics,
+        // started from the robot file, do not follow.
+        (
+            edited(&data, "q3.csv", |_, f| {
+                f[3] = format!("{}", -f[3].parse::<f64>().unwrap())
+            }),
+            "q3 looks negated",
+        ),
+        (
+            edited(&data, "q6.csv", |_, f| {
+                f[6] = format!("{}", -f[6].parse::<f64>().unwrap())
+            }),
+            "q6 looks negated",
         ),
     ];
     for (file, cause) in &cases {
