@@ -105,8 +105,9 @@ fn redundancy(fit: &KinematicCalibration, rows: &[&Measurement]) -> (usize, usiz
     coordinates_and_parameters(fit, &fitted)
 }
 
-/// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average and no
-/// link length moved far from the drawing.
+/// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average, no link
+/// length moved far from the drawing and no joint angle of the table turned half round
+/// ([`turned_axes`]).
 fn plausible(fit: &KinematicCalibration, nominal: &Robot) -> bool {
     fit.report.after.mean <= POOR_FIT
         && far_lengths(fit, nominal).is_empty()
