@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement};
 pub use robocal_data::{SIGNIFICANCE, improves};
 
-use super::configurations;
+use super::{configurations, readings_key};
 
 /// Every pose id's configuration: the smallest pose id whose rows have the same joint readings
 /// (a reference pose measured again under a new id, as a drift check is, is one configuration:
@@ -18,24 +18,13 @@ use super::configurations;
 /// shares are their own.
 pub(crate) fn configuration_of<'a>(rows: &[&'a Measurement]) -> HashMap<&'a str, &'a str> {
     let mut first: HashMap<Vec<u64>, &str> = HashMap::new();
-    for pose in configurations(rows) {
-        let joints = (rows.iter().find(|r| r.sample.pose == pose))
-            .map(|r| {
-                r.sample
-                    .joints
-                    .iter()
-                    .map(|q| q.to_bits())
-                    .collect::<Vec<u64>>()
-            })
-            .unwrap_or_default();
-        first.entry(joints).or_insert(pose);
+    for r in rows {
+        let pose = r.sample.pose.as_str();
+        let id = first.entry(readings_key(r)).or_insert(pose);
+        *id = (*id).min(pose);
     }
     (rows.iter())
-        .map(|r| {
-            let joints: Vec<u64> = r.sample.joints.iter().map(|q| q.to_bits()).collect();
-            let pose = r.sample.pose.as_str();
-            (pose, first.get(&joints).copied().unwrap_or(pose))
-        })
+        .map(|r| (r.sample.pose.as_str(), first[&readings_key(r)]))
         .collect()
 }
 

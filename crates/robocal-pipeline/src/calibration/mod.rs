@@ -195,6 +195,22 @@ pub(crate) fn configurations<'a>(rows: &[&'a Measurement]) -> Vec<&'a str> {
     poses
 }
 
+/// The rows of `rows` at its lightest load: what a rigid kinematic stage is fitted on.
+pub(crate) fn lightest_load_rows<'a>(rows: &[&'a Measurement]) -> Vec<&'a Measurement> {
+    let lightest = (rows.iter())
+        .map(|r| r.sample.load)
+        .fold(f64::INFINITY, f64::min);
+    (rows.iter().copied())
+        .filter(|r| r.sample.load == lightest)
+        .collect()
+}
+
+/// A row's joint readings, bit for bit: rows with the same key are the same configuration
+/// whatever their pose ids.
+pub(crate) fn readings_key(r: &Measurement) -> Vec<u64> {
+    r.sample.joints.iter().map(|q| q.to_bits()).collect()
+}
+
 /// Three coordinates per configuration and reflector of `rows` (the loads add nothing to the
 /// geometry), and the parameters `fit` identified (its covariance's, or the table's identified
 /// entries where it kept none).
@@ -286,14 +302,7 @@ pub fn fit_kinematic_with(
     let obs = if settings.compliance.is_some() {
         Observations::from_rows(nominal.dof(), rows.iter().copied())
     } else {
-        let lightest = rows
-            .iter()
-            .map(|r| r.sample.load)
-            .fold(f64::INFINITY, f64::min);
-        Observations::from_rows(
-            nominal.dof(),
-            rows.iter().copied().filter(|r| r.sample.load == lightest),
-        )
+        Observations::from_rows(nominal.dof(), lightest_load_rows(rows).into_iter())
     };
     Ok(calibrate_kinematics_with(nominal, &obs, settings, memo)?)
 }

@@ -10,7 +10,7 @@ use robocal_ident::{
 };
 use robocal_robot::Robot;
 
-use super::{configurations, coordinates_and_parameters, fit_kinematic, loads};
+use super::{configurations, coordinates_and_parameters, fit_kinematic, lightest_load_rows, loads};
 use crate::error::Result;
 
 /// Why a calibration is not plausible, and what probably went wrong.
@@ -96,13 +96,7 @@ fn fits(rigid: &KinematicCalibration, nominal: &Robot, rows: &[&Measurement]) ->
 /// The distinct coordinates the rigid fit `fit` of `rows` had (three per configuration and
 /// reflector of its load: [`coordinates_and_parameters`]) and the parameters it identified.
 fn redundancy(fit: &KinematicCalibration, rows: &[&Measurement]) -> (usize, usize) {
-    let lightest = (rows.iter())
-        .map(|r| r.sample.load)
-        .fold(f64::INFINITY, f64::min);
-    let fitted: Vec<&Measurement> = (rows.iter().copied())
-        .filter(|r| r.sample.load == lightest)
-        .collect();
-    coordinates_and_parameters(fit, &fitted)
+    coordinates_and_parameters(fit, &lightest_load_rows(rows))
 }
 
 /// Whether a fit is plausible: it meets the points within [`POOR_FIT`] mm on average, no link

@@ -9,6 +9,8 @@ use nalgebra::Vector3;
 use robocal_data::Measurement;
 use serde::Serialize;
 
+use super::readings_key;
+
 /// `E|e|` for `e ~ N(0, I₃)`: `2 √(2/π)`, the mean length of a three-axis Gaussian error of unit
 /// standard deviation per axis.
 pub const MEAN_NORM_3D: f64 = 1.595_769_121_605_730_7;
@@ -41,8 +43,11 @@ type ShotKey<'a> = (Vec<u64>, u64, &'a str);
 pub fn repeats(rows: &[&Measurement]) -> Option<Repeats> {
     let mut groups: HashMap<ShotKey<'_>, Vec<Vector3<f64>>> = HashMap::new();
     for r in rows {
-        let joints = r.sample.joints.iter().map(|q| q.to_bits()).collect();
-        let key = (joints, r.sample.load.to_bits(), r.sample.target.as_str());
+        let key = (
+            readings_key(r),
+            r.sample.load.to_bits(),
+            r.sample.target.as_str(),
+        );
         groups.entry(key).or_default().push(r.position);
     }
     let (mut sum, mut dof, mut count, mut members) = (0.0, 0usize, 0usize, 0usize);
