@@ -64,7 +64,7 @@ pub fn run(
     if let Some(o) = &built.outliers {
         for row in &o.rows {
             eprintln!(
-                "robocal: bad shot: {} line {} (pose {}, load {} kg): {:.3} mm from the model, {:.0} robust standard deviations ({:.4} mm); {}",
+                "robocal: bad shot: {} line {} (pose {}, load {} kg): {:.3} mm from the model, {:.0} robust standard deviations ({:.4} mm){}; {}",
                 data.display(),
                 row.line,
                 row.pose,
@@ -72,6 +72,11 @@ pub fn run(
                 row.error,
                 row.sigmas,
                 o.robust_std,
+                (row.refined_sigmas.zip(o.refined_std))
+                    .map(|(n, std)| format!(
+                        ", {n:.0} ({std:.4} mm) under the physics with the transmission harmonics"
+                    ))
+                    .unwrap_or_default(),
                 if o.left_out {
                     "left out of the fit (--keep-outliers keeps it)"
                 } else {
