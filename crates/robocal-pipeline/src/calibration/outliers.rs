@@ -29,8 +29,10 @@ pub struct OutlierSettings {
 }
 
 /// The default threshold, in robust standard deviations: no clean row of robocal's twins came
-/// near it (their largest 7.0 of them: the development families' 36 cases, session 38), while a
-/// 2 mm bad shot on a 0.1 mm calibration is 20 of them and more.
+/// near it (their largest about 7 of them: 7.1 under `accuracy --outliers`, 7.0 on the
+/// development families' 36 cases of session 38), while a 2 mm bad shot on a 0.1 mm calibration
+/// is 20 of them and more (not on the paper's arm, whose compliance fit leaves 0.16–0.24 mm:
+/// there the refined search, [`REFINED_SHARE`]).
 pub const OUTLIER_THRESHOLD: f64 = 12.0;
 
 /// Share of the threshold beyond which the search's physics must leave a row for the refined
@@ -113,7 +115,8 @@ pub struct OutlierReport {
     /// (and the data hold enough configurations): the robust standard deviation, mm, of the
     /// error components under the refined physics (the search's with the transmission
     /// harmonics), fitted without the outliers; a row beyond the threshold of it and that share
-    /// of the search's threshold is flagged too.
+    /// of the search's threshold is flagged too (unless its error lies along one joint's motion
+    /// where that joint's flank may have flipped: [`SINGLE_JOINT_SHARE`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refined_std: Option<f64>,
     /// The rows flagged, in file order.
@@ -160,8 +163,8 @@ fn refined_physics(physics: &KinematicSettings) -> Option<KinematicSettings> {
 /// [`REFINED_SHARE`] of the threshold are searched again under the refined physics (with the
 /// transmission harmonics: [`refined_physics`]), fitted without the flagged rows in the same
 /// rounds, and a row beyond its threshold is flagged too, unless its error there lies along one
-/// joint's motion at loads where that joint's flank may have flipped ([`SINGLE_JOINT_SHARE`]). Returns the report and the rows to
-/// calibrate on (all of them with `keep`).
+/// joint's motion at loads where that joint's flank may have flipped ([`SINGLE_JOINT_SHARE`]).
+/// Returns the report and the rows to calibrate on (all of them with `keep`).
 pub fn find_outliers<'a>(
     nominal: &Robot,
     rows: &[&'a Measurement],
@@ -285,8 +288,9 @@ struct Refined {
 /// search's physics lie beyond [`REFINED_SHARE`] of the threshold of `sigma`, flagged where the
 /// refined physics `rich`, fitted without the flagged rows, leaves them beyond the threshold of
 /// its own robust standard deviation, unless its error there lies along one joint's motion
-/// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it ([`past_a_flip`]); fitted again without those until the set repeats (at
-/// most `rounds` fits). None where no row lies that far out (nothing to fit for).
+/// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it ([`past_a_flip`]); fitted
+/// again without those until the set repeats (at most `rounds` fits). None where no row lies
+/// that far out (nothing to fit for).
 fn refine(
     nominal: &Robot,
     rows: &[&Measurement],
