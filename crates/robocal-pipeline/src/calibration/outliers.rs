@@ -236,7 +236,7 @@ pub fn find_outliers<'a>(
         flagged = next;
     }
     let refined = match (&folds, refined_physics(&physics)) {
-        (None, Some(rich)) => refine(nominal, rows, &rich, outliers, &errors, sigma, &flagged)?,
+        (None, Some(rich)) => refine(nominal, rows, &rich, outliers, &errors, sigma, &flagged),
         _ => None,
     };
     if let Some(r) = &refined {
@@ -290,7 +290,8 @@ struct Refined {
 /// its own robust standard deviation, unless its error there lies along one joint's motion
 /// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it ([`past_a_flip`]); fitted
 /// again without those until the set repeats (at most `rounds` fits). None where no row lies
-/// that far out (nothing to fit for).
+/// that far out (nothing to fit for), or where a refined fit fails (the first search's finding
+/// stands).
 fn refine(
     nominal: &Robot,
     rows: &[&Measurement],
@@ -299,13 +300,13 @@ fn refine(
     errors: &[f64],
     sigma: f64,
     flagged: &BTreeSet<usize>,
-) -> Result<Option<Refined>> {
+) -> Option<Refined> {
     let candidates: BTreeSet<usize> = (0..rows.len())
         .filter(|i| !flagged.contains(i))
         .filter(|&i| sigma > 0.0 && errors[i] > REFINED_SHARE * outliers.threshold * sigma)
         .collect();
     if candidates.is_empty() {
-        return Ok(None);
+        return None;
     }
     let mut found = Refined {
         std: 0.0,
@@ -318,7 +319,10 @@ fn refine(
             .filter(|(i, _)| !out(i))
             .map(|(_, r)| *r)
             .collect();
-        let fit = fit_kinematic(nominal, &inliers, rich)?;
+        // A refined fit that fails leaves the first search's finding as it was.
+        let Ok(fit) = fit_kinematic(nominal, &inliers, rich) else {
+            return None;
+        };
         let residuals = physical_model(&fit).residuals(rows.iter().copied());
         let components: Vec<f64> = (residuals.iter().enumerate())
             .filter(|(i, _)| !out(i))
@@ -341,7 +345,7 @@ fn refine(
         }
         found.flagged = next;
     }
-    Ok(Some(found))
+    Some(found)
 }
 
 /// Whether row `i` could lie past the one flip of a flank its torque presses in its
