@@ -13,7 +13,9 @@ use robocal_ident::{
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::{configurations, coordinates_and_parameters, fit_kinematic, loads, physical_model};
+use super::{
+    configurations, coordinates_and_parameters, fit_kinematic, loads, physical_model, readings_key,
+};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -189,13 +191,8 @@ pub fn find_outliers<'a>(
             folds = Some(configuration_folds(rows));
         }
         let residuals = physical_model(&fit).residuals(rows.iter().copied());
-        let spread = |residuals: &[Vector3<f64>]| {
-            let components: Vec<f64> = (residuals.iter().enumerate())
-                .filter(|(i, _)| !flagged.contains(i))
-                .flat_map(|(_, r)| [r.x, r.y, r.z])
-                .collect();
-            robust_std(&components)
-        };
+        let spread =
+            |residuals: &[Vector3<f64>]| robust_spread(residuals, &|i| flagged.contains(&i));
         sigma = spread(&residuals);
         errors = residuals.iter().map(|r| r.norm()).collect::<Vec<f64>>();
         let beyond = |errors: &[f64], sigma: f64| -> BTreeSet<usize> {
@@ -324,11 +321,7 @@ fn refine(
             return None;
         };
         let residuals = physical_model(&fit).residuals(rows.iter().copied());
-        let components: Vec<f64> = (residuals.iter().enumerate())
-            .filter(|(i, _)| !out(i))
-            .flat_map(|(_, r)| [r.x, r.y, r.z])
-            .collect();
-        let std = robust_std(&components);
+        let std = robust_spread(&residuals, &|i| out(&i));
         let rich_errors: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
         let far = |i: usize| rich_errors[i] > REFINED_SHARE * outliers.threshold * std;
         let next: BTreeSet<usize> = (candidates.iter().copied())
@@ -348,16 +341,28 @@ fn refine(
     Some(found)
 }
 
+/// The robust standard deviation ([`robust_std`]) of the error components of `residuals`, the
+/// rows `out` left aside: the spread both searches measure their thresholds in.
+fn robust_spread(residuals: &[Vector3<f64>], out: &dyn Fn(usize) -> bool) -> f64 {
+    let components: Vec<f64> = (residuals.iter().enumerate())
+        .filter(|&(i, _)| !out(i))
+        .flat_map(|(_, r)| [r.x, r.y, r.z])
+        .collect();
+    robust_std(&components)
+}
+
 /// Whether row `i` could lie past the one flip of a flank its torque presses in its
-/// configuration (the same pose and reflector): a joint's gravity torque is affine in the load,
+/// configuration (the same joint readings, [`readings_key`], and reflector: a pose shot again
+/// under another id is the same configuration): a joint's gravity torque is affine in the load,
 /// so that as the load grows its flank flips once at most, and the rows on the other flank are
 /// the lightest loads or the heaviest. True where every row of the configuration lighter than
 /// `i`, or every one heavier, is `far` too (at the lightest or heaviest load: always).
 fn past_a_flip(rows: &[&Measurement], i: usize, far: &dyn Fn(usize) -> bool) -> bool {
+    let readings = readings_key(rows[i]);
     let same = |k: usize| {
         k != i
-            && rows[k].sample.pose == rows[i].sample.pose
             && rows[k].sample.target == rows[i].sample.target
+            && readings_key(rows[k]) == readings
     };
     let load = rows[i].sample.load;
     let all_far = |side: &dyn Fn(f64) -> bool| {
@@ -488,7 +493,7 @@ mod tests {
             position: Vector3::zeros(),
             sample: Sample {
                 pose: pose.into(),
-                joints: vec![0.0; 6],
+                joints: vec![if pose == "b" { 10.0 } else { 0.0 }; 6],
                 load,
                 line: 0,
                 target: target.into(),
@@ -524,5 +529,15 @@ mod tests {
             !with(&[5, 6, 7], 1),
             "other configurations and reflectors do not count"
         );
+        // A pose shot again under another id (the same readings) is the same configuration:
+        // its heavier load puts the middle row between two loads.
+        let again = [
+            row("a", "", 0.0),
+            row("a", "", 10.0),
+            row("a-again", "", 20.0),
+        ];
+        let rows: Vec<&Measurement> = again.iter().collect();
+        assert!(!past_a_flip(&rows, 1, &|_| false));
+        assert!(past_a_flip(&rows, 1, &|k| k == 2));
     }
 }
