@@ -1116,6 +1116,7 @@ fn decisions(
                 })
         })
         .copied();
+    // Named by the blocks of the model the stage scored (the tilts are their own decision).
     let has_errors = chosen.has_blocks();
     out.push(match (joint_errors.first(), with) {
         (Some(first), Some(step)) => decision(
@@ -1123,13 +1124,7 @@ fn decisions(
             has_errors,
             score(first.base),
             score(step.next),
-            &chain.scored[if has_errors {
-                chain.identified()
-            } else {
-                step.next
-            }]
-            .physics
-            .joint_error_terms(),
+            &chain.scored[step.next].physics.joint_error_terms(),
         ),
         _ => decision(
             "joint_errors",
