@@ -71,6 +71,12 @@ pub enum Command {
         /// kept only where it lowers the held-out error
         #[arg(long)]
         tilt: bool,
+        /// The default calibration (no `--config`) also tries backlash with its flanks searched
+        /// where the physics it chose holds none: for a joint whose play rests on the flank its
+        /// torque presses and turns at a configuration's lightest or heaviest loads only; kept
+        /// only where it lowers the held-out error
+        #[arg(long)]
+        flank_search: bool,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

@@ -16,7 +16,8 @@ use super::terminal::Terminal;
 
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
 /// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
-/// `budget` (s) bounds the default calibration's time; `tilt` has it try the bearings' tilt.
+/// `budget` (s) bounds the default calibration's time; `tilt` has it try the bearings' tilt,
+/// `flank_search` backlash with its flanks searched where the physics it chose holds none.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     robot: &Path,
@@ -29,6 +30,7 @@ pub fn run(
     angle_weight: Option<f64>,
     budget: Option<f64>,
     tilt: bool,
+    flank_search: bool,
 ) -> Result<()> {
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
@@ -51,6 +53,7 @@ pub fn run(
         angle_weight,
         budget_seconds: budget,
         tilt,
+        flank_search,
     };
     let Calibration {
         model,

@@ -34,6 +34,7 @@ pub fn run(cli: Cli) -> Result<()> {
             angle_weight,
             budget,
             tilt,
+            flank_search,
         } => calibrate::run(
             &robot,
             &data,
@@ -48,6 +49,7 @@ pub fn run(cli: Cli) -> Result<()> {
             angle_weight,
             budget,
             tilt,
+            flank_search,
         ),
         Command::Report { model, data, out } => report::run(&model, &data, &out),
         Command::Predict {

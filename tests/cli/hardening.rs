@@ -414,6 +414,12 @@ fn every_command_refuses_bad_input_cleanly() {
             Some(s(&compliance)),
             &["`--tilt`", "compliance.toml", "tilt = true"][..],
         ),
+        (
+            "flank search with a stage config",
+            &["--flank-search"][..],
+            Some(s(&compliance)),
+            &["`--flank-search`", "compliance.toml", "flank_search = true"][..],
+        ),
     ] {
         let mut args = vec![
             "calibrate",

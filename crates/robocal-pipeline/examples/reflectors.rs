@@ -121,6 +121,7 @@ fn run(
                         angle_weight: None,
                         budget_seconds: None,
                         tilt: false,
+                        flank_search: false,
                     },
                     &Silent,
                 )?;

@@ -676,10 +676,11 @@ impl PyModel {
 /// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default);
 /// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg),
 /// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
-/// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt.
+/// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt,
+/// `flank_search` backlash with its flanks searched where the physics it chose holds none.
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -697,6 +698,7 @@ fn calibrate<'py>(
     angle_weight: Option<f64>,
     budget: Option<f64>,
     tilt: bool,
+    flank_search: bool,
 ) -> PyResult<PyModel> {
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
@@ -751,6 +753,7 @@ fn calibrate<'py>(
                 angle_weight,
                 budget_seconds: budget,
                 tilt,
+                flank_search,
             };
             run_calibration(&input, &Silent)
         })

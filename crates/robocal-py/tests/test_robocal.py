@@ -237,6 +237,9 @@ def test_errors_carry_the_cli_s_messages():
     # The bearings' tilt is the default's to try; a stage config asks for it in [joint_errors].
     with pytest.raises(robocal.RobocalError, match="tilt = true"):
         robocal.calibrate(robot, q, load, xyz, tilt=True, config=ROOT / "configs/stages/kinematic-lm.toml")
+    # So is backlash added with its flanks searched.
+    with pytest.raises(robocal.RobocalError, match="flank_search = true"):
+        robocal.calibrate(robot, q, load, xyz, flank_search=True, config=ROOT / "configs/stages/kinematic-lm.toml")
     # RobocalError is a ValueError.
     assert issubclass(robocal.RobocalError, ValueError)
 

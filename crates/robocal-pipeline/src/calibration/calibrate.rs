@@ -96,6 +96,10 @@ pub struct CalibrationInput<'a> {
     /// Whether the default calibration also tries the bearings' tilt, last, on the physics it
     /// chose ([`AutoSettings::tilt`]); a stage config asks for it in `[joint_errors]`.
     pub tilt: bool,
+    /// Whether the default calibration also tries backlash with its flanks searched where the
+    /// physics it chose holds none ([`AutoSettings::flank_search`]); a stage config asks for
+    /// it with `backlash` and `flank_search` in `[joint_errors]`.
+    pub flank_search: bool,
 }
 
 /// A calibration's result.
@@ -140,6 +144,12 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             file.display()
         )));
     }
+    if let (true, Some((_, file))) = (input.flank_search, input.stages) {
+        return Err(PipelineError::Stage(format!(
+            "`--flank-search` (or `flank_search=True` in Python) is the default calibration's; {} runs the stages it names: add `backlash = true` and `flank_search = true` to its [joint_errors]",
+            file.display()
+        )));
+    }
     let names = input.nominal.point_names();
     for set in std::iter::once(input.data).chain(input.validation) {
         check_targets(&set.source, set.rows.iter().map(|m| &m.sample), &names)?;
@@ -181,6 +191,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 angle_weight: input.angle_weight,
                 budget_seconds: input.budget_seconds.unwrap_or(DEFAULT_BUDGET_SECONDS),
                 tilt: input.tilt,
+                flank_search: input.flank_search,
                 ..AutoSettings::default()
             };
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?

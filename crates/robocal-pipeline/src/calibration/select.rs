@@ -113,6 +113,14 @@ pub struct AutoSettings {
     /// the candidate was never kept, and on the paper's arm its folds took the time the GP
     /// needed (`docs/accuracy.md`, session 20).
     pub tilt: bool,
+    /// Backlash with its flanks searched also tried where the physics the chain chose holds no
+    /// backlash (the block with the regression's flanks was not kept): for a joint whose play
+    /// rests on the flank its torque presses and turns far from the rows' middle torque (at a
+    /// configuration's lightest or heaviest loads only), where the regression's flanks miss and
+    /// the block gains nothing. Off by default: on the development twins it lowered ARM6H's
+    /// error with every effect by 16–68 % and raised one case beyond the model by 7 %
+    /// (`docs/accuracy.md`, session 39). With backlash chosen the search is tried either way.
+    pub flank_search: bool,
     /// The residual models tried, each on top of the best physical model.
     pub residuals: Vec<ResidualStage>,
     /// Seconds the selection may take: a candidate whose folds would run past it (projected
@@ -154,6 +162,7 @@ impl Default for AutoSettings {
             self_weight: true,
             backlash: true,
             tilt: false,
+            flank_search: false,
             residuals: vec![
                 ResidualStage {
                     settings: ResidualSettings::gp(seed),
@@ -823,10 +832,13 @@ fn physics_chain(
         remaining.remove(best);
     }
     // The backlash flanks searched beyond each joint's own terms, on chosen physics with
-    // backlash: one candidate more, kept only if it lowers the held-out errors significantly.
+    // backlash (or, where asked, with backlash added where the block was not kept): one
+    // candidate more, kept only if it lowers the held-out errors significantly.
     let current = chain.scored[chain.current].physics;
-    if current.backlash && !current.aligned {
+    let added = settings.flank_search && settings.backlash && !current.backlash;
+    if (current.backlash || added) && !current.aligned {
         let searched = Physics {
+            backlash: true,
             flank_search: true,
             ..current
         };
@@ -1116,8 +1128,9 @@ fn decisions(
                 })
         })
         .copied();
-    // Named by the blocks of the model the stage scored (the tilts are their own decision).
-    let has_errors = chosen.has_blocks();
+    // Kept where the stage kept a block, named by the blocks of the model it scored: backlash the
+    // flank search added and the tilts are their own decisions.
+    let has_errors = joint_errors.iter().any(|s| s.kept);
     out.push(match (joint_errors.first(), with) {
         (Some(first), Some(step)) => decision(
             "joint_errors",
@@ -1140,7 +1153,11 @@ fn decisions(
             chosen.flank_search,
             score(step.base),
             score(step.next),
-            "the backlash flanks searched beyond each joint's own terms (a torque flank's preload where its step explains most)",
+            if chain.scored[step.base].physics.backlash {
+                "the backlash flanks searched beyond each joint's own terms (a torque flank's preload where its step explains most)"
+            } else {
+                "backlash added (the block was not kept with the regression's flanks), its flanks searched beyond each joint's own terms (a torque flank's preload where its step explains most)"
+            },
         ));
     }
     out.push(match steps("tilt").first() {
