@@ -541,6 +541,74 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     }
 }
 
+/// The play the torque-flank tests give joint 2 of the five-axis twin, deg.
+const TORQUE_FLANK_PLAY_DEG: f64 = 0.03;
+
+/// The five-axis twin with [`TORQUE_FLANK_PLAY_DEG`] of play on joint 2, resting on the flank
+/// its torque presses with `preload` (N·m), without its gear errors (and effects beyond the
+/// model) unless `gears`; and its measurements.
+fn torque_flank_twin(preload: f64, gears: bool) -> (TwinConfig, MeasurementSet) {
+    use robocal_twin::{Backlash, BacklashSide};
+    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    if !gears {
+        twin.gear = None;
+        twin.beyond = None;
+    }
+    twin.backlash = vec![Backlash {
+        joint: 1,
+        width: TORQUE_FLANK_PLAY_DEG.to_radians(),
+        side: BacklashSide::Torque { preload },
+    }];
+    let data = twin.generate().unwrap().measurements;
+    (twin, data)
+}
+
+/// The default's settings of the torque-flank tests: three folds, compliance and backlash the
+/// only joint errors, no residual model.
+fn torque_flank_settings() -> robocal_pipeline::AutoSettings {
+    robocal_pipeline::AutoSettings {
+        folds: 3,
+        harmonics: 0,
+        self_weight: false,
+        residuals: Vec::new(),
+        ..robocal_pipeline::AutoSettings::default()
+    }
+}
+
+/// The chosen candidate is compliance with the searched backlash, and the model holds joint 2's
+/// play on a torque flank, its width within 10 % of the twin's.
+fn assert_searched_torque_play_chosen(built: &robocal_pipeline::Built) {
+    use robocal_robot::Flank;
+    let selection = built.selection.as_ref().unwrap();
+    let chosen = (selection.candidates.iter())
+        .find(|c| c.status == "chosen")
+        .unwrap();
+    assert_eq!(
+        chosen.name,
+        "kinematic + compliance + backlash (flank search)"
+    );
+    let width = TORQUE_FLANK_PLAY_DEG.to_radians();
+    let errors = built.kinematic.compliance.as_ref().unwrap();
+    let b = (errors.backlash.iter()).find(|b| b.joint == 1).unwrap();
+    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
+    assert!(
+        (2.0 * b.value.abs() - width).abs() < 0.1 * width,
+        "play {}°",
+        2.0 * b.value.abs().to_degrees()
+    );
+}
+
+/// The held-out score of the candidate named `name` (panics, naming the candidates, if none).
+fn candidate_score(
+    selection: &robocal_pipeline::calibration::Selection,
+    name: &str,
+) -> Option<f64> {
+    (selection.candidates.iter())
+        .find(|c| c.name == name)
+        .unwrap_or_else(|| panic!("{name}: {:?}", selection.candidates))
+        .score
+}
+
 /// Where the chosen physics holds backlash the default tries the flank search as one candidate
 /// more: on the five-axis twin with a play of 0.03° on joint 2, resting on the flank its torque
 /// presses, with a preload of −25 N·m that puts the turn far from the rows' middle torque (where
@@ -548,34 +616,13 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
 /// kept, and is what the model holds: joint 2's play on a torque flank, its width recovered.
 #[test]
 fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_middle() {
-    use robocal_pipeline::{AutoSettings, automatic};
-    use robocal_robot::Flank;
-    use robocal_twin::{Backlash, BacklashSide};
-    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
-    let width = 0.03f64.to_radians();
-    twin.backlash = vec![Backlash {
-        joint: 1,
-        width,
-        side: BacklashSide::Torque { preload: -25.0 },
-    }];
-    let data = twin.generate().unwrap().measurements;
-    let rows: Vec<&robocal_data::Measurement> = data.rows.iter().collect();
-    let settings = AutoSettings {
-        folds: 3,
-        harmonics: 0,
-        self_weight: false,
-        residuals: Vec::new(),
-        ..AutoSettings::default()
-    };
+    use robocal_pipeline::automatic;
+    let (twin, data) = torque_flank_twin(-25.0, true);
+    let rows: Vec<&Measurement> = data.rows.iter().collect();
     let lines = Lines::default();
-    let built = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
+    let built = automatic(&torque_flank_settings(), &twin.nominal, &rows, None, &lines).unwrap();
     let selection = built.selection.as_ref().unwrap();
-    let score = |name: &str| {
-        (selection.candidates.iter())
-            .find(|c| c.name == name)
-            .unwrap_or_else(|| panic!("{name}: {:?}", selection.candidates))
-            .score
-    };
+    let score = |name: &str| candidate_score(selection, name);
     let d = (selection.decisions.iter())
         .find(|d| d.stage == "flank_search")
         .expect("the flank search tried");
@@ -592,21 +639,7 @@ fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_m
         d.held_out_with.unwrap() < 0.9 * d.held_out_without.unwrap(),
         "{d:?}"
     );
-    let chosen = (selection.candidates.iter())
-        .find(|c| c.status == "chosen")
-        .unwrap();
-    assert_eq!(
-        chosen.name,
-        "kinematic + compliance + backlash (flank search)"
-    );
-    let errors = built.kinematic.compliance.as_ref().unwrap();
-    let b = (errors.backlash.iter()).find(|b| b.joint == 1).unwrap();
-    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
-    assert!(
-        (2.0 * b.value.abs() - width).abs() < 0.1 * width,
-        "play {}°",
-        2.0 * b.value.abs().to_degrees()
-    );
+    assert_searched_torque_play_chosen(&built);
 }
 
 /// Where the backlash block is not kept with the regression's flanks, the default asked to
@@ -623,26 +656,9 @@ fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_m
 fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions_flanks_is_dropped()
 {
     use robocal_pipeline::{AutoSettings, automatic};
-    use robocal_robot::Flank;
-    use robocal_twin::{Backlash, BacklashSide};
-    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
-    let width = 0.03f64.to_radians();
-    twin.gear = None;
-    twin.beyond = None;
-    twin.backlash = vec![Backlash {
-        joint: 1,
-        width,
-        side: BacklashSide::Torque { preload: -35.0 },
-    }];
-    let data = twin.generate().unwrap().measurements;
-    let rows: Vec<&robocal_data::Measurement> = data.rows.iter().collect();
-    let settings = AutoSettings {
-        folds: 3,
-        harmonics: 0,
-        self_weight: false,
-        residuals: Vec::new(),
-        ..AutoSettings::default()
-    };
+    let (twin, data) = torque_flank_twin(-35.0, false);
+    let rows: Vec<&Measurement> = data.rows.iter().collect();
+    let settings = torque_flank_settings();
     let lines = Lines::default();
     let unasked = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
     let unasked = unasked.selection.as_ref().unwrap();
@@ -664,12 +680,7 @@ fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions
     };
     let built = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
     let selection = built.selection.as_ref().unwrap();
-    let score = |name: &str| {
-        (selection.candidates.iter())
-            .find(|c| c.name == name)
-            .unwrap_or_else(|| panic!("{name}: {:?}", selection.candidates))
-            .score
-    };
+    let score = |name: &str| candidate_score(selection, name);
     let decision = |stage: &str| {
         (selection.decisions.iter())
             .find(|d| d.stage == stage)
@@ -693,21 +704,7 @@ fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions
         "{d:?}"
     );
     assert!(d.reason.contains("backlash added"), "{d:?}");
-    let chosen = (selection.candidates.iter())
-        .find(|c| c.status == "chosen")
-        .unwrap();
-    assert_eq!(
-        chosen.name,
-        "kinematic + compliance + backlash (flank search)"
-    );
-    let errors = built.kinematic.compliance.as_ref().unwrap();
-    let b = (errors.backlash.iter()).find(|b| b.joint == 1).unwrap();
-    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
-    assert!(
-        (2.0 * b.value.abs() - width).abs() < 0.1 * width,
-        "play {}°",
-        2.0 * b.value.abs().to_degrees()
-    );
+    assert_searched_torque_play_chosen(&built);
 }
 
 /// Where the blocks of joint 1 show its harmonics predicting beyond the readings better than
