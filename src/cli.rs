@@ -77,6 +77,10 @@ pub enum Command {
         /// only where it lowers the held-out error
         #[arg(long)]
         flank_search: bool,
+        /// The frame the default calibration's (no `--config`) residual models learn in:
+        /// `world` (the tracker's X, Y, Z) or `joint1` (turning with joint 1 about its axis)
+        #[arg(long, value_name = "FRAME")]
+        residual_frame: Option<String>,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

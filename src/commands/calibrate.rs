@@ -17,7 +17,8 @@ use super::terminal::Terminal;
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
 /// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
 /// `budget` (s) bounds the default calibration's time; `tilt` has it try the bearings' tilt,
-/// `flank_search` backlash with its flanks searched where the physics it chose holds none.
+/// `flank_search` backlash with its flanks searched where the physics it chose holds none;
+/// `residual_frame` (`world` or `joint1`) is the frame its residual models learn in.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     robot: &Path,
@@ -31,7 +32,15 @@ pub fn run(
     budget: Option<f64>,
     tilt: bool,
     flank_search: bool,
+    residual_frame: Option<&str>,
 ) -> Result<()> {
+    let residual_frame = residual_frame
+        .map(|f| {
+            robocal_residual::Frame::from_name(f).ok_or_else(|| {
+                anyhow::anyhow!("--residual-frame: `{f}` is not a frame; use `world` or `joint1`")
+            })
+        })
+        .transpose()?;
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
     {
@@ -54,6 +63,7 @@ pub fn run(
         budget_seconds: budget,
         tilt,
         flank_search,
+        residual_frame,
     };
     let Calibration {
         model,

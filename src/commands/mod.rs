@@ -35,6 +35,7 @@ pub fn run(cli: Cli) -> Result<()> {
             budget,
             tilt,
             flank_search,
+            residual_frame,
         } => calibrate::run(
             &robot,
             &data,
@@ -50,6 +51,7 @@ pub fn run(cli: Cli) -> Result<()> {
             budget,
             tilt,
             flank_search,
+            residual_frame.as_deref(),
         ),
         Command::Report { model, data, out } => report::run(&model, &data, &out),
         Command::Predict {

@@ -420,6 +420,22 @@ fn every_command_refuses_bad_input_cleanly() {
             Some(s(&compliance)),
             &["`--flank-search`", "compliance.toml", "flank_search = true"][..],
         ),
+        (
+            "residual frame with a stage config",
+            &["--residual-frame", "joint1"][..],
+            Some(s(&compliance)),
+            &[
+                "`--residual-frame`",
+                "compliance.toml",
+                "frame = \"joint1\"",
+            ][..],
+        ),
+        (
+            "unknown residual frame",
+            &["--residual-frame", "tool"][..],
+            None,
+            &["--residual-frame", "`tool` is not a frame", "joint1"][..],
+        ),
     ] {
         let mut args = vec![
             "calibrate",

@@ -1,9 +1,9 @@
 //! The calibrated model and its predictions.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use robocal_data::{ErrorStats, Measurement, Sample};
 use robocal_residual::{
-    ClassifierSettings, GatePhysics, PHYSICS_PER_JOINT, ResidualModel, Samples, inputs_of,
+    ClassifierSettings, Frame, GatePhysics, PHYSICS_PER_JOINT, ResidualModel, Samples, inputs_of,
 };
 use robocal_robot::{
     JointErrors, ParameterCovariance, Robot, displaced, matrix_to_rpy, rotation_vector,
@@ -112,8 +112,8 @@ impl CalibratedModel {
         }
     }
 
-    /// The residual model's predicted error at command `q` (rad) and `load`, mm (zero without
-    /// one).
+    /// The residual model's predicted error at command `q` (rad) and `load`, mm, world frame
+    /// (zero without one).
     pub fn residual_at(&self, q: &[f64], load: f64) -> Vector3<f64> {
         match &self.residual {
             Some(r) => {
@@ -123,9 +123,39 @@ impl CalibratedModel {
                 if let Some(p) = r.gate_physics() {
                     rows.physics = vec![gate_physics_row(&self.robot, &p, q, load)];
                 }
-                Vector3::from(r.predict(&rows)[0])
+                self.to_world(r.frame, q, Vector3::from(r.predict(&rows)[0]))
             }
             None => Vector3::zeros(),
+        }
+    }
+
+    /// The turn of the frame that turns with joint 1 at command `q` (rad): about joint 1's axis
+    /// (world frame, as this model's table has it) by its reading. A residual model in
+    /// [`Frame::Joint1`] learns `turnᵀ e` of a world error `e` and predicts `turn f`.
+    pub fn joint1_turn(&self, q: &[f64]) -> Rotation3<f64> {
+        let (axes, _) = self.robot.axes_and_frames(q);
+        match (axes.first(), q.first()) {
+            (Some((axis, _)), Some(&q1)) => {
+                Rotation3::from_axis_angle(&Unit::new_normalize(*axis), q1)
+            }
+            _ => Rotation3::identity(),
+        }
+    }
+
+    /// A residual model's error `e` in `frame` at command `q` (rad), in the world frame.
+    pub fn to_world(&self, frame: Frame, q: &[f64], e: Vector3<f64>) -> Vector3<f64> {
+        match frame {
+            Frame::World => e,
+            Frame::Joint1 => self.joint1_turn(q) * e,
+        }
+    }
+
+    /// A world error `e` at command `q` (rad), in `frame`: what a residual model in `frame`
+    /// learns.
+    pub fn from_world(&self, frame: Frame, q: &[f64], e: Vector3<f64>) -> Vector3<f64> {
+        match frame {
+            Frame::World => e,
+            Frame::Joint1 => self.joint1_turn(q).inverse() * e,
         }
     }
 
@@ -220,8 +250,8 @@ impl CalibratedModel {
             _ => None,
         };
         let (mean, std) = residual.predict_with_std(&self.residual_rows(&samples), sigma);
-        for (p, e) in points.iter_mut().zip(mean) {
-            *p += Vector3::from(e);
+        for ((p, e), s) in points.iter_mut().zip(mean).zip(&samples) {
+            *p += self.to_world(residual.frame, &s.joints_rad(), Vector3::from(e));
         }
         if beside.is_some() {
             return (points, beside);

@@ -354,6 +354,20 @@ impl RawExperiment {
             }
             .validate(Some(seed), robocal_residual::Defaults::Paper)
             .map_err(|e| PipelineError::invalid(path, e.within(&at)))?;
+            // An experiment scores its residual models on the world frame's errors, as the
+            // paper's tables do; a frame turning with joint 1 is `calibrate`'s.
+            if let Some(r) = stages.residual.as_ref()
+                && !r.settings.frame.is_world()
+            {
+                return Err(key(
+                    path,
+                    format!("{at}.residual.frame"),
+                    format!(
+                        "`{}`: an experiment learns residuals in the world frame (the paper's); a frame turning with joint 1 is for `calibrate --config`",
+                        r.settings.frame.name()
+                    ),
+                ));
+            }
             models.push(ModelPlan {
                 name: m.name.clone(),
                 stages,
@@ -462,6 +476,7 @@ impl Experiment {
                                 search: s.search.clone(),
                                 encoding: (s.kind == ResidualKind::Gp || !s.encoding.is_raw())
                                     .then_some(s.encoding),
+                                frame: (!s.frame.is_world()).then_some(s.frame),
                                 gp: (s.kind == ResidualKind::Gp).then(|| s.gp.clone()),
                             }
                         }),

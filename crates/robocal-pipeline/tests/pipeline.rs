@@ -1053,3 +1053,90 @@ fn moderate_bad_shots_on_the_papers_arm_are_found_by_the_refined_search() {
         "{found:?}"
     );
 }
+
+/// A residual model in the frame turning with joint 1 carries an error that turns with the arm
+/// to joint-1 angles it never saw; in the world frame the same model cannot. The error is made
+/// independently of robocal's frame code: a smooth function of joints 2–5 in the base frame
+/// (upright, so joint 1 turns about world z) turned about z by joint 1's reading. Trained on
+/// joint 1 within −90…0°, tested within 60…150°.
+#[test]
+fn a_residual_in_the_frame_turning_with_joint_1_carries_an_error_that_turns_with_the_arm() {
+    use nalgebra::{Rotation3, Vector3};
+    use rand::{RngExt, SeedableRng};
+    use robocal_data::{Sample, Silent};
+    use robocal_pipeline::CalibratedModel;
+    use robocal_pipeline::calibration::train_residual;
+    use robocal_residual::{Frame, GpSettings, ResidualSettings, ResidualStage};
+
+    let robot = Robot::load(root().join("configs/robots/arm5.toml")).unwrap();
+    let model = CalibratedModel::kinematic(robot);
+    // The table's joint 1 turns about world z, the frame the error is made in.
+    let turn = model.joint1_turn(&[0.7, 0.1, -0.2, 0.3, 0.4]);
+    let about_z = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.7);
+    assert!((turn.matrix() - about_z.matrix()).norm() < 1e-9, "{turn:?}");
+    let error = |q: &[f64]| {
+        let r: Vec<f64> = q.iter().map(|d| d.to_radians()).collect();
+        let local = Vector3::new(
+            0.3 * (r[1] + r[2]).sin() + 0.1 * r[3].cos(),
+            0.2 * r[1].cos() * r[4].sin(),
+            -0.25 * r[2].sin() + 0.05 * (2.0 * r[3]).cos(),
+        );
+        Rotation3::from_axis_angle(&Vector3::z_axis(), r[0]) * local
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let mut rows = |n: usize, q1: std::ops::Range<f64>, tag: &str| -> Vec<Measurement> {
+        (0..n)
+            .map(|i| {
+                let mut q = vec![rng.random_range(q1.clone())];
+                q.extend((0..4).map(|_| rng.random_range(-60.0..60.0)));
+                let sample = Sample {
+                    pose: format!("{tag}{i}"),
+                    joints: q.clone(),
+                    load: 0.0,
+                    line: 0,
+                    target: String::new(),
+                };
+                let position = model.base_point(&sample) + error(&q);
+                Measurement {
+                    sample,
+                    position,
+                    orientation: None,
+                }
+            })
+            .collect()
+    };
+    let train = rows(150, -90.0..0.0, "t");
+    let test = rows(60, 60.0..150.0, "x");
+    let train: Vec<&Measurement> = train.iter().collect();
+    let test: Vec<&Measurement> = test.iter().collect();
+    let spread = (test.iter())
+        .map(|m| error(&m.sample.joints).norm_squared())
+        .sum::<f64>()
+        .sqrt()
+        / (test.len() as f64).sqrt();
+    let left = |frame: Frame| {
+        let mut settings = ResidualSettings::gp(3);
+        settings.frame = frame;
+        settings.gp = GpSettings {
+            iterations: 30,
+            ..GpSettings::default()
+        };
+        let stage = ResidualStage {
+            settings,
+            holdout: 0.2,
+        };
+        let (residual, _) = train_residual(&stage, &model, &train, None, &Silent).unwrap();
+        assert_eq!(residual.frame, frame);
+        let fitted = CalibratedModel {
+            residual: Some(residual),
+            ..model.clone()
+        };
+        let errors = fitted.errors(&test);
+        (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt()
+    };
+    let (turning, world) = (left(Frame::Joint1), left(Frame::World));
+    assert!(
+        turning < 0.1 * spread && turning < 0.2 * world,
+        "joint-1 frame {turning:.4} mm, world frame {world:.4} mm, error {spread:.4} mm rms"
+    );
+}

@@ -677,10 +677,11 @@ impl PyModel {
 /// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg),
 /// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
 /// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt,
-/// `flank_search` backlash with its flanks searched where the physics it chose holds none.
+/// `flank_search` backlash with its flanks searched where the physics it chose holds none;
+/// `residual_frame` (`"world"` or `"joint1"`) is the frame its residual models learn in.
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false, residual_frame=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -699,7 +700,17 @@ fn calibrate<'py>(
     budget: Option<f64>,
     tilt: bool,
     flank_search: bool,
+    residual_frame: Option<String>,
 ) -> PyResult<PyModel> {
+    let residual_frame = residual_frame
+        .map(|f| {
+            robocal_residual::Frame::from_name(&f).ok_or_else(|| {
+                bad(format!(
+                    "residual_frame: `{f}` is not a frame; use \"world\" or \"joint1\""
+                ))
+            })
+        })
+        .transpose()?;
     if let Some(w) = angle_weight
         && !(w.is_finite() && w > 0.0)
     {
@@ -754,6 +765,7 @@ fn calibrate<'py>(
                 budget_seconds: budget,
                 tilt,
                 flank_search,
+                residual_frame,
             };
             run_calibration(&input, &Silent)
         })

@@ -240,6 +240,11 @@ def test_errors_carry_the_cli_s_messages():
     # So is backlash added with its flanks searched.
     with pytest.raises(robocal.RobocalError, match="flank_search = true"):
         robocal.calibrate(robot, q, load, xyz, flank_search=True, config=ROOT / "configs/stages/kinematic-lm.toml")
+    # So is the frame the residual models learn in; and it is one of two.
+    with pytest.raises(robocal.RobocalError, match='frame = "joint1"'):
+        robocal.calibrate(robot, q, load, xyz, residual_frame="joint1", config=ROOT / "configs/stages/kinematic-lm.toml")
+    with pytest.raises(robocal.RobocalError, match="`tool` is not a frame"):
+        robocal.calibrate(robot, q, load, xyz, residual_frame="tool")
     # RobocalError is a ValueError.
     assert issubclass(robocal.RobocalError, ValueError)
 

@@ -41,7 +41,7 @@ pub use model::{Fitted, GateDecision, Residual, ResidualModel};
 pub use mosm::Mosm;
 pub use net::AxisNet;
 pub use persist::{MANIFEST, MAX_INPUTS, RESIDUAL_FORMAT};
-pub use samples::{Encoding, Samples, Standardizer, inputs_of};
+pub use samples::{Encoding, Frame, Samples, Standardizer, inputs_of};
 pub use search::{SearchLog, SearchSettings, Trial, search};
 pub use settings::{ResidualKind, ResidualSettings};
 pub use somm::Somm;

@@ -20,7 +20,7 @@ use crate::gp::GpResidual;
 use crate::mlp::NetSettings;
 use crate::mosm::Mosm;
 use crate::net::AxisNet;
-use crate::samples::{Encoding, Samples};
+use crate::samples::{Encoding, Frame, Samples};
 use crate::search::{SearchLog, search};
 use crate::settings::{ResidualKind, ResidualSettings};
 use crate::somm::Somm;
@@ -85,6 +85,9 @@ pub struct ResidualModel {
     pub inputs: usize,
     /// How input rows are encoded before the model sees them.
     pub encoding: Encoding,
+    /// The frame its errors are in ([`Frame`]): the caller turns them to the world's (the
+    /// model's predictions are in this frame).
+    pub frame: Frame,
     /// The hyper-parameter searches that chose the networks' settings (empty without search).
     pub search: Vec<SearchLog>,
     /// The model.
@@ -241,6 +244,7 @@ impl ResidualModel {
         let mut model = Self {
             inputs,
             encoding,
+            frame: settings.frame,
             search,
             fitted,
             gate_decision: None,
@@ -262,13 +266,13 @@ impl ResidualModel {
         let Some(first) = members.first() else {
             return Err(ResidualError::Data("no members to average".into()));
         };
-        let (inputs, encoding) = (first.inputs, first.encoding);
+        let (inputs, encoding, frame) = (first.inputs, first.encoding, first.frame);
         let mut sets = Vec::new();
         let mut search = Vec::new();
         for m in members {
-            if m.inputs != inputs || m.encoding != encoding {
+            if m.inputs != inputs || m.encoding != encoding || m.frame != frame {
                 return Err(ResidualError::Data(
-                    "members with different inputs or encodings cannot be averaged".into(),
+                    "members with different inputs, encodings or frames cannot be averaged".into(),
                 ));
             }
             match m.fitted {
@@ -285,6 +289,7 @@ impl ResidualModel {
         Ok(Self {
             inputs,
             encoding,
+            frame,
             search,
             fitted: Fitted::Somm(Somm { members: sets }),
             gate_decision: None,

@@ -17,7 +17,7 @@ use crate::mlp::{Mlp, NetSettings, TrainReport};
 use crate::model::{Fitted, GateDecision, ResidualModel};
 use crate::mosm::Mosm;
 use crate::net::{AxisNet, SequentialIds};
-use crate::samples::{Encoding, Standardizer};
+use crate::samples::{Encoding, Frame, Standardizer};
 use crate::search::SearchLog;
 use crate::settings::{MAX_MEMBERS, ResidualKind};
 use crate::somm::Somm;
@@ -49,6 +49,9 @@ struct Manifest {
     search: Vec<SearchLog>,
     #[serde(default, skip_serializing_if = "Encoding::is_raw")]
     encoding: Encoding,
+    /// The frame the errors are in (absent: the world's).
+    #[serde(default, skip_serializing_if = "Frame::is_world")]
+    frame: Frame,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     gp: Option<GpResidual>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -130,6 +133,7 @@ impl ResidualModel {
             classifier: self.classifier().cloned(),
             search: self.search.clone(),
             encoding: self.encoding,
+            frame: self.frame,
             gp: self.gp().cloned(),
             gate_decision: self.gate_decision,
             empty_class: self.empty_class,
@@ -319,6 +323,7 @@ impl ResidualModel {
         Ok(Self {
             inputs: m.inputs,
             encoding: m.encoding,
+            frame: m.frame,
             search: m.search,
             fitted,
             gate_decision: m.gate_decision,

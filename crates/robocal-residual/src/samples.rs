@@ -37,6 +37,45 @@ pub enum Encoding {
     Periodic,
 }
 
+/// The frame a residual model's errors are learned and predicted in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Frame {
+    /// The world (tracker) frame's X, Y, Z.
+    #[default]
+    World,
+    /// A frame turning with joint 1: the world frame turned about joint 1's axis by its reading.
+    /// What the parts beyond joint 1 do under their own weight and the payload's (a joint-1 axis
+    /// along gravity) turns with them and is the same function of the other joints at every
+    /// joint-1 angle, so a model that learned it on part of joint 1's range carries it to the
+    /// rest; in the world frame the same error turns with joint 1 and a model must learn every
+    /// angle of it.
+    Joint1,
+}
+
+impl Frame {
+    /// Whether this is [`Frame::World`] (the default, left out of saved files).
+    pub fn is_world(&self) -> bool {
+        *self == Self::World
+    }
+
+    /// Every frame, in the order they are listed.
+    pub const ALL: [Self; 2] = [Self::World, Self::Joint1];
+
+    /// Its name in files: `world` or `joint1`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::World => "world",
+            Self::Joint1 => "joint1",
+        }
+    }
+
+    /// The frame a name in files names, if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+}
+
 impl Encoding {
     /// Whether this is [`Encoding::Raw`] (the default, left out of saved files).
     pub fn is_raw(&self) -> bool {

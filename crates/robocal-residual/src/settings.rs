@@ -7,7 +7,7 @@ use crate::classifier::{ClassRule, ClassifierSettings, GateInputs};
 use crate::error::{ResidualError, Result};
 use crate::gp::GpSettings;
 use crate::mlp::NetSettings;
-use crate::samples::Encoding;
+use crate::samples::{Encoding, Frame};
 use crate::search::SearchSettings;
 
 /// Which residual model.
@@ -79,6 +79,9 @@ pub struct ResidualSettings {
     pub gp: GpSettings,
     /// How input rows are presented to the networks, the classifier and the GP.
     pub encoding: Encoding,
+    /// The frame the errors are learned in ([`Frame`]; the world's unless asked).
+    #[serde(skip_serializing_if = "Frame::is_world")]
+    pub frame: Frame,
     /// Seed of weight initialisation and batch order.
     pub seed: u64,
     /// SOMM: how many sets of networks are trained (member `m` seeded `seed + 1000 m`, on its
@@ -108,6 +111,7 @@ impl ResidualSettings {
             search: None,
             gp: GpSettings::default(),
             encoding: Encoding::Raw,
+            frame: Frame::World,
             seed,
             members: 1,
         }

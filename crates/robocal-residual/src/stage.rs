@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::classifier::ClassifierSettings;
 use crate::gp::GpSettings;
 use crate::mlp::NetSettings;
-use crate::samples::Encoding;
+use crate::samples::{Encoding, Frame};
 use crate::search::SearchSettings;
 use crate::settings::{ResidualKind, ResidualSettings};
 
@@ -38,6 +38,10 @@ pub struct RawResidualStage {
     /// whatever the defaults).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub encoding: Option<Encoding>,
+    /// The frame the errors are learned in: `"world"` (the tracker's X, Y, Z; the default) or
+    /// `"joint1"` (turning with joint 1's reading about its axis).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame: Option<Frame>,
     /// Seed of initialisation, batch order and the validation hold-out.
     pub seed: Option<u64>,
     /// Share of the training configurations held out for early stopping when no `--validate`
@@ -98,6 +102,9 @@ impl RawResidualStage {
         };
         if let Some(e) = self.encoding {
             settings.encoding = e;
+        }
+        if let Some(f) = self.frame {
+            settings.frame = f;
         }
         if let Some(g) = &self.gp {
             settings.gp = g.clone();

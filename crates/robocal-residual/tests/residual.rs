@@ -4,9 +4,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robocal_data::Silent;
 use robocal_residual::{
-    Activation, ClassRule, Encoding, Gate, GateInputs, NetSettings, PHYSICS_PER_JOINT, PerClass,
-    ResidualError, ResidualKind, ResidualModel, ResidualSettings, Samples, Schedule, Split,
-    gate_feature_names, two_means_threshold,
+    Activation, ClassRule, Defaults, Encoding, Frame, Gate, GateInputs, NetSettings,
+    PHYSICS_PER_JOINT, PerClass, RawResidualStage, ResidualError, ResidualKind, ResidualModel,
+    ResidualSettings, Samples, Schedule, Split, gate_feature_names, two_means_threshold,
 };
 
 fn settings(hidden: Vec<usize>, lr: f64, epochs: usize) -> NetSettings {
@@ -431,6 +431,28 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
     let (b, sb) = loaded.predict_with_std(&test, true);
     assert_eq!(a, b);
     assert_eq!(sa, sb);
+    // The frame its errors are in: the world's unless asked, left out of the file then; a
+    // model in the frame turning with joint 1 says so and reads back so (from a stage's
+    // `frame = "joint1"` too).
+    assert_eq!((model.frame, loaded.frame), (Frame::World, Frame::World));
+    let manifest = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("residual.json")).unwrap()).unwrap()
+    };
+    assert!(manifest(dir.path()).get("frame").is_none());
+    let stage: RawResidualStage = toml::from_str("model = \"gp\"\nframe = \"joint1\"").unwrap();
+    let mut turning = stage.validate(Defaults::Robocal).unwrap().settings;
+    assert_eq!(turning.frame, Frame::Joint1);
+    turning.gp = s.gp.clone();
+    let turned = ResidualModel::fit(&turning, &train, &Samples::default(), &Silent).unwrap();
+    assert_eq!(turned.frame, Frame::Joint1);
+    let turned_dir = tempfile::tempdir().unwrap();
+    turned.save(turned_dir.path()).unwrap();
+    assert_eq!(manifest(turned_dir.path())["frame"], "joint1");
+    assert_eq!(
+        ResidualModel::load(turned_dir.path()).unwrap().frame,
+        Frame::Joint1
+    );
+    assert!(toml::from_str::<RawResidualStage>("model = \"gp\"\nframe = \"tool\"").is_err());
     // Far outside the trained joint range (±170° on every joint), the model is less sure.
     let far = make(100, 3, 170.0);
     let far: Vec<Vec<f64>> = far

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, check_targets};
 use robocal_ident::KinematicReport;
 use robocal_model::CalibratedModel;
+use robocal_residual::Frame;
 use robocal_robot::{JointErrors, Robot};
 use serde::Serialize;
 
@@ -100,6 +101,10 @@ pub struct CalibrationInput<'a> {
     /// physics it chose holds none ([`AutoSettings::flank_search`]); a stage config asks for
     /// it with `backlash` and `flank_search` in `[joint_errors]`.
     pub flank_search: bool,
+    /// The frame the default calibration's residual models learn in (`None`: each candidate's
+    /// own, [`AutoSettings::residuals`]); a stage config asks for it with `frame` in
+    /// `[residual]`.
+    pub residual_frame: Option<Frame>,
 }
 
 /// A calibration's result.
@@ -137,6 +142,13 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 file.display()
             )));
         }
+    }
+    if let (Some(frame), Some((_, file))) = (input.residual_frame, input.stages) {
+        return Err(PipelineError::Stage(format!(
+            "`--residual-frame` (or `residual_frame=` in Python) is the default calibration's; {} runs the stages it names: add `frame = \"{}\"` to its [residual]",
+            file.display(),
+            frame.name()
+        )));
     }
     if let (true, Some((_, file))) = (input.tilt, input.stages) {
         return Err(PipelineError::Stage(format!(
@@ -186,7 +198,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             built
         }
         None => {
-            let auto = AutoSettings {
+            let mut auto = AutoSettings {
                 outliers: Some(outliers),
                 angle_weight: input.angle_weight,
                 budget_seconds: input.budget_seconds.unwrap_or(DEFAULT_BUDGET_SECONDS),
@@ -194,6 +206,11 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 flank_search: input.flank_search,
                 ..AutoSettings::default()
             };
+            if let Some(frame) = input.residual_frame {
+                for stage in &mut auto.residuals {
+                    stage.settings.frame = frame;
+                }
+            }
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
         }
     };

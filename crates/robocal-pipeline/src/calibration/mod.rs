@@ -25,6 +25,7 @@ pub mod spread;
 
 use std::collections::HashSet;
 
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -387,7 +388,14 @@ pub fn train_residual(
     let physics = settings.classifier.physics();
     let model = |s: &Sample| base.base_point(s);
     let make = |rows: &[&Measurement]| {
-        let samples = Samples::from_model(model, rows.iter().copied());
+        let mut samples = Samples::from_model(model, rows.iter().copied());
+        // In the frame the model learns in (the world's, or one turning with joint 1).
+        for (e, m) in samples.errors.iter_mut().zip(rows) {
+            let q = m.sample.joints_rad();
+            *e = base
+                .from_world(settings.frame, &q, Vector3::from(*e))
+                .into();
+        }
         let s: Vec<&Sample> = rows.iter().map(|m| &m.sample).collect();
         with_gate_physics(samples, &base.robot, physics.as_ref(), &s)
     };
