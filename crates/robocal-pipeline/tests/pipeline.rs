@@ -250,6 +250,10 @@ fn experiment_files_are_validated_with_the_key_named() {
             ),
             "model[2].residual.x.learning_rate",
         ),
+        (
+            format!("{HEAD}[[model]]\nname = \"a\"\nresidual = {{ model = \"gp\", frame = \"joint1\" }}\n"),
+            "model[1].residual.frame",
+        ),
         (format!("{HEAD}[tables]\ntable5 = \"z\"\n[[model]]\nname = \"a\"\n"), "tables.table5"),
         (format!("{HEAD}[split]\ntrained_configurations = 0\n[[model]]\nname = \"a\"\n"), "split.trained_configurations"),
         (format!("{HEAD}[split]\nuntrained_loads = [-1.0]\n[[model]]\nname = \"a\"\n"), "split.untrained_loads"),
