@@ -78,7 +78,9 @@ pub enum Command {
         #[arg(long)]
         flank_search: bool,
         /// The frame the default calibration's (no `--config`) residual models learn in:
-        /// `world` (the tracker's X, Y, Z) or `joint1` (turning with joint 1 about its axis)
+        /// `joint1` (turning with joint 1 about its axis: an error that turns with the arm is
+        /// carried to joint-1 angles never measured) or `world` (the tracker's X, Y, Z; for an
+        /// arm whose joint 1 does not stand along gravity) [default: joint1]
         #[arg(long, value_name = "FRAME")]
         residual_frame: Option<String>,
     },

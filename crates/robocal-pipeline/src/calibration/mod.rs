@@ -92,6 +92,9 @@ pub struct ResidualReport {
     pub seed: u64,
     /// Sets of networks averaged (a SOMM of several members; 1 otherwise).
     pub members: usize,
+    /// The frame its errors are in, `world` or `joint1` (turning with joint 1): the GP's and
+    /// the networks' axes are that frame's.
+    pub frame: &'static str,
     /// Where the early-stopping data came from.
     pub validation_source: String,
     /// Rows trained on.
@@ -497,6 +500,7 @@ fn residual_report(
         model: fitted.kind().name(),
         seed,
         members: fitted.members(),
+        frame: fitted.frame.name(),
         validation_source: source,
         training_rows: train.len(),
         validation_rows: val.len(),
