@@ -36,9 +36,7 @@ pub fn run(
 ) -> Result<()> {
     let residual_frame = residual_frame
         .map(|f| {
-            robocal_residual::Frame::from_name(f).ok_or_else(|| {
-                anyhow::anyhow!("--residual-frame: `{f}` is not a frame; use `world` or `joint1`")
-            })
+            robocal_residual::Frame::parse(f).map_err(|e| anyhow::anyhow!("--residual-frame: {e}"))
         })
         .transpose()?;
     if let Some(w) = angle_weight

@@ -111,3 +111,15 @@ fn gp_sigma_1000_samples_inside_the_domain(b: Bencher) {
     model.domain = Some(all);
     b.bench(|| black_box(model.predict_with_sigma(&samples, true)));
 }
+
+/// The same GP read in the frame turning with joint 1 (its predictions turned by joint 1's
+/// reading, one turn per row) against the world frame: what the turn costs on 1000 rows.
+#[divan::bench(args = ["world", "joint1"], sample_count = 10)]
+fn gp_1000_samples_by_frame(b: Bencher, frame: &str) {
+    let (mut model, samples, all) = with_gp();
+    model.domain = Some(all);
+    if let Some(r) = model.residual.as_mut() {
+        r.frame = robocal_residual::Frame::parse(frame).expect("frame");
+    }
+    b.bench(|| black_box(model.predict_with_sigma(&samples, false)));
+}

@@ -133,11 +133,8 @@ impl CalibratedModel {
     /// (world frame, as this model's table has it) by its reading. A residual model in
     /// [`Frame::Joint1`] learns `turnᵀ e` of a world error `e` and predicts `turn f`.
     pub fn joint1_turn(&self, q: &[f64]) -> Rotation3<f64> {
-        let (axes, _) = self.robot.axes_and_frames(q);
-        match (axes.first(), q.first()) {
-            (Some((axis, _)), Some(&q1)) => {
-                Rotation3::from_axis_angle(&Unit::new_normalize(*axis), q1)
-            }
+        match (self.robot.joint1_axis(), q.first()) {
+            (Some(axis), Some(&q1)) => Rotation3::from_axis_angle(&Unit::new_normalize(axis), q1),
             _ => Rotation3::identity(),
         }
     }

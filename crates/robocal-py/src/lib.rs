@@ -705,11 +705,7 @@ fn calibrate<'py>(
 ) -> PyResult<PyModel> {
     let residual_frame = residual_frame
         .map(|f| {
-            robocal_residual::Frame::from_name(&f).ok_or_else(|| {
-                bad(format!(
-                    "residual_frame: `{f}` is not a frame; use \"world\" or \"joint1\""
-                ))
-            })
+            robocal_residual::Frame::parse(&f).map_err(|e| bad(format!("residual_frame: {e}")))
         })
         .transpose()?;
     if let Some(w) = angle_weight

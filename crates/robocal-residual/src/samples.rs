@@ -74,6 +74,18 @@ impl Frame {
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|f| f.name() == name)
     }
+
+    /// The frame `name` names, or what to say about a name that names none (every frame's
+    /// name listed), for the command line and Python to prefix with their option's name.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        Self::from_name(name).ok_or_else(|| {
+            let names: Vec<String> = Self::ALL
+                .iter()
+                .map(|f| format!("`{}`", f.name()))
+                .collect();
+            format!("`{name}` is not a frame; use {}", names.join(" or "))
+        })
+    }
 }
 
 impl Encoding {

@@ -453,6 +453,11 @@ fn a_gp_learns_a_periodic_error_round_trips_and_knows_where_it_has_not_been() {
         Frame::Joint1
     );
     assert!(toml::from_str::<RawResidualStage>("model = \"gp\"\nframe = \"tool\"").is_err());
+    assert_eq!(Frame::parse("joint1"), Ok(Frame::Joint1));
+    assert_eq!(
+        Frame::parse("tool"),
+        Err("`tool` is not a frame; use `world` or `joint1`".to_string())
+    );
     // Far outside the trained joint range (±170° on every joint), the model is less sure.
     let far = make(100, 3, 170.0);
     let far: Vec<Vec<f64>> = far

@@ -465,6 +465,14 @@ impl Robot {
             .unzip()
     }
 
+    /// Joint 1's unit axis in the world frame (none for a robot without joints): the same for
+    /// every reading, since joint 1 turns about it, so one step of the chain gives it.
+    pub fn joint1_axis(&self) -> Option<Vector3<f64>> {
+        let joint = self.joints.first()?;
+        let s = step(self.base_rotation(), self.base.xyz, joint, 0.0);
+        Some(s.r3.column(2).into_owned())
+    }
+
     /// Joint axes for configuration `q`: the ingredients of the 6 × n geometric Jacobian.
     pub fn joint_axes(&self, q: &[f64]) -> JointAxes {
         let mut axes = Vec::with_capacity(self.dof());

@@ -191,6 +191,13 @@ proptest! {
     }
 
     #[test]
+    fn joint1_axis_is_the_walks_first_axis_at_any_reading((robot, q) in robot_strategy()) {
+        let (axes, _) = robot.axes_and_frames(&q);
+        let axis = robot.joint1_axis().expect("a joint");
+        prop_assert!((axis - axes[0].0).norm() < 1e-12, "{axis} vs {}", axes[0].0);
+    }
+
+    #[test]
     fn batch_jacobian_stacks_single_ones((robot, q) in robot_strategy()) {
         let mut qs = q.clone();
         qs.extend(q.iter().map(|v| v * 0.5));
