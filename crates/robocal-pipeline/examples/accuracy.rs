@@ -48,10 +48,11 @@ use robocal_robot::{JointField, ParamId};
 use robocal_twin::TwinConfig;
 
 /// The twins: name, file.
-const ARMS: [(&str, &str); 12] = [
+const ARMS: [(&str, &str); 13] = [
     ("pmc6va030", "configs/twin/pmc6va030.toml"),
     ("arm7", "configs/twin/arm7.toml"),
     ("arm5", "configs/twin/arm5.toml"),
+    ("arm5w", "configs/twin/arm5w.toml"),
     ("arm6s", "configs/twin/arm6s.toml"),
     ("arm6h", "configs/twin/arm6h.toml"),
     ("arm6c", "configs/twin/arm6c.toml"),

@@ -210,6 +210,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 for stage in &mut auto.residuals {
                     stage.settings.frame = frame;
                 }
+                auto.both_frames_off_gravity = false;
             }
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
         }

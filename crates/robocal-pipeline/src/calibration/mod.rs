@@ -53,8 +53,9 @@ pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers};
 pub use plausibility::{Implausible, check_plausible};
 pub use repeats::{Repeats, repeats};
 pub use select::{
-    AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision, REACH_GAIN,
-    Selection, automatic,
+    AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision,
+    JOINT1_GRAVITY_ANGLE_DEG, REACH_GAIN, Selection, automatic, joint1_gravity_angle,
+    residual_stages,
 };
 
 /// The geometric (and elastic) model of an identification, without a residual model, with its

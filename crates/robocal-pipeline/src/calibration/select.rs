@@ -127,6 +127,12 @@ pub struct AutoSettings {
     /// frame until session 40: on the 48 development cases 15 lower, by up to 21 %, one higher
     /// by 4 %, the rest identical; `docs/accuracy.md`).
     pub residuals: Vec<ResidualStage>,
+    /// Where joint 1's axis lies more than [`JOINT1_GRAVITY_ANGLE_DEG`] from the line of gravity
+    /// (an arm on a wall or an inclined pedestal), each residual model of `residuals` in the
+    /// frame turning with joint 1 is also tried in the world frame, and the folds choose: the
+    /// turned frame's gain rests on joint 1 standing along gravity (on by default; off when the
+    /// user names the frame).
+    pub both_frames_off_gravity: bool,
     /// Seconds the selection may take: a candidate whose folds would run past it (projected
     /// from its first fold) is abandoned, and none starts after it. The only setting that
     /// depends on the clock: far under budget, a seed gives the same model.
@@ -183,6 +189,7 @@ impl Default for AutoSettings {
                     holdout: 0.2,
                 },
             ],
+            both_frames_off_gravity: true,
             budget_seconds: DEFAULT_BUDGET_SECONDS,
             outliers: Some(OutlierSettings::default()),
             angle_weight: None,
@@ -911,12 +918,20 @@ fn residual_candidates(
     // last candidate's chunks, which a new one is expected to take for its first.
     let mut pending_final: f64 = 0.0;
     let mut last_pace: f64 = 0.0;
+    // With the models in both frames, those in the world frame say so.
+    let frames = |f: Frame| settings.residuals.iter().any(|s| s.settings.frame == f);
+    let both = frames(Frame::World) && frames(Frame::Joint1);
     for stage in &settings.residuals {
         let mut c = Candidate {
             name: format!(
-                "{} + {}",
+                "{} + {}{}",
                 chain.scored[base_physics].physics.name(),
-                stage.settings.kind.name()
+                stage.settings.kind.name(),
+                if both && stage.settings.frame.is_world() {
+                    " (world frame)"
+                } else {
+                    ""
+                }
             ),
             held_out: None,
             held_out_blocks: None,
@@ -1254,6 +1269,47 @@ fn kinematic_only(
 /// the best identified one — is scored by its error on held-out poses: the mean of its mean
 /// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
 /// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
+/// How far (deg) joint 1's axis may lie from the line of gravity (either way along it: an arm
+/// on a ceiling stands along it too) before the default also tries its residual models in the
+/// world frame ([`AutoSettings::both_frames_off_gravity`]). At 10° a sixth of gravity turns with
+/// joint 1; the twins stand at 0° (floor and ceiling), 45° (ARM6T) and 90° (ARM5W, ARM6W).
+pub const JOINT1_GRAVITY_ANGLE_DEG: f64 = 10.0;
+
+/// The angle (deg, 0–90) between joint 1's axis in `robot`'s table and the line of `gravity`
+/// (base frame {0}); `None` for a robot without joints or a zero gravity.
+pub fn joint1_gravity_angle(robot: &Robot, gravity: &Vector3<f64>) -> Option<f64> {
+    // Joint 1's axis in the base frame: the world axis turned back by the base's rotation (so
+    // the base's pose in the tracker frame does not matter).
+    let axis = robot.base_rotation().transpose() * robot.joint1_axis()?;
+    let cos = axis.dot(gravity).abs() / (axis.norm() * gravity.norm());
+    cos.is_finite().then(|| cos.min(1.0).acos().to_degrees())
+}
+
+/// The residual models the default tries on `nominal` with `gravity` (base frame): `settings`'
+/// own, and where [`AutoSettings::both_frames_off_gravity`] asks it and joint 1 lies more than
+/// [`JOINT1_GRAVITY_ANGLE_DEG`] from gravity, each one in the frame turning with joint 1 again
+/// in the world frame, after them all.
+pub fn residual_stages(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    gravity: &Vector3<f64>,
+) -> Vec<ResidualStage> {
+    let mut stages = settings.residuals.clone();
+    let off = joint1_gravity_angle(nominal, gravity).is_some_and(|a| a > JOINT1_GRAVITY_ANGLE_DEG);
+    if settings.both_frames_off_gravity && off {
+        let world = (settings.residuals.iter())
+            .filter(|s| s.settings.frame == Frame::Joint1)
+            .map(|s| {
+                let mut s = s.clone();
+                s.settings.frame = Frame::World;
+                s
+            })
+            .collect::<Vec<_>>();
+        stages.extend(world);
+    }
+    stages
+}
+
 /// Gravity for an arm whose registered base is more than [`MOUNTING_ANGLE_DEG`] from upright
 /// (on a wall or a ceiling), when the rows hold two or more loads: the base's −z or a levelled
 /// tracker's −z, whichever a fit with the compliances on every row fits better
@@ -1314,6 +1370,8 @@ pub fn automatic(
         settings.gravity = Some(gravity);
         mounting_warning = warning;
     }
+    let gravity = (settings.gravity).unwrap_or(ComplianceSettings::default().gravity);
+    settings.residuals = residual_stages(&settings, nominal, &gravity);
     let settings = &settings;
     let Some(plan) = FoldPlan::new(settings, rows, validation.as_ref()) else {
         let mut built = kinematic_only(settings, nominal, rows, observer, start)?;
@@ -1471,6 +1529,63 @@ mod tests {
     use robocal_twin::TwinConfig;
 
     use super::*;
+
+    /// Joint 1's angle to gravity, against a hand count on ARM5 (joint 1 along its base's z):
+    /// 0° for gravity down or up, 90° across, 45° inclined, whatever the base's pose in the
+    /// tracker frame; the residual models in both frames only where it exceeds the bound, and
+    /// not when the user named the frame (every stage in one frame, or the switch off).
+    #[test]
+    fn residual_models_are_tried_in_both_frames_only_off_gravity() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut arm5 = Robot::load(root.join("configs/robots/arm5.toml")).unwrap();
+        let g = 9.80665;
+        for rpy in [[0.0, 0.0, 0.0], [0.4, 1.2, -2.4]] {
+            arm5.base.rpy = Vector3::from(rpy);
+            for (gravity, expected) in [
+                (Vector3::new(0.0, 0.0, -g), 0.0),
+                (Vector3::new(0.0, 0.0, g), 0.0),
+                (Vector3::new(g, 0.0, 0.0), 90.0),
+                (Vector3::new(0.0, -g, 0.0), 90.0),
+                (Vector3::new(g, 0.0, -g), 45.0),
+            ] {
+                let angle = joint1_gravity_angle(&arm5, &gravity).unwrap();
+                assert!(
+                    (angle - expected).abs() < 1e-6,
+                    "{rpy:?} {gravity}: {angle}"
+                );
+            }
+        }
+        let d = AutoSettings::default();
+        let down = Vector3::new(0.0, 0.0, -g);
+        let tilted = |deg: f64| {
+            let r = deg.to_radians();
+            Vector3::new(g * r.sin(), 0.0, -g * r.cos())
+        };
+        assert_eq!(residual_stages(&d, &arm5, &down), d.residuals);
+        assert_eq!(residual_stages(&d, &arm5, &tilted(9.9)), d.residuals);
+        let both = residual_stages(&d, &arm5, &tilted(10.1));
+        assert_eq!(both.len(), 2 * d.residuals.len());
+        for (turned, world) in both.iter().zip(&both[d.residuals.len()..]) {
+            assert_eq!(turned.settings.frame, Frame::Joint1);
+            assert_eq!(world.settings.frame, Frame::World);
+            let mut same = world.clone();
+            same.settings.frame = Frame::Joint1;
+            assert_eq!(&same, turned);
+        }
+        let off = AutoSettings {
+            both_frames_off_gravity: false,
+            ..d.clone()
+        };
+        assert_eq!(residual_stages(&off, &arm5, &tilted(45.0)), d.residuals);
+        let mut world = d.clone();
+        for s in &mut world.residuals {
+            s.settings.frame = Frame::World;
+        }
+        assert_eq!(
+            residual_stages(&world, &arm5, &tilted(45.0)),
+            world.residuals
+        );
+    }
 
     /// The residual pick: the lowest score among the models that pass the paired test against
     /// the physics (1.0); a lower-scoring model that fails it does not hide one that passes, and
