@@ -1263,12 +1263,6 @@ fn kinematic_only(
     Ok(built)
 }
 
-/// The default calibration: every candidate model — the nominal table with base and tool
-/// fitted; kinematic identification; with joint compliances (two or more loads); with
-/// transmission harmonics, with self-weight terms; each residual model of `settings` on top of
-/// the best identified one — is scored by its error on held-out poses: the mean of its mean
-/// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
-/// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
 /// How far (deg) joint 1's axis may lie from the line of gravity (either way along it: an arm
 /// on a ceiling stands along it too) before the default also tries its residual models in the
 /// world frame ([`AutoSettings::both_frames_off_gravity`]). At 10° a sixth of gravity turns with
@@ -1339,6 +1333,14 @@ fn mounting(
     Some((fit.compliance?.gravity, warning))
 }
 
+/// The default calibration: every candidate model — the nominal table with base and tool
+/// fitted; kinematic identification; with joint compliances (two or more loads); with
+/// transmission harmonics, with self-weight terms; each residual model of `settings` on top of
+/// the best identified one (in both frames where joint 1 lies off gravity: [`residual_stages`])
+/// — is scored by its error on held-out poses: the mean of its mean
+/// over k random folds of configurations (interpolation) and over k contiguous blocks of joint
+/// 1's range (extrapolation to a new working area), or its mean on the `validation` rows.
+///
 /// The choice is a chain — identified table, compliance, the joint-error blocks by forward
 /// stepwise selection (harmonics and self-weight each alone, the better first, then the other),
 /// the best residual model — each step taken only if it lowers the held-out errors significantly
