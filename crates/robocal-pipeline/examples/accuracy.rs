@@ -538,12 +538,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     // Physics 0: kinematic; 1: + compliance; 2: + harmonics 2 and per-joint
                     // self-weight; 3: the default's fullest candidate (compliance held
                     // plausible, harmonics 2, the links' weights and the payload's centre of
-                    // mass, backlash on either flank).
+                    // mass, backlash on either flank). Every one with the compliances finds an
+                    // arm on a wall or a ceiling as the default does (until session 41 columns
+                    // 1 and 2 took the base's −z for gravity there).
                     let stage = |physics: u8, residual: Option<ResidualSettings>| Stages {
                         kinematic: KinematicSettings {
                             compliance: match physics {
                                 0 => None,
-                                1 | 2 => Some(ComplianceSettings::default()),
+                                1 | 2 => Some(ComplianceSettings {
+                                    detect_mounting: true,
+                                    ..ComplianceSettings::default()
+                                }),
                                 _ => Some(ComplianceSettings {
                                     plausible_only: true,
                                     detect_mounting: true,
