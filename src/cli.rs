@@ -79,8 +79,9 @@ pub enum Command {
         flank_search: bool,
         /// The frame the default calibration's (no `--config`) residual models learn in:
         /// `joint1` (turning with joint 1 about its axis: an error that turns with the arm is
-        /// carried to joint-1 angles never measured) or `world` (the tracker's X, Y, Z; for an
-        /// arm whose joint 1 does not stand along gravity) [default: joint1]
+        /// carried to joint-1 angles never measured) or `world` (the tracker's X, Y, Z). Without
+        /// it: `joint1`, and both, the held-out poses choosing, where joint 1 lies more than 10°
+        /// off the line of gravity (a wall, an inclined pedestal); naming one tries only it
         #[arg(long, value_name = "FRAME")]
         residual_frame: Option<String>,
     },

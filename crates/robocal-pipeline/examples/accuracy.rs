@@ -1,7 +1,8 @@
 //! robocal's accuracy suite (`just accuracy`): the default calibration, and each stage alone, on
 //! twins of several arms (by default the development families: the paper's arm, ARM7, ARM5 and,
-//! since session 41, ARM5W, ARM5 on a wall), several seeds, with the twins' effects all on or only those the physical
-//! model family holds, on a split of configurations and on an extrapolation split. Errors are
+//! since session 41, ARM5W, ARM5 on a wall), several seeds, with the twins' effects all on or
+//! only those the physical model family holds, on a split of configurations and on an
+//! extrapolation split. Errors are
 //! measured against the twins' noise-free points on poses never trained on; the noise floor is
 //! the measured points' own distance from those.
 //!

@@ -678,8 +678,9 @@ impl PyModel {
 /// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
 /// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt,
 /// `flank_search` backlash with its flanks searched where the physics it chose holds none;
-/// `residual_frame` (`"joint1"`, the default's, or `"world"`) is the frame its residual models
-/// learn in.
+/// `residual_frame` (`"joint1"` or `"world"`) is the frame its residual models learn in (by
+/// default `"joint1"`, and both, the held-out poses choosing, where joint 1 lies more than 10°
+/// off the line of gravity).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
 #[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false, residual_frame=None))]
