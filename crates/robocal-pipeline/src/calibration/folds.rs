@@ -28,6 +28,23 @@ pub(crate) fn configuration_of<'a>(rows: &[&'a Measurement]) -> HashMap<&'a str,
         .collect()
 }
 
+/// Every row's configuration numbered from 0 (in the order of the configurations' first ids), and
+/// how many there are: the units of a paired test and of holding one configuration out, a pose id
+/// and every id with the same joint readings ([`configuration_of`]) being one.
+pub(crate) fn configuration_groups(rows: &[&Measurement]) -> (Vec<usize>, usize) {
+    let of = configuration_of(rows);
+    let mut ids: Vec<&str> = of.values().copied().collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let groups = (rows.iter())
+        .map(|r| {
+            let id = of.get(r.sample.pose.as_str()).copied().unwrap_or("");
+            ids.binary_search(&id).unwrap_or(0)
+        })
+        .collect();
+    (groups, ids.len())
+}
+
 /// The fold (0..k) of every row: configurations shuffled with `seed` and dealt round-robin, so
 /// that every load of a configuration falls in one fold (a configuration: the rows of one pose
 /// id, and of every id with the same joint readings). `k` is capped at the number of
@@ -157,7 +174,7 @@ mod tests {
     use nalgebra::Vector3;
     use robocal_data::{Measurement, Sample};
 
-    use super::{blocks, folds, improves};
+    use super::{blocks, configuration_groups, folds, improves};
 
     fn row(pose: &str, joints: [f64; 2], load: f64) -> Measurement {
         Measurement {
@@ -234,5 +251,27 @@ mod tests {
         ));
         // Mean 0.01, standard error 0.0173: 0.6 standard errors.
         assert!(!improves(&[1.0, 1.0, 1.0], &[0.96, 1.02, 0.99], &[0, 1, 2]));
+    }
+
+    /// A configuration measured again under a new id is one unit (one group) with its first id,
+    /// at every load; the rest are one group per id, numbered in the order of the ids.
+    #[test]
+    fn ids_with_the_same_readings_are_one_group() {
+        let data = [
+            row("b", [10.0, 20.0], 0.0),
+            row("a", [1.0, 2.0], 0.0),
+            row("c", [1.0, 2.0], 5.0),
+            row("a", [1.0, 2.0], 5.0),
+            row("d", [3.0, 4.0], 0.0),
+            row("c", [1.0, 2.0], 0.0),
+        ];
+        let rows: Vec<&Measurement> = data.iter().collect();
+        let (groups, n) = configuration_groups(&rows);
+        assert_eq!(n, 3);
+        assert_eq!(groups, vec![1, 0, 0, 0, 2, 0]);
+        // By the ids alone there would be four units: `c`, measured again at `a`'s readings,
+        // would count as a configuration of its own in a paired test.
+        let (_, k) = folds(&rows, 10, 1);
+        assert_eq!(k, 3);
     }
 }

@@ -13,9 +13,8 @@ use robocal_ident::{
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::{
-    configurations, coordinates_and_parameters, fit_kinematic, loads, physical_model, readings_key,
-};
+use super::folds::configuration_groups;
+use super::{coordinates_and_parameters, fit_kinematic, loads, physical_model, readings_key};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -177,7 +176,7 @@ pub fn find_outliers<'a>(
     let mut flagged: BTreeSet<usize> = BTreeSet::new();
     let mut errors = Vec::new();
     let mut sigma = 0.0;
-    let mut folds: Option<Vec<usize>> = None;
+    let mut folds: Option<(Vec<usize>, usize)> = None;
     let mut held_sigma = None;
     for round in 0..outliers.rounds.max(1) {
         let inliers = |keep: &dyn Fn(usize) -> bool| -> Vec<&Measurement> {
@@ -188,7 +187,7 @@ pub fn find_outliers<'a>(
         };
         let fit = fit_kinematic(nominal, &inliers(&|_| true), &physics)?;
         if round == 0 && too_few_configurations(&fit, rows) {
-            folds = Some(configuration_folds(rows));
+            folds = Some(configuration_groups(rows));
         }
         let residuals = physical_model(&fit).residuals(rows.iter().copied());
         let spread =
@@ -202,9 +201,9 @@ pub fn find_outliers<'a>(
                 .collect()
         };
         let mut next = beyond(&errors, sigma);
-        if let Some(fold) = &folds {
+        if let Some((fold, n)) = &folds {
             let mut held = vec![Vector3::zeros(); rows.len()];
-            for k in 0..configurations(rows).len() {
+            for k in 0..*n {
                 let test: Vec<usize> = (0..rows.len()).filter(|&i| fold[i] == k).collect();
                 if test.is_empty() {
                     continue;
@@ -396,15 +395,6 @@ fn single_joint_share(robot: &Robot, row: &Measurement, r: &Vector3<f64>) -> f64
 fn too_few_configurations(fit: &KinematicCalibration, rows: &[&Measurement]) -> bool {
     let (coordinates, parameters) = coordinates_and_parameters(fit, rows);
     (coordinates as f64) < HELD_OUT_REDUNDANCY * parameters as f64
-}
-
-/// Each row's configuration's place among the sorted configurations (every load and reflector
-/// of a configuration held out together).
-fn configuration_folds(rows: &[&Measurement]) -> Vec<usize> {
-    let poses = configurations(rows);
-    (rows.iter())
-        .map(|r| poses.binary_search(&r.sample.pose.as_str()).unwrap_or(0))
-        .collect()
 }
 
 /// No bad shot found (a fold could not be fitted without its configurations: nothing could

@@ -516,10 +516,7 @@ fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
     if held.is_empty() {
         return None;
     }
-    let ids = configurations(&rows);
-    let groups: Vec<usize> = (rows.iter())
-        .map(|r| ids.binary_search(&r.sample.pose.as_str()).unwrap_or(0))
-        .collect();
+    let (groups, _) = super::folds::configuration_groups(&rows);
     let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
     let (without, with) = (mean(&held), mean(&continued));
     let kept = improves(&held, &continued, &groups) && with < (1.0 - REACH_GAIN) * without;
