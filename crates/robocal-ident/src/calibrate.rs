@@ -127,13 +127,13 @@ pub struct JointErrorSettings {
     pub backlash_home: Option<Vec<f64>>,
     /// Whether a joint's backlash may rest on the flank its torque presses: the identification
     /// is run twice, first with the approach flanks, then with each joint's flank chosen from
-    /// what the first left ([`crate::flank`]).
+    /// what the first left (the `flank` module).
     pub backlash_torque: bool,
     /// Each joint's flank, when already chosen (the second run).
     pub flanks: Option<Vec<Flank>>,
     /// A torque flank's preload searched where its step explains most beyond the joint's own
     /// terms (offset, compliance, harmonics, self-weight), its direction fitted again without
-    /// them ([`crate::flank`]); `false`: the logistic regression's alone, whose boundary the
+    /// them (the `flank` module); `false`: the logistic regression's alone, whose boundary the
     /// compliance pulls toward the rows' middle torque. The default calibration tries it as one
     /// candidate more where its chosen physics holds backlash (`docs/accuracy.md`, session 32).
     pub flank_search: bool,

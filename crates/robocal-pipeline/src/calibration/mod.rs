@@ -11,7 +11,7 @@
 //! decision.
 //!
 //! Modules: [`select`] (the default: candidates, the chain of decisions, the final fit),
-//! [`folds`] (random folds, blocks of joint 1, the paired significance test); this module
+//! [`folds`](mod@folds) (random folds, blocks of joint 1, the paired significance test); this module
 //! fits the stages themselves.
 
 pub mod calibrate;

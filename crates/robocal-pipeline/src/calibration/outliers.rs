@@ -52,7 +52,7 @@ pub const REFINED_SHARE: f64 = 0.5;
 
 /// Share of a row's error under the refined physics (its square) that one joint's motion may
 /// explain before the refined search no longer flags it where it may lie past a flank's flip
-/// ([`past_a_flip`]): an error along a single joint's motion at a configuration's lightest or
+/// (`past_a_flip`): an error along a single joint's motion at a configuration's lightest or
 /// heaviest loads may be that joint's play, on the flank its torque presses, which the refined
 /// physics does not hold (ARM6H: 14 clean rows of 12 cases at the lightest loads, 0.96–1.00 of
 /// their errors along joint 2's motion, session 38); a reflector mis-seated moves the point in
@@ -162,7 +162,7 @@ fn refined_physics(physics: &KinematicSettings) -> Option<KinematicSettings> {
 /// only when the fit without its configuration (each left out in turn) also leaves it beyond
 /// the threshold of that fit's own spread. With enough, the rows that fit leaves beyond
 /// [`REFINED_SHARE`] of the threshold are searched again under the refined physics (with the
-/// transmission harmonics: [`refined_physics`]), fitted without the flagged rows in the same
+/// transmission harmonics: `refined_physics`), fitted without the flagged rows in the same
 /// rounds, and a row beyond its threshold is flagged too, unless its error there lies along one
 /// joint's motion at loads where that joint's flank may have flipped ([`SINGLE_JOINT_SHARE`]).
 /// Returns the report and the rows to calibrate on (all of them with `keep`).
@@ -284,7 +284,7 @@ struct Refined {
 /// search's physics lie beyond [`REFINED_SHARE`] of the threshold of `sigma`, flagged where the
 /// refined physics `rich`, fitted without the flagged rows, leaves them beyond the threshold of
 /// its own robust standard deviation, unless its error there lies along one joint's motion
-/// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it ([`past_a_flip`]); fitted
+/// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it (`past_a_flip`); fitted
 /// again without those until the set repeats (at most `rounds` fits). None where no row lies
 /// that far out (nothing to fit for), or where a refined fit fails (the first search's finding
 /// stands).

@@ -24,8 +24,8 @@ pub const ROUNDING_WARNING_MM: f64 = 0.01;
 /// values, commanded angles on a grid. Judged for each joint alone, then for the rest together.
 const EXACT_RATIO: f64 = 1.25;
 
-/// The coarsest step of [`STEPS`] every reading is a multiple of, deg; none for readings finer
-/// than the finest, or with fewer than [`MIN_DISTINCT`] distinct values.
+/// The coarsest step of `STEPS` every reading is a multiple of, deg; none for readings finer
+/// than the finest, or with fewer than `MIN_DISTINCT` distinct values.
 pub fn reading_step(readings: &[f64]) -> Option<f64> {
     let mut distinct: Vec<f64> = readings.to_vec();
     distinct.sort_by(f64::total_cmp);
@@ -53,7 +53,7 @@ pub struct JointRounding {
     pub rms_mm: f64,
 }
 
-/// Every joint whose readings are multiples of a step of [`STEPS`], with the position error a
+/// Every joint whose readings are multiples of a step of `STEPS`, with the position error a
 /// uniform rounding error of that step leaves (`robot`'s joint Jacobian at each row's readings;
 /// the rows' mean of `|∂p/∂q_j|² (step_j)² / 12`, as a root).
 pub fn rounded_joints(robot: &Robot, rows: &[&Measurement]) -> Vec<JointRounding> {
@@ -89,7 +89,7 @@ pub fn rounded_joints(robot: &Robot, rows: &[&Measurement]) -> Vec<JointRounding
 
 /// The warning for readings rounded coarsely enough to cost accuracy: the joints whose readings
 /// are multiples of a step, those whose rounding alone would leave more than the fit does
-/// ([`EXACT_RATIO`]) left aside as exact values, when the rest leave [`ROUNDING_WARNING_MM`] or
+/// (`EXACT_RATIO`) left aside as exact values, when the rest leave [`ROUNDING_WARNING_MM`] or
 /// more together and no more than the fit does.
 /// `fit_rms`: the root-mean-square error of the fitted physical model on its rows, mm.
 pub fn rounding_warning(joints: &[JointRounding], fit_rms: f64) -> Option<String> {
