@@ -91,6 +91,15 @@ accuracy-outliers seeds="3":
 accuracy-window seeds="1" effects="all,beyond":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} --arms arm7,arm5,pmc6va030 --splits window --effects {{effects}} --no-compensation
 
+# what the data determine beyond joint 1's readings: on the window twins, the default, its physics
+# alone, the physics with every harmonic continued, and that model's standard deviation against
+# the noise floor (scripts/extrapolation/reach.py; docs/accuracy.md, session 42)
+extrapolation-reach seeds="1" effects="all":
+    cargo build --release --bin robocal
+    rm -rf target/reach-cases
+    cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} --arms arm7,arm5,pmc6va030 --splits window --effects {{effects}} --export target/reach-cases
+    python3 scripts/extrapolation/reach.py target/reach-cases --robocal target/release/robocal
+
 # the residual models side by side on the identified physics (paper's SOMM, robocal's, GP)
 accuracy-networks seeds="1":
     cargo run --release -p robocal-pipeline --example accuracy -- --networks --seeds {{seeds}}
