@@ -11,8 +11,8 @@
 //! decision.
 //!
 //! Modules: [`select`] (the default: candidates, the chain of decisions, the final fit),
-//! [`folds`](mod@folds) (random folds, blocks of joint 1, the paired significance test); this module
-//! fits the stages themselves.
+//! [`folds`](mod@folds) (random folds, blocks of joint 1, the paired significance test); this
+//! module fits the stages themselves.
 
 pub mod calibrate;
 pub mod folds;
