@@ -53,7 +53,7 @@ twin:
 fuzz cases="20000":
     PROPTEST_CASES={{cases}} cargo test --release --test fuzz_loaders
 
-# the accuracy suite: default calibrate and each stage on twins of twelve arms (two seeds, effects
+# the accuracy suite: default calibrate and each stage on twins of fourteen arms (two seeds, effects
 # all on / modelled only / beyond the model family, configuration and extrapolation splits;
 # `--effects` picks sets when run by hand), errors against the twins'
 # noise-free points; the nine families kept aside (ARM6S, ARM6H, ARM6C, ARM6M, ARM6N, ARM6U,
