@@ -1,11 +1,10 @@
 //! robocal's accuracy suite (`just accuracy`): the default calibration, and each stage alone, on
 //! twins of several arms (by default the development families: the paper's arm, ARM7, ARM5,
 //! since session 41 ARM5W, ARM5 on a wall, and since session 42 ARM5T, ARM5 on a pedestal
-//! inclined 45°), several seeds, with the twins' effects all on or
-//! only those the physical model family holds, on a split of configurations and on an
-//! extrapolation split. Errors are
-//! measured against the twins' noise-free points on poses never trained on; the noise floor is
-//! the measured points' own distance from those.
+//! inclined 45°), several seeds, with the twins' effects all on or only those the physical model
+//! family holds, on a split of configurations and on an extrapolation split. Errors are measured
+//! against the twins' noise-free points on poses never trained on; the noise floor is the
+//! measured points' own distance from those.
 //!
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
