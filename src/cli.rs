@@ -77,6 +77,12 @@ pub enum Command {
         /// only where it lowers the held-out error
         #[arg(long)]
         flank_search: bool,
+        /// The highest order of the axis runouts the default calibration (no `--config`) tries
+        /// on the physics it chose (the parts beyond each joint turning across its axis
+        /// periodically in its angle; 0: not tried); kept only where it lowers the held-out
+        /// error
+        #[arg(long, value_name = "ORDERS")]
+        runout: Option<u32>,
         /// The frame the default calibration's (no `--config`) residual models learn in:
         /// `joint1` (turning with joint 1 about its axis: an error that turns with the arm is
         /// carried to joint-1 angles never measured) or `world` (the tracker's X, Y, Z). Without

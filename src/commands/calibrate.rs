@@ -18,6 +18,7 @@ use super::terminal::Terminal;
 /// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
 /// `budget` (s) bounds the default calibration's time; `tilt` has it try the bearings' tilt,
 /// `flank_search` backlash with its flanks searched where the physics it chose holds none;
+/// `runout` the highest order of the axis runouts it tries (0: none; `None`: its default);
 /// `residual_frame` (`world` or `joint1`) is the frame its residual models learn in.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
@@ -32,6 +33,7 @@ pub fn run(
     budget: Option<f64>,
     tilt: bool,
     flank_search: bool,
+    runout: Option<u32>,
     residual_frame: Option<&str>,
 ) -> Result<()> {
     let residual_frame = residual_frame
@@ -61,6 +63,7 @@ pub fn run(
         budget_seconds: budget,
         tilt,
         flank_search,
+        runout,
         residual_frame,
     };
     let Calibration {
@@ -183,6 +186,7 @@ pub fn run(
             .chain(backlash_lines(errors, &r.joint_errors))
             .chain(link_weight_lines(errors))
             .chain(tilt_lines(errors, &r.joint_errors))
+            .chain(runout_lines(errors))
         {
             eprintln!("robocal: {line}");
         }
@@ -367,6 +371,45 @@ fn tilt_lines(
                 t.joint + 1,
                 t.value / robocal_robot::DEG_PER_KNM,
                 plus_minus(term_std(terms, &robocal_robot::tilt_name(t.joint)), 4),
+            )
+        })
+        .collect()
+}
+
+/// One line per joint with identified axis runouts: each order's largest turn across the axis
+/// (the amplitude of the turn about x and about y together, deg) and how far they are continued.
+fn runout_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
+    let identified: Vec<&robocal_robot::Runout> = (errors.runouts.iter())
+        .filter(|r| r.wave.sin != 0.0 || r.wave.cos != 0.0)
+        .collect();
+    identified
+        .chunk_by(|a, b| a.wave.joint == b.wave.joint)
+        .map(|terms| {
+            let mut orders: Vec<u32> = terms.iter().map(|r| r.wave.order).collect();
+            orders.dedup();
+            let amplitudes: Vec<String> = (orders.iter())
+                .map(|&k| {
+                    let squares: f64 = (terms.iter())
+                        .filter(|r| r.wave.order == k)
+                        .map(|r| r.wave.sin.powi(2) + r.wave.cos.powi(2))
+                        .sum();
+                    format!("order {k} {:.4}°", squares.sqrt().to_degrees())
+                })
+                .collect();
+            let reach = terms[0].wave.reach.map_or_else(
+                || "continued periodically at every angle".to_string(),
+                |[lo, hi]| {
+                    format!(
+                        "continued over {:.1}..{:.1}°, held beyond",
+                        lo.to_degrees(),
+                        hi.to_degrees()
+                    )
+                },
+            );
+            format!(
+                "joint {} axis runout: {}; {reach} (the parts beyond it turning across its axis)",
+                terms[0].wave.joint + 1,
+                amplitudes.join(", ")
             )
         })
         .collect()

@@ -35,6 +35,7 @@ pub fn run(cli: Cli) -> Result<()> {
             budget,
             tilt,
             flank_search,
+            runout,
             residual_frame,
         } => calibrate::run(
             &robot,
@@ -51,6 +52,7 @@ pub fn run(cli: Cli) -> Result<()> {
             budget,
             tilt,
             flank_search,
+            runout,
             residual_frame.as_deref(),
         ),
         Command::Report { model, data, out } => report::run(&model, &data, &out),

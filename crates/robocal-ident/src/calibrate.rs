@@ -143,6 +143,10 @@ pub struct JointErrorSettings {
     /// compliance settings ask for plausible values only, so is one that comes out negative or
     /// no larger than its σ; elsewhere a negative one is warned of).
     pub tilt: bool,
+    /// Axis runouts of orders 1 up to this one, about both axes across every joint
+    /// ([`robocal_robot::Runout`]; 0: none), each reaching as far as its joint's readings allow,
+    /// as a harmonic does; those the poses do not separate from the geometry are held at zero.
+    pub runout: u32,
     /// The transmission harmonics under a zero-mean Gaussian prior whose spread the data choose
     /// (marginal likelihood over the harmonics of the fit without it; empirical Bayes): a
     /// harmonic the poses barely determine is drawn toward the spread of the others (LM only).
@@ -165,6 +169,7 @@ impl Default for JointErrorSettings {
             flanks: None,
             flank_search: false,
             tilt: false,
+            runout: 0,
             harmonic_prior: true,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
@@ -868,6 +873,18 @@ fn joint_error_start(
             let first = model.tilts.len();
             model = model.with_tilts(&(0..dof).collect::<Vec<_>>());
             params.extend((first..model.tilts.len()).map(ErrorParam::Tilt));
+        }
+        if je.runout > 0 {
+            let first = model.runouts.len();
+            model = model.with_runouts(&(0..dof).collect::<Vec<_>>(), je.runout);
+            for i in first..model.runouts.len() {
+                let joint = model.runouts[i].wave.joint;
+                model.runouts[i].wave.reach = (ranges.as_ref())
+                    .map(|r| r[joint])
+                    .map(|[lo, hi]| Harmonic::reach_of(lo, hi));
+                params.push(ErrorParam::RunoutSin(i));
+                params.push(ErrorParam::RunoutCos(i));
+            }
         }
         start = Some(model);
     }

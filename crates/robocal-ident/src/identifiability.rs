@@ -5,8 +5,9 @@
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use robocal_robot::{
-    ErrorParam, JointErrors, JointField, MomentPart, ParamId, backlash_name, compliance_name,
-    harmonic_name, link_weight_name, payload_com_name, self_weight_name, tilt_name,
+    Across, ErrorParam, JointErrors, JointField, MomentPart, ParamId, backlash_name,
+    compliance_name, harmonic_name, link_weight_name, payload_com_name, runout_name,
+    self_weight_name, tilt_name,
 };
 
 /// Result of [`analyse`].
@@ -61,6 +62,17 @@ pub enum Column {
     PayloadCom(usize),
     /// The tilting compliance of a joint (0-based).
     Tilt(usize),
+    /// A runout's sine (`cos: false`) or cosine coefficient.
+    Runout {
+        /// 0-based joint.
+        joint: usize,
+        /// Order.
+        order: u32,
+        /// The axis of the joint's link frame it turns about.
+        across: Across,
+        /// The cosine coefficient.
+        cos: bool,
+    },
 }
 
 impl Column {
@@ -85,6 +97,15 @@ impl Column {
             },
             ErrorParam::PayloadCom(axis) => Self::PayloadCom(axis),
             ErrorParam::Tilt(i) => Self::Tilt(errors.tilts[i].joint),
+            ErrorParam::RunoutSin(i) | ErrorParam::RunoutCos(i) => {
+                let r = &errors.runouts[i];
+                Self::Runout {
+                    joint: r.wave.joint,
+                    order: r.wave.order,
+                    across: r.across,
+                    cos: matches!(p, ErrorParam::RunoutCos(_)),
+                }
+            }
         }
     }
 }
@@ -110,6 +131,12 @@ impl std::fmt::Display for Column {
             Self::LinkWeight { body, part } => f.write_str(&link_weight_name(*body, *part)),
             Self::PayloadCom(axis) => f.write_str(&payload_com_name(*axis)),
             Self::Tilt(j) => f.write_str(&tilt_name(*j)),
+            Self::Runout {
+                joint,
+                order,
+                across,
+                cos,
+            } => f.write_str(&runout_name(*joint, *order, *across, *cos)),
         }
     }
 }
@@ -131,6 +158,18 @@ fn priority(column: Column) -> (usize, usize, usize) {
         Column::LinkWeight { body, part } => return (7, body, part as usize),
         Column::PayloadCom(axis) => return (8, axis, 0),
         Column::Tilt(j) => return (9, j, 0),
+        Column::Runout {
+            joint,
+            order,
+            across,
+            cos,
+        } => {
+            return (
+                10,
+                joint,
+                4 * order as usize + 2 * across.column() + usize::from(cos),
+            );
+        }
     };
     match id {
         ParamId::Base(a) => (0, 0, a),

@@ -42,4 +42,4 @@ pub use problem::{
     Observations, angle_weight, select,
 };
 pub use registration::{kabsch, register_base, register_tool_rotation};
-pub use stage::{RawComplianceStage, RawJointErrorStage, RawKinematicStage};
+pub use stage::{MAX_HARMONICS, RawComplianceStage, RawJointErrorStage, RawKinematicStage};

@@ -204,6 +204,10 @@ pub struct RawJointErrorStage {
     pub flank_search: Option<bool>,
     /// Tilting compliances of every joint (default false; needs `[compliance]`).
     pub tilt: Option<bool>,
+    /// Axis runouts of every joint up to this order (default 0: none; at most
+    /// [`MAX_HARMONICS`]): the parts beyond each joint turning across its axis periodically in
+    /// its angle.
+    pub runout: Option<u32>,
     /// The harmonics under a Gaussian prior whose spread the data choose (default true; only
     /// with harmonics and the `lm` solver).
     pub harmonic_prior: Option<bool>,
@@ -232,6 +236,15 @@ impl RawJointErrorStage {
         s.link_weights = self.link_weights.unwrap_or(false);
         s.backlash = self.backlash.unwrap_or(false);
         s.tilt = self.tilt.unwrap_or(false);
+        if let Some(r) = self.runout {
+            if r > MAX_HARMONICS {
+                return Err(Invalid::new(
+                    "joint_errors.runout",
+                    format!("at most {MAX_HARMONICS}"),
+                ));
+            }
+            s.runout = r;
+        }
         if let Some(prior) = self.harmonic_prior {
             if s.harmonics == 0 {
                 return Err(Invalid::new(
@@ -294,6 +307,7 @@ impl RawJointErrorStage {
                 .map(|h| h.iter().map(|h| h.to_degrees()).collect()),
             flank_search: settings.flank_search.then_some(true),
             tilt: settings.tilt.then_some(true),
+            runout: (settings.runout > 0).then_some(settings.runout),
             harmonic_prior: (settings.harmonics > 0 && !settings.harmonic_prior).then_some(false),
         }
     }

@@ -358,10 +358,11 @@ impl CalibratedModel {
         growth
     }
 
-    /// What holding the transmission harmonics beyond their reach may miss at `s`, mm²: each
-    /// joint's [`robocal_robot::Harmonic::held_variance`] (rad²) summed over its harmonics,
-    /// through the point's derivative in that joint (central differences of 10⁻³°). 0 where
-    /// every reading lies within its harmonics' reach.
+    /// What holding the transmission harmonics and the axis runouts beyond their reach may miss
+    /// at `s`, mm²: each joint's [`robocal_robot::Harmonic::held_variance`] (rad²) summed over
+    /// its harmonics, through the point's derivative in that joint (central differences of
+    /// 10⁻³°), and each runout's, through the lever of its turn (`|u × (p − a)|²`, `u` the axis
+    /// it turns about, `a` its joint's origin). 0 where every reading lies within the reach.
     pub fn held_variance(&self, s: &Sample) -> f64 {
         const STEP_DEG: f64 = 1e-3;
         let Some(errors) = &self.joint_errors else {
@@ -384,6 +385,22 @@ impl CalibratedModel {
             };
             let slope = (moved(STEP_DEG) - moved(-STEP_DEG)) / (2.0 * STEP_DEG.to_radians());
             total += slope.norm_squared() * v;
+        }
+        if errors
+            .runouts
+            .iter()
+            .any(|r| r.wave.held_variance(q[r.wave.joint]) > 0.0)
+        {
+            let (axes, frames) = self.robot.axes_and_frames(&q);
+            let p = self.robot.point(&q);
+            for r in &errors.runouts {
+                let j = r.wave.joint;
+                let lever = frames[j]
+                    .0
+                    .column(r.across.column())
+                    .cross(&(p - axes[j].1));
+                total += lever.norm_squared() * r.wave.held_variance(q[j]);
+            }
         }
         total
     }

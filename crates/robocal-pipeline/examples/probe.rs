@@ -115,6 +115,7 @@ fn run(
                         budget_seconds: None,
                         tilt: false,
                         flank_search: false,
+                        runout: None,
                         residual_frame: None,
                     },
                     &Silent,

@@ -192,6 +192,9 @@ fn parts(model: &CalibratedModel) -> Vec<String> {
         if !e.tilts.is_empty() {
             blocks.push("tilting compliance");
         }
+        if !e.runouts.is_empty() {
+            blocks.push("axis runout");
+        }
         parts.push(format!("joint errors: {}", blocks.join(", ")));
     }
     if let Some(r) = &model.residual {

@@ -333,12 +333,15 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         .collect();
     // Nominal, kinematic, compliance; each joint-error block alone, then (once one was kept)
     // each remaining one added to the kept ones, for as long as one is kept: at most 2 + 1;
-    // then the tilting compliances on the chosen physics (it holds the compliances: the twin
-    // has six loads); the two residual models.
+    // then the axis runouts on the physics the blocks reached; then the tilting compliances on
+    // the chosen physics (it holds the compliances: the twin has six loads); the two residual
+    // models.
     let physical = names.len() - 2;
-    assert!((7..=10).contains(&physical), "{names:?}");
+    assert!((8..=11).contains(&physical), "{names:?}");
     let tilt = physical - 1;
     assert!(names[tilt].ends_with(" + tilt"), "{names:?}");
+    let runout = tilt - 1;
+    assert!(names[runout].ends_with(" + runout 1"), "{names:?}");
     assert_eq!(names[1], "kinematic");
     let blocks = |name: &str| {
         [" + harmonics 2", " + self-weight", " + backlash"]
@@ -349,9 +352,26 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     assert!(names[3].ends_with("compliance + harmonics 2"), "{names:?}");
     assert!(names[4].ends_with("compliance + self-weight"), "{names:?}");
     assert!(names[5].ends_with("compliance + backlash"), "{names:?}");
-    for name in &names[6..tilt] {
+    for name in &names[6..runout] {
         assert!(blocks(name) >= 2, "{names:?}");
     }
+    // The runouts are tried on the physics the blocks reached, and their decision holds both
+    // candidates' scores.
+    let runout_decision = (selection.decisions.iter())
+        .find(|d| d.stage == "runout")
+        .unwrap();
+    assert_eq!(
+        runout_decision.held_out_with, selection.candidates[runout].score,
+        "{runout_decision:?}"
+    );
+    assert_eq!(
+        runout_decision.held_out_without,
+        (selection.candidates.iter())
+            .find(|c| c.name == names[runout].trim_end_matches(" + runout 1"))
+            .unwrap()
+            .score,
+        "{names:?}"
+    );
     // The tilt is tried on the physics the chain had chosen without it.
     let before = names[tilt].trim_end_matches(" + tilt");
     let tilt_decision = (selection.decisions.iter())
@@ -477,14 +497,15 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let with_compliance = chosen[0].name.contains("compliance");
     let with_errors = blocks(&chosen[0].name) > 0;
     let with_tilt = chosen[0].name.contains(" + tilt");
+    let with_runout = chosen[0].name.contains(" + runout");
     assert_eq!(
         built.kinematic.compliance.is_some(),
-        with_compliance || with_errors
+        with_compliance || with_errors || with_runout
     );
     assert_eq!(built.kinematic.report.compliance.is_some(), with_compliance);
     assert_eq!(
         !built.kinematic.report.joint_errors.is_empty(),
-        with_errors || with_tilt
+        with_errors || with_tilt || with_runout
     );
     let terms =
         |kind: &str| (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind));
@@ -492,6 +513,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     assert_eq!(terms(".sw"), chosen[0].name.contains("self-weight"));
     assert_eq!(terms(".backlash"), chosen[0].name.contains("backlash"));
     assert_eq!(terms(".tilt"), with_tilt);
+    assert_eq!(terms(".r1"), with_runout);
     // A residual model, in either frame (`… + gp (world frame)` where both are tried).
     let residual = chosen[0].name.contains(" + gp") || chosen[0].name.contains(" + somm");
     assert_eq!(built.residual.is_some(), residual);
@@ -511,6 +533,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         assert!(chosen[0].name.contains("backlash (flank search)"));
     }
     assert_eq!(kept("tilt"), with_tilt);
+    assert_eq!(kept("runout"), with_runout);
     assert_eq!(kept("compliance"), with_compliance);
     // The flank search is tried on a chosen physics with backlash (or, asked, with backlash
     // added where it had none), and its decision holds that candidate's score.

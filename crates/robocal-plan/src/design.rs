@@ -128,7 +128,7 @@ impl Pool {
                     Column::Compliance(_) | Column::Tilt(_) => {
                         ("deg/kN·m", 180.0 / std::f64::consts::PI * 1000.0)
                     }
-                    Column::Harmonic { .. } | Column::Backlash(_) => {
+                    Column::Harmonic { .. } | Column::Backlash(_) | Column::Runout { .. } => {
                         ("deg", 180.0 / std::f64::consts::PI)
                     }
                     Column::SelfWeight { .. } => ("deg/unit", 180.0 / std::f64::consts::PI),

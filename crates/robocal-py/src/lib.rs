@@ -678,12 +678,13 @@ impl PyModel {
 /// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
 /// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt,
 /// `flank_search` backlash with its flanks searched where the physics it chose holds none;
+/// `runout` is the highest order of the axis runouts it tries (0: none; default 1);
 /// `residual_frame` (`"joint1"` or `"world"`) is the frame its residual models learn in (by
 /// default `"joint1"`, and both, the held-out poses choosing, where joint 1 lies more than 10°
 /// off the line of gravity).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false, residual_frame=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false, runout=None, residual_frame=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -702,6 +703,7 @@ fn calibrate<'py>(
     budget: Option<f64>,
     tilt: bool,
     flank_search: bool,
+    runout: Option<u32>,
     residual_frame: Option<String>,
 ) -> PyResult<PyModel> {
     let residual_frame = residual_frame
@@ -763,6 +765,7 @@ fn calibrate<'py>(
                 budget_seconds: budget,
                 tilt,
                 flank_search,
+                runout,
                 residual_frame,
             };
             run_calibration(&input, &Silent)

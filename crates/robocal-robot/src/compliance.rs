@@ -20,7 +20,10 @@
 //!   across its axis, by a compliance times the gravity moment across the axis of the payload
 //!   and of the links' weights beyond it ([`Tilt`]). Not a turn of the joint: the parts beyond
 //!   it turn about an axis perpendicular to the joint's, so the point moves by
-//!   `t × (p − a)` (`t` the tilt, rad, `a` the joint's origin) after the joint angles' errors.
+//!   `t × (p − a)` (`t` the tilt, rad, `a` the joint's origin) after the joint angles' errors;
+//! - **axis runout** (tilt error motion): a bearing's races and a reducer's output are not
+//!   perfectly round nor square to the axis, so the parts beyond the joint turn across its axis
+//!   by Fourier harmonics of the joint's angle ([`Runout`]), moving the point like a tilt.
 //!
 //! A joint whose gear and bearings give under torque turns by `compliance × torque`. The torque
 //! that changes with the payload is gravity's on the payload's centre of mass,
@@ -85,6 +88,9 @@ pub struct JointErrors {
     /// Tilting compliances: the turn of the parts beyond a joint across its axis under the
     /// gravity moment there.
     pub tilts: Vec<Tilt>,
+    /// Axis runouts: the turn of the parts beyond a joint across its axis, periodic in the
+    /// joint's angle.
+    pub runouts: Vec<Runout>,
 }
 
 /// One joint's tilting compliance: the parts beyond joint `joint` turn about its origin by
@@ -99,6 +105,52 @@ pub struct Tilt {
     pub joint: usize,
     /// Tilting compliance, rad/(N·m).
     pub value: f64,
+}
+
+/// One order of one joint's axis runout (the tilt error motion of a rotary axis, ISO 230-7):
+/// the parts beyond the joint turn about the joint's origin, across its axis, by `wave`'s value
+/// at the joint angle (rad; a harmonic like a transmission error's, held beyond its reach like
+/// one) about `across`, an axis of the link frame that turns with the joint. Order `k` in that
+/// frame is order `k + 1` turning with the joint and `k − 1` against it, seen from the link
+/// before; a constant turn in either frame is geometry (the identifiability analysis holds what
+/// the table already takes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Runout {
+    /// The axis of the joint's link frame it turns about.
+    pub across: Across,
+    /// Its joint, order and coefficients (rad of turn).
+    pub wave: Harmonic,
+}
+
+/// An axis of a link frame across its joint's axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Across {
+    /// The frame's x axis.
+    X,
+    /// Its y axis.
+    Y,
+}
+
+impl Across {
+    /// Both, in order.
+    pub const BOTH: [Self; 2] = [Self::X, Self::Y];
+
+    /// The frame's column.
+    pub fn column(self) -> usize {
+        match self {
+            Self::X => 0,
+            Self::Y => 1,
+        }
+    }
+
+    /// Name in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::X => "x",
+            Self::Y => "y",
+        }
+    }
 }
 
 /// The small turns (rad, world frame) of the parts beyond each tilting joint, each with the
@@ -531,6 +583,12 @@ pub fn tilt_name(joint: usize) -> String {
     format!("j{}.tilt", joint + 1)
 }
 
+/// The name of a runout coefficient: `j1.r2y.cos` (joint 0-based here).
+pub fn runout_name(joint: usize, order: u32, across: Across, cos: bool) -> String {
+    let which = if cos { "cos" } else { "sin" };
+    format!("j{}.r{order}{}.{which}", joint + 1, across.name())
+}
+
 /// One coefficient of a [`JointErrors`] model, as an unknown of an identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ErrorParam {
@@ -552,6 +610,10 @@ pub enum ErrorParam {
     PayloadCom(usize),
     /// The tilting compliance of `tilts[i]`.
     Tilt(usize),
+    /// The sine coefficient of `runouts[i]`.
+    RunoutSin(usize),
+    /// The cosine coefficient of `runouts[i]`.
+    RunoutCos(usize),
 }
 
 impl Robot {
@@ -611,6 +673,28 @@ pub struct RawCompliance {
     /// Tilting compliances.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub tilt: Vec<RawTilt>,
+    /// Axis runouts.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub runout: Vec<RawRunout>,
+}
+
+/// `[[runout]]` as written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRunout {
+    /// Joint, counted from 1.
+    pub joint: usize,
+    /// Order k.
+    pub order: u32,
+    /// `x` or `y`: the axis of the joint's link frame (turning with the joint) it turns about.
+    pub across: Across,
+    /// Sine coefficient, deg of turn.
+    pub sin: f64,
+    /// Cosine coefficient, deg of turn.
+    pub cos: f64,
+    /// `[lo, hi]`, deg, as a harmonic's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reach: Option<[f64; 2]>,
 }
 
 /// `[[tilt]]` as written.
@@ -704,6 +788,7 @@ impl JointErrors {
             backlash: Vec::new(),
             link_weights: Vec::new(),
             tilts: Vec::new(),
+            runouts: Vec::new(),
         }
     }
 
@@ -714,6 +799,12 @@ impl JointErrors {
             || !self.backlash.is_empty()
             || !self.link_weights.is_empty()
             || !self.tilts.is_empty()
+            || !self.runouts.is_empty()
+    }
+
+    /// Whether any term turns the parts beyond a joint across its axis (tilts, runouts).
+    pub fn has_turns(&self) -> bool {
+        !self.tilts.is_empty() || !self.runouts.is_empty()
     }
 
     /// The value of one coefficient (internal units).
@@ -727,6 +818,8 @@ impl JointErrors {
             ErrorParam::LinkWeight(i) => self.link_weights[i].value,
             ErrorParam::PayloadCom(axis) => self.payload_com[axis],
             ErrorParam::Tilt(i) => self.tilts[i].value,
+            ErrorParam::RunoutSin(i) => self.runouts[i].wave.sin,
+            ErrorParam::RunoutCos(i) => self.runouts[i].wave.cos,
         }
     }
 
@@ -741,6 +834,8 @@ impl JointErrors {
             ErrorParam::LinkWeight(i) => self.link_weights[i].value = v,
             ErrorParam::PayloadCom(axis) => self.payload_com[axis] = v,
             ErrorParam::Tilt(i) => self.tilts[i].value = v,
+            ErrorParam::RunoutSin(i) => self.runouts[i].wave.sin = v,
+            ErrorParam::RunoutCos(i) => self.runouts[i].wave.cos = v,
         }
     }
 
@@ -755,6 +850,7 @@ impl JointErrors {
             ErrorParam::LinkWeight(i) => self.link_weights[i].body,
             ErrorParam::PayloadCom(_) => self.values.len().saturating_sub(1),
             ErrorParam::Tilt(i) => self.tilts[i].joint,
+            ErrorParam::RunoutSin(i) | ErrorParam::RunoutCos(i) => self.runouts[i].wave.joint,
         }
     }
 
@@ -778,13 +874,18 @@ impl JointErrors {
             }
             ErrorParam::PayloadCom(axis) => payload_com_name(axis),
             ErrorParam::Tilt(i) => tilt_name(self.tilts[i].joint),
+            ErrorParam::RunoutSin(i) | ErrorParam::RunoutCos(i) => {
+                let r = &self.runouts[i];
+                let cos = matches!(p, ErrorParam::RunoutCos(_));
+                runout_name(r.wave.joint, r.wave.order, r.across, cos)
+            }
         }
     }
 
     /// Every coefficient of the model, in order: compliances of every joint, then each
     /// harmonic's sine and cosine, then the self-weight terms, then the backlash terms, then the
-    /// link weights, then the tilting compliances (the payload's centre of mass, a setting unless
-    /// identified, is not listed).
+    /// link weights, then the tilting compliances, then each runout's sine and cosine (the
+    /// payload's centre of mass, a setting unless identified, is not listed).
     pub fn params(&self) -> Vec<ErrorParam> {
         let mut out: Vec<ErrorParam> = (0..self.values.len()).map(ErrorParam::Compliance).collect();
         for i in 0..self.harmonics.len() {
@@ -795,7 +896,38 @@ impl JointErrors {
         out.extend((0..self.backlash.len()).map(ErrorParam::Backlash));
         out.extend((0..self.link_weights.len()).map(ErrorParam::LinkWeight));
         out.extend((0..self.tilts.len()).map(ErrorParam::Tilt));
+        for i in 0..self.runouts.len() {
+            out.push(ErrorParam::RunoutSin(i));
+            out.push(ErrorParam::RunoutCos(i));
+        }
         out
+    }
+
+    /// Every harmonic of the model, the transmission errors' and the runouts' waves: what is
+    /// continued periodically within its reach and held beyond it.
+    pub fn waves_mut(&mut self) -> impl Iterator<Item = &mut Harmonic> {
+        (self.harmonics.iter_mut()).chain(self.runouts.iter_mut().map(|r| &mut r.wave))
+    }
+
+    /// Adds runouts of orders `1..=orders` about both axes across (coefficients 0) for `joints`.
+    pub fn with_runouts(mut self, joints: &[usize], orders: u32) -> Self {
+        for &joint in joints {
+            for order in 1..=orders {
+                for across in Across::BOTH {
+                    self.runouts.push(Runout {
+                        across,
+                        wave: Harmonic {
+                            joint,
+                            order,
+                            sin: 0.0,
+                            cos: 0.0,
+                            reach: None,
+                        },
+                    });
+                }
+            }
+        }
+        self
     }
 
     /// Adds tilting compliances (0) for `joints`.
@@ -823,21 +955,32 @@ impl JointErrors {
         across(w, m)
     }
 
-    /// The turns of the tilting joints at the command `pose` holds under `load` kg.
+    /// The turns of the tilting joints and of the runouts at the command `pose` holds under
+    /// `load` kg.
     fn turns_at(&self, pose: &PoseCache, load: f64) -> Turns {
-        if self.tilts.is_empty() {
+        if !self.has_turns() {
             return Vec::new();
         }
-        (self.tilts.iter())
+        let mut out: Turns = (self.tilts.iter())
             .map(|t| {
                 let origin = pose.get().axes[t.joint].1;
                 (t.value * self.moment_across(pose, load, t.joint), origin)
             })
-            .collect()
+            .collect();
+        if !self.runouts.is_empty() {
+            let Pose { axes, frames, .. } = pose.get();
+            out.extend(self.runouts.iter().map(|r| {
+                let j = r.wave.joint;
+                let turn = frames[j].0.column(r.across.column()) * r.wave.value(pose.q[j]);
+                (turn, axes[j].1)
+            }));
+        }
+        out
     }
 
-    /// The turns of the tilting joints (rad, world frame, each with the joint's origin it turns
-    /// about, mm) at command `q` (rad) under `load` kg: empty without tilting compliances.
+    /// The turns of the tilting joints and of the runouts (rad, world frame, each with the
+    /// joint's origin it turns about, mm) at command `q` (rad) under `load` kg: empty without
+    /// tilting compliances and runouts.
     pub fn turns(&self, robot: &Robot, q: &[f64], load: f64) -> Turns {
         self.turns_at(&self.pose(robot, q), load)
     }
@@ -846,7 +989,8 @@ impl JointErrors {
     /// turn per unit (rad, world frame) and the joint's origin it turns about, as entries
     /// `(k, origin, turn)`: a tilting compliance its moment across the axis; a link weight and
     /// a coordinate of the payload's centre of mass, for every tilting joint they load, the
-    /// joint's compliance times the moment across its axis of the unit quantity.
+    /// joint's compliance times the moment across its axis of the unit quantity; a runout's
+    /// coefficient its axis across times its basis value.
     fn turn_basis_at(
         &self,
         pose: &PoseCache,
@@ -854,7 +998,7 @@ impl JointErrors {
         params: &[ErrorParam],
     ) -> Vec<(usize, Vector3<f64>, Vector3<f64>)> {
         let mut out = Vec::new();
-        if self.tilts.is_empty() {
+        if !self.has_turns() {
             return out;
         }
         let Pose { axes, frames, g } = pose.get();
@@ -879,6 +1023,17 @@ impl JointErrors {
                         let (w, a) = &axes[t.joint];
                         out.push((k, *a, t.value * across(w, unit)));
                     }
+                }
+                ErrorParam::RunoutSin(i) | ErrorParam::RunoutCos(i) => {
+                    let r = &self.runouts[i];
+                    let j = r.wave.joint;
+                    let (sin, cos) = r.wave.basis(pose.q[j]);
+                    let b = if matches!(p, ErrorParam::RunoutCos(_)) {
+                        cos
+                    } else {
+                        sin
+                    };
+                    out.push((k, axes[j].1, frames[j].0.column(r.across.column()) * b));
                 }
                 _ => {}
             }
@@ -1170,8 +1325,8 @@ impl JointErrors {
                             out.push((k, j, self.values[j] * phi));
                         }
                     }
-                } // A tilt turns no joint: [`Self::turn_basis_at`].
-                ErrorParam::Tilt(_) => {}
+                } // A tilt or a runout turns no joint: [`Self::turn_basis_at`].
+                ErrorParam::Tilt(_) | ErrorParam::RunoutSin(_) | ErrorParam::RunoutCos(_) => {}
             }
         }
         out
@@ -1302,8 +1457,8 @@ impl JointErrors {
     /// point, at command `q` under `load`: column `k` is the sum, over the joints the coefficient
     /// turns, of the joint Jacobian's column at the deflected angles times its basis value there,
     /// plus, over the tilting joints it turns the parts beyond, `t × (p − a)` (`t` its turn per
-    /// unit, `a` the joint's origin; the tilts' own effect on the other columns, micro-radians
-    /// times the column, is left out).
+    /// unit, `a` the joint's origin; the tilts' and runouts' own effect on the other columns,
+    /// micro-radians times the column, is left out).
     pub fn param_jacobian(
         &self,
         robot: &Robot,
@@ -1359,7 +1514,7 @@ impl JointErrors {
     pub fn rotation(&self, robot: &Robot, q: &[f64], load: f64) -> Matrix3<f64> {
         let pose = self.pose(robot, q);
         let r = robot.tool_rotation(&self.deflected_at(&pose, load));
-        if self.tilts.is_empty() {
+        if !self.has_turns() {
             return r;
         }
         turn_rotation(&self.turns_at(&pose, load)) * r
@@ -1369,7 +1524,7 @@ impl JointErrors {
     pub fn point(&self, robot: &Robot, q: &[f64], load: f64) -> Vector3<f64> {
         let pose = self.pose(robot, q);
         let p = robot.point(&self.deflected_at(&pose, load));
-        if self.tilts.is_empty() {
+        if !self.has_turns() {
             return p;
         }
         turned(&self.turns_at(&pose, load), p)
@@ -1435,18 +1590,17 @@ impl JointErrors {
                 ))
             }
         };
-        let mut harmonics = Vec::with_capacity(raw.harmonic.len());
-        for (i, h) in raw.harmonic.iter().enumerate() {
-            let key = format!("harmonic[{}]", i + 1);
-            let joint = joint_of(&key, h.joint)?;
+        // A harmonic (a transmission error's, or a runout's wave) as written, checked.
+        let wave = |key: &str, h: &RawHarmonic| -> Result<Harmonic> {
+            let joint = joint_of(key, h.joint)?;
             if !(1..=MAX_HARMONIC_ORDER).contains(&h.order) {
                 return Err(invalid(
-                    &key,
+                    key,
                     format!("order must lie in 1..={MAX_HARMONIC_ORDER}"),
                 ));
             }
             if !(h.sin.is_finite() && h.cos.is_finite()) {
-                return Err(invalid(&key, "sin and cos must be finite numbers".into()));
+                return Err(invalid(key, "sin and cos must be finite numbers".into()));
             }
             if let Some([lo, hi]) = h.reach
                 && !(lo.is_finite() && hi.is_finite() && lo <= hi)
@@ -1458,12 +1612,44 @@ impl JointErrors {
                     ),
                 ));
             }
-            harmonics.push(Harmonic {
+            Ok(Harmonic {
                 joint,
                 order: h.order,
                 sin: h.sin.to_radians(),
                 cos: h.cos.to_radians(),
                 reach: h.reach.map(|r| r.map(f64::to_radians)),
+            })
+        };
+        let harmonics = (raw.harmonic.iter().enumerate())
+            .map(|(i, h)| wave(&format!("harmonic[{}]", i + 1), h))
+            .collect::<Result<Vec<_>>>()?;
+        let mut runouts: Vec<Runout> = Vec::with_capacity(raw.runout.len());
+        for (i, r) in raw.runout.iter().enumerate() {
+            let key = format!("runout[{}]", i + 1);
+            let h = RawHarmonic {
+                joint: r.joint,
+                order: r.order,
+                sin: r.sin,
+                cos: r.cos,
+                reach: r.reach,
+            };
+            let wave = wave(&key, &h)?;
+            if (runouts.iter()).any(|o| {
+                (o.wave.joint, o.wave.order, o.across) == (wave.joint, wave.order, r.across)
+            }) {
+                return Err(invalid(
+                    &key,
+                    format!(
+                        "joint {} has a runout of order {} about {} already",
+                        r.joint,
+                        r.order,
+                        r.across.name()
+                    ),
+                ));
+            }
+            runouts.push(Runout {
+                across: r.across,
+                wave,
             });
         }
         let mut self_weight = Vec::with_capacity(raw.self_weight.len());
@@ -1580,6 +1766,7 @@ impl JointErrors {
             backlash,
             link_weights,
             tilts,
+            runouts,
         })
     }
 
@@ -1643,6 +1830,16 @@ impl JointErrors {
                     compliance: knm(t.value),
                 })
                 .collect(),
+            runout: (self.runouts.iter())
+                .map(|r| RawRunout {
+                    joint: r.wave.joint + 1,
+                    order: r.wave.order,
+                    across: r.across,
+                    sin: deg(r.wave.sin),
+                    cos: deg(r.wave.cos),
+                    reach: r.wave.reach.map(|v| v.map(deg)),
+                })
+                .collect(),
         };
         let body = toml::to_string(&raw).unwrap_or_default();
         let more = if self.has_configuration_terms() {
@@ -1672,10 +1869,17 @@ impl JointErrors {
              # compliance (deg per kN·m) × the gravity moment across the axis of the payload and\n\
              # of the link weights beyond it.\n"
         };
+        let runout = if self.runouts.is_empty() {
+            ""
+        } else {
+            "# runout: the parts beyond the joint turn about its origin, across its axis, by\n\
+             # sin · sin(order q) + cos · cos(order q) (deg) about the axis `across` (x or y) of\n\
+             # the joint's link frame, which turns with the joint; reach as a harmonic's.\n"
+        };
         format!(
             "# Joint compliance under the payload, identified by robocal: joint deflection =\n\
              # compliance × gravity torque of the payload (deg per kN·m, one per joint; 0 = rigid).\n\
-             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{tilt}{body}"
+             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{tilt}{runout}{body}"
         )
     }
 }

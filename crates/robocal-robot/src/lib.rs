@@ -36,10 +36,11 @@ pub mod params;
 pub mod table;
 
 pub use compliance::{
-    Backlash, Compliance, DEG_PER_KNM, ErrorParam, Flank, HARMONIC_REACH, Harmonic, JointErrors,
-    LinkWeight, MomentPart, RawCompliance, RowTerms, SelfWeight, TORQUE_FEATURES_PER_LINK, Tilt,
-    Turns, backlash_name, compliance_name, harmonic_name, link_weight_name, payload_com_name,
-    payload_mass_feature, self_weight_name, tilt_name, torque_side, turn_rotation, turned,
+    Across, Backlash, Compliance, DEG_PER_KNM, ErrorParam, Flank, HARMONIC_REACH, Harmonic,
+    JointErrors, LinkWeight, MomentPart, RawCompliance, RowTerms, Runout, SelfWeight,
+    TORQUE_FEATURES_PER_LINK, Tilt, Turns, backlash_name, compliance_name, harmonic_name,
+    link_weight_name, payload_com_name, payload_mass_feature, runout_name, self_weight_name,
+    tilt_name, torque_side, turn_rotation, turned,
 };
 pub use covariance::{Parameter, ParameterCovariance, displaced};
 pub use error::{Result, RobotError};

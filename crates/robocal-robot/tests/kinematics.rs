@@ -546,9 +546,11 @@ fn compliance_torques_jacobian_and_file_round_trip() {
 
 /// The joint-error family: the self-weight basis is gravity's work per radian on a unit mass at a
 /// link frame's origin (or a unit first moment along a frame axis), computed here by turning the
-/// joint; the Jacobian of every coefficient (compliance, harmonic sine and cosine, self-weight)
-/// against central differences; harmonics act with no load; the file round trip keeps every
-/// term, and a term on a joint the robot lacks is refused with its key.
+/// joint; the Jacobian of every coefficient (compliance, harmonic sine and cosine, self-weight,
+/// backlash, link weight, tilt, runout sine and cosine) against central differences; harmonics
+/// and runouts act with no load, a runout turning the point about its joint's origin across
+/// the axis; the file round trip keeps every term, and a term on a joint the robot lacks, or a
+/// second runout of one joint, order and axis, is refused with its key.
 #[test]
 fn joint_errors_basis_jacobian_and_file_round_trip() {
     use robocal_robot::{DEG_PER_KNM, ErrorParam, JointErrors, MomentPart};
@@ -566,13 +568,19 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     .with_self_weight(&[1, 2], 6)
     .with_backlash(&[0, 3])
     .with_link_weights(&[1, 2, 4, 5])
-    .with_tilts(&[0, 1, 2, 4]);
+    .with_tilts(&[0, 1, 2, 4])
+    .with_runouts(&[0, 2, 5], 2);
+    // One runout held beyond a reach the command lies outside of.
+    e.runouts[3].wave.reach = Some([0.5, 0.8]);
     for (k, p) in e.params().into_iter().enumerate() {
         let v = match p {
             // Links of kilograms, first moments of a fraction of a kg·m.
             ErrorParam::LinkWeight(_) => 3.0 - 0.7 * (k % 5) as f64,
             // Tilting compliances a few times stiffer than the joints turn.
             ErrorParam::Tilt(_) => (0.02 + 0.01 * (k % 3) as f64) * DEG_PER_KNM,
+            // Runouts of a thousandth of a degree (the columns leave out their turn of the
+            // other columns, as the tilts'; `JointErrors::param_jacobian`).
+            ErrorParam::RunoutSin(_) | ErrorParam::RunoutCos(_) => 1e-5 * ((k % 7) as f64 - 3.0),
             _ => e.param(p) + 1e-4 * ((k % 7) as f64 - 3.0),
         };
         e.set_param(p, v);
@@ -615,6 +623,20 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     }
     // Harmonics act without a load.
     assert_ne!(e.deflected(&robot, &q, 0.0), q);
+    // A runout alone, by hand: joint 3's order-1 cosine about its frame's y turns the parts
+    // beyond it about its origin by `cos · cos(q3)` about that axis, with no load, and turns no
+    // joint.
+    let mut alone = JointErrors::new(vec![0.0; 6], e.gravity, e.payload_com).with_runouts(&[2], 1);
+    let c = 2e-4;
+    alone.runouts[1].wave.cos = c;
+    assert_eq!(alone.runouts[1].across, robocal_robot::Across::Y);
+    let (axes, frames) = robot.axes_and_frames(&q);
+    let turn = frames[2].0.column(1) * c * q[2].cos();
+    let p = robot.point(&q);
+    let expected = p + turn.cross(&(p - axes[2].1));
+    assert!((alone.point(&robot, &q, 0.0) - expected).norm() < 1e-12);
+    assert!((alone.point(&robot, &q, 0.0) - p).norm() > 1e-2);
+    assert_eq!(alone.deflected(&robot, &q, 0.0), q);
     let params = e.params();
     let (p, jac) = e.param_jacobian(&robot, &q, load, &params);
     assert!((p - e.point(&robot, &q, load)).norm() < 1e-12);
@@ -673,6 +695,7 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     let com: Vec<ErrorParam> = (0..3).map(ErrorParam::PayloadCom).collect();
     let rigid_bearings = JointErrors {
         tilts: Vec::new(),
+        runouts: Vec::new(),
         ..e.clone()
     };
     for (e, tolerance) in [(&rigid_bearings, 1e-6), (&e, 5e-4)] {
@@ -743,6 +766,7 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             && text.contains("[[backlash]]")
             && text.contains("[[link_weight]]")
             && text.contains("[[tilt]]")
+            && text.contains("[[runout]]")
     );
     let back = JointErrors::from_toml_str(&text, "compliance.toml", 6).unwrap();
     assert_eq!(back.params(), e.params());
@@ -758,6 +782,15 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         .to_string();
     assert!(
         err.contains("m/compliance.toml") && err.contains("harmonic[5]"),
+        "{err}"
+    );
+    let bad = text.replacen("order = 1\nacross = \"y\"", "order = 1\nacross = \"x\"", 1);
+    assert_ne!(bad, text);
+    let err = JointErrors::from_toml_str(&bad, "m/compliance.toml", 6)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("runout[2]") && err.contains("about x already"),
         "{err}"
     );
     let bad = text.replacen("[[link_weight]]\nbody = 2", "[[link_weight]]\nbody = 7", 1);

@@ -101,6 +101,10 @@ pub struct CalibrationInput<'a> {
     /// physics it chose holds none ([`AutoSettings::flank_search`]); a stage config asks for
     /// it with `backlash` and `flank_search` in `[joint_errors]`.
     pub flank_search: bool,
+    /// The highest order of the axis runouts the default calibration tries (0: none;
+    /// [`AutoSettings::runout`]; `None`: its default); a stage config asks for them with
+    /// `runout` in `[joint_errors]`.
+    pub runout: Option<u32>,
     /// The frame the default calibration's residual models learn in (`None`: each candidate's
     /// own, [`AutoSettings::residuals`]); a stage config asks for it with `frame` in
     /// `[residual]`.
@@ -156,6 +160,20 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             file.display()
         )));
     }
+    if let Some(r) = input.runout
+        && r > robocal_ident::MAX_HARMONICS
+    {
+        return Err(PipelineError::Stage(format!(
+            "--runout: {r} orders; at most {}",
+            robocal_ident::MAX_HARMONICS
+        )));
+    }
+    if let (Some(_), Some((_, file))) = (input.runout, input.stages) {
+        return Err(PipelineError::Stage(format!(
+            "`--runout` is the default calibration's; {} runs the stages it names: add `runout = 2` to its [joint_errors]",
+            file.display()
+        )));
+    }
     if let (true, Some((_, file))) = (input.flank_search, input.stages) {
         return Err(PipelineError::Stage(format!(
             "`--flank-search` (or `flank_search=True` in Python) is the default calibration's; {} runs the stages it names: add `backlash = true` and `flank_search = true` to its [joint_errors]",
@@ -206,6 +224,9 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 flank_search: input.flank_search,
                 ..AutoSettings::default()
             };
+            if let Some(orders) = input.runout {
+                auto.runout = orders;
+            }
             if let Some(frame) = input.residual_frame {
                 for stage in &mut auto.residuals {
                     stage.settings.frame = frame;

@@ -29,8 +29,8 @@ use crate::stages::Stages;
 /// What the default calibration decided about one stage.
 #[derive(Debug, Clone, Serialize)]
 pub struct Decision {
-    /// `kinematic`, `compliance`, `joint_errors`, `flank_search`, `tilt`, `residual` or
-    /// `harmonic_reach`.
+    /// `kinematic`, `compliance`, `joint_errors`, `flank_search`, `runout`, `tilt`, `residual`
+    /// or `harmonic_reach`.
     pub stage: &'static str,
     /// Whether the stage is in the model.
     pub kept: bool,
@@ -114,6 +114,10 @@ pub struct AutoSettings {
     /// needed (`docs/accuracy.md`, session 20); measured again in session 40, one case beyond
     /// the model 12 % higher (ARM6H, joint-1 extrapolation).
     pub tilt: bool,
+    /// Axis runouts of orders 1 up to this one (every joint, about both axes across it; 0: not
+    /// tried), tried on the physics the joint-error blocks reached, before the flank search and
+    /// the tilts: the parts beyond each joint turning across its axis periodically in its angle.
+    pub runout: u32,
     /// Backlash with its flanks searched also tried where the physics the chain chose holds no
     /// backlash (the block with the regression's flanks was not kept): for a joint whose play
     /// rests on the flank its torque presses and turns far from the rows' middle torque (at a
@@ -172,6 +176,7 @@ impl Default for AutoSettings {
             self_weight: true,
             backlash: true,
             tilt: false,
+            runout: 1,
             flank_search: false,
             residuals: vec![
                 ResidualStage {
@@ -214,6 +219,8 @@ struct Physics {
     backlash: bool,
     /// Tilting compliances.
     tilt: bool,
+    /// Axis runouts up to this order.
+    runout: u32,
     /// Backlash flanks by the search beyond the joint's own terms (`flank_search`).
     flank_search: bool,
 }
@@ -226,6 +233,7 @@ impl Physics {
         self_weight: false,
         backlash: false,
         tilt: false,
+        runout: 0,
         flank_search: false,
     };
     const RIGID: Self = Self {
@@ -253,6 +261,9 @@ impl Physics {
                 name += " (flank search)";
             }
         }
+        if self.runout > 0 {
+            name += &format!(" + runout {}", self.runout);
+        }
         if self.tilt {
             name += " + tilt";
         }
@@ -264,9 +275,9 @@ impl Physics {
         self.harmonics > 0 || self.self_weight || self.backlash
     }
 
-    /// Whether it holds any joint-error term (a block or the tilts).
+    /// Whether it holds any joint-error term (a block, the runouts or the tilts).
     fn has_joint_errors(self) -> bool {
-        self.has_blocks() || self.tilt
+        self.has_blocks() || self.tilt || self.runout > 0
     }
 
     /// Every block of `self` and of `other`.
@@ -276,6 +287,7 @@ impl Physics {
             self_weight: self.self_weight || other.self_weight,
             backlash: self.backlash || other.backlash,
             tilt: self.tilt || other.tilt,
+            runout: self.runout.max(other.runout),
             flank_search: self.flank_search || other.flank_search,
             ..self
         }
@@ -298,6 +310,12 @@ impl Physics {
         }
         if self.backlash {
             parts.push("backlash (each joint on the flank of its approach from home or on the one its torque presses)".to_string());
+        }
+        if self.runout > 0 {
+            parts.push(format!(
+                "axis runouts (orders 1 to {}: the parts beyond each joint turning across its axis periodically in its angle)",
+                self.runout
+            ));
         }
         if self.tilt {
             parts.push("tilting compliances (the parts beyond each joint turning across its axis under the gravity moment there)".to_string());
@@ -339,6 +357,7 @@ impl Physics {
                 backlash: self.backlash,
                 flank_search: self.flank_search,
                 tilt: self.tilt,
+                runout: self.runout,
                 gravity,
                 ..JointErrorSettings::default()
             }),
@@ -470,7 +489,8 @@ fn score_physics(
 /// beyond; `docs/accuracy.md`, session 34).
 pub const REACH_GAIN: f64 = 0.2;
 
-/// How far joint 1's transmission harmonics are continued beyond its readings, decided on the
+/// How far joint 1's transmission harmonics (and its runouts' waves, which are held and continued
+/// alike: [`robocal_robot::JointErrors::waves_mut`]) are continued beyond its readings, decided on the
 /// blocks of joint 1: each fold's model of the chosen physics predicts the rows of its block
 /// that lie beyond the joint-1 readings it was fitted on, once with joint 1's harmonics held at
 /// those readings' nearer end and once continued periodically. Where continued lowers held
@@ -499,7 +519,7 @@ fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
             let mut m = model.clone();
             let errors = m.joint_errors.as_mut()?;
             let mut any = false;
-            for h in errors.harmonics.iter_mut().filter(|h| h.joint == 0) {
+            for h in errors.waves_mut().filter(|h| h.joint == 0) {
                 h.reach = reach;
                 any |= h.sin != 0.0 || h.cos != 0.0;
             }
@@ -781,6 +801,7 @@ fn physics_chain(
         self_weight: false,
         backlash: false,
         tilt: false,
+        runout: 0,
         ..base
     };
     let blocks: Vec<Physics> = [
@@ -844,6 +865,16 @@ fn physics_chain(
         chain.take("joint_errors", tried[best], groups);
         kept = (chain.current == tried[best]).then(|| chain.scored[tried[best]].physics);
         remaining.remove(best);
+    }
+    // The axis runouts on the physics the blocks reached: one candidate more, kept only if it
+    // lowers the held-out errors significantly.
+    let current = chain.scored[chain.current].physics;
+    if settings.runout > 0 && !current.aligned {
+        let wobbling = Physics {
+            runout: settings.runout,
+            ..current
+        };
+        chain.step("runout", score(wobbling), groups);
     }
     // The backlash flanks searched beyond each joint's own terms, on chosen physics with
     // backlash (or, where asked, with backlash added where the block was not kept): one
@@ -1169,6 +1200,18 @@ fn decisions(
             "not tried (no harmonics, self-weight or backlash in the settings), or every fit failed",
         ),
     });
+    if let Some(step) = steps("runout").first() {
+        out.push(decision(
+            "runout",
+            chosen.runout > 0,
+            score(step.base),
+            score(step.next),
+            &format!(
+                "axis runouts identified with the geometry (orders 1 to {}): the parts beyond each joint turning across its axis periodically in its angle",
+                settings.runout
+            ),
+        ));
+    }
     if let Some(step) = steps("flank_search").first() {
         out.push(decision(
             "flank_search",
@@ -1384,7 +1427,7 @@ pub fn automatic(
     let blocks = usize::from(settings.harmonics > 0)
         + usize::from(settings.self_weight)
         + usize::from(settings.backlash);
-    let physical = 3 + blocks * (blocks + 1) / 2;
+    let physical = 3 + blocks * (blocks + 1) / 2 + usize::from(settings.runout > 0);
     observer.start(
         "candidates × folds fitted",
         (plan.splits.len() * (physical + settings.residuals.len()) + 1) as u64,
@@ -1482,7 +1525,7 @@ pub fn automatic(
     if reach.is_some_and(|d| d.kept)
         && let Some(errors) = built.kinematic.compliance.as_mut()
     {
-        for h in errors.harmonics.iter_mut().filter(|h| h.joint == 0) {
+        for h in errors.waves_mut().filter(|h| h.joint == 0) {
             h.reach = None;
         }
     }
