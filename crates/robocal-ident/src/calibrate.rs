@@ -149,7 +149,8 @@ pub struct JointErrorSettings {
     pub runout: u32,
     /// The transmission harmonics under a zero-mean Gaussian prior whose spread the data choose
     /// (marginal likelihood over the harmonics of the fit without it; empirical Bayes): a
-    /// harmonic the poses barely determine is drawn toward the spread of the others (LM only).
+    /// harmonic the poses barely determine is drawn toward the spread of the others (LM only);
+    /// the axis runouts likewise, under a prior of their own spread.
     pub harmonic_prior: bool,
     /// Gravity in the robot base frame {0}, m/s² (for the self-weight torques; the compliance
     /// settings' when both are given).
@@ -1030,7 +1031,7 @@ fn solve_gated(
             if let Some((r, Some(std))) = fitted.as_ref().filter(|_| prior_wanted)
                 && let Some((prior, spread)) = harmonic_prior(problem, &model, r, std)
             {
-                problem.set_prior(prior, Some(spread));
+                problem.set_prior(prior, spread);
                 continue;
             }
             break solved;
@@ -1096,39 +1097,51 @@ fn held_compliance(problem: &CalibrationProblem<'_>, joint: usize) -> String {
 /// the poses determine well keeps its value, one they barely determine (a harmonic of a joint
 /// seen over a narrow window, trading with the geometry) is drawn toward the spread of the rest
 /// instead of growing to whatever fits. Each prior's row weight is the fit's residual σ over
-/// `τ`. `model`, `r` and `std` are the fit's joint errors, residuals and unknowns' standard
-/// deviations. Returns the priors and `τ` (rad); none with fewer than two coefficients.
+/// `τ`. The axis runouts' coefficients, waves of the joint angles too, get a prior of their own
+/// the same way (their own `τ`: a turn across an axis is not a gear's error). `model`, `r` and
+/// `std` are the fit's joint errors, residuals and unknowns' standard deviations. Returns the
+/// priors and the harmonics' `τ` (rad; none without harmonics); none where neither group has
+/// two coefficients.
 fn harmonic_prior(
     problem: &CalibrationProblem<'_>,
     model: &Compliance,
     r: &[f64],
     std: &[f64],
-) -> Option<(Vec<(ErrorParam, f64)>, f64)> {
+) -> Option<(Priors, Option<f64>)> {
     let ng = problem.selected().len();
     let params = problem.error_params().to_vec();
-    let harmonic: Vec<usize> = (0..params.len())
-        .filter(|&k| {
-            matches!(
-                params[k],
-                ErrorParam::HarmonicSin(_) | ErrorParam::HarmonicCos(_)
-            )
-        })
-        .collect();
-    if harmonic.len() < 2 {
-        return None;
-    }
     let dof = (r.len().checked_sub(problem.unknowns())).filter(|&d| d > 0)?;
     let sigma = (r.iter().map(|v| v * v).sum::<f64>() / dof as f64).sqrt();
-    let est: Vec<(f64, f64)> = (harmonic.iter())
-        .map(|&k| {
-            let s = std[ng + k] * problem.scale()[ng + k];
-            (model.param(params[k]), s * s)
-        })
+    // One group's priors and spread, `None` with fewer than two coefficients.
+    let group = |member: fn(&ErrorParam) -> bool| {
+        let members: Vec<usize> = (0..params.len()).filter(|&k| member(&params[k])).collect();
+        if members.len() < 2 {
+            return None;
+        }
+        let est: Vec<(f64, f64)> = (members.iter())
+            .map(|&k| {
+                let s = std[ng + k] * problem.scale()[ng + k];
+                (model.param(params[k]), s * s)
+            })
+            .collect();
+        let tau = prior_spread(&est).max(HARMONIC_PRIOR_FLOOR);
+        let prior: Priors = members.iter().map(|&k| (params[k], sigma / tau)).collect();
+        Some((prior, tau))
+    };
+    let harmonics = group(|p| matches!(p, ErrorParam::HarmonicSin(_) | ErrorParam::HarmonicCos(_)));
+    let runouts = group(|p| matches!(p, ErrorParam::RunoutSin(_) | ErrorParam::RunoutCos(_)));
+    if harmonics.is_none() && runouts.is_none() {
+        return None;
+    }
+    let spread = harmonics.as_ref().map(|(_, tau)| *tau);
+    let prior = (harmonics.into_iter().chain(runouts))
+        .flat_map(|(p, _)| p)
         .collect();
-    let tau = prior_spread(&est).max(HARMONIC_PRIOR_FLOOR);
-    let prior = harmonic.iter().map(|&k| (params[k], sigma / tau)).collect();
-    Some((prior, tau))
+    Some((prior, spread))
 }
+
+/// Priors on joint-error coefficients: each with its row weight.
+type Priors = Vec<(ErrorParam, f64)>;
 
 /// The spread `τ` that maximises the marginal likelihood of estimates `â_j ~ N(0, τ² + s_j²)`,
 /// given as `(â_j, s_j²)`: `L(τ) = −½ Σ ln(τ² + s_j²) + â_j² / (τ² + s_j²)`, searched over

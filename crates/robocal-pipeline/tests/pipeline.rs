@@ -305,6 +305,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         folds: 3,
         min_residual_configurations: 10,
         tilt: true,
+        runout: 1,
         residuals: vec![
             ResidualStage {
                 settings: gp,

@@ -117,6 +117,9 @@ pub struct AutoSettings {
     /// Axis runouts of orders 1 up to this one (every joint, about both axes across it; 0: not
     /// tried), tried on the physics the joint-error blocks reached, before the flank search and
     /// the tilts: the parts beyond each joint turning across its axis periodically in its angle.
+    /// Off by default: at order 1 on the development twins beyond the model, 12 of 19 cases
+    /// lower (by 6–40 %) and one higher by 32 % (ARM5W seed 0, joint-1 extrapolation; +69 %
+    /// with those effects four times as large), `docs/accuracy.md`, session 43.
     pub runout: u32,
     /// Backlash with its flanks searched also tried where the physics the chain chose holds no
     /// backlash (the block with the regression's flanks was not kept): for a joint whose play
@@ -176,7 +179,7 @@ impl Default for AutoSettings {
             self_weight: true,
             backlash: true,
             tilt: false,
-            runout: 1,
+            runout: 0,
             flank_search: false,
             residuals: vec![
                 ResidualStage {
@@ -313,8 +316,8 @@ impl Physics {
         }
         if self.runout > 0 {
             parts.push(format!(
-                "axis runouts (orders 1 to {}: the parts beyond each joint turning across its axis periodically in its angle)",
-                self.runout
+                "axis runouts ({}: the parts beyond each joint turning across its axis periodically in its angle)",
+                orders_words(self.runout)
             ));
         }
         if self.tilt {
@@ -372,6 +375,15 @@ impl Physics {
         } else {
             physical_model(fit)
         }
+    }
+}
+
+/// `order 1`, or `orders 1 to N`.
+fn orders_words(orders: u32) -> String {
+    if orders == 1 {
+        "order 1".into()
+    } else {
+        format!("orders 1 to {orders}")
     }
 }
 
@@ -1207,8 +1219,8 @@ fn decisions(
             score(step.base),
             score(step.next),
             &format!(
-                "axis runouts identified with the geometry (orders 1 to {}): the parts beyond each joint turning across its axis periodically in its angle",
-                settings.runout
+                "axis runouts identified with the geometry ({}): the parts beyond each joint turning across its axis periodically in its angle",
+                orders_words(settings.runout)
             ),
         ));
     }
