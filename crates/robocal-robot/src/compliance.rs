@@ -221,6 +221,17 @@ pub struct Harmonic {
 pub const HARMONIC_REACH: f64 = 0.25;
 
 impl Harmonic {
+    /// Order `order` of joint `joint` with zero coefficients, continued at every angle.
+    pub fn zero(joint: usize, order: u32) -> Self {
+        Self {
+            joint,
+            order,
+            sin: 0.0,
+            cos: 0.0,
+            reach: None,
+        }
+    }
+
     /// The angle (rad) the harmonic is evaluated at for joint angle `q`: `q` held within
     /// [`Self::reach`].
     pub fn angle(&self, q: f64) -> f64 {
@@ -916,13 +927,7 @@ impl JointErrors {
                 for across in Across::BOTH {
                     self.runouts.push(Runout {
                         across,
-                        wave: Harmonic {
-                            joint,
-                            order,
-                            sin: 0.0,
-                            cos: 0.0,
-                            reach: None,
-                        },
+                        wave: Harmonic::zero(joint, order),
                     });
                 }
             }
@@ -1180,13 +1185,7 @@ impl JointErrors {
     pub fn with_harmonics(mut self, joints: &[usize], orders: u32) -> Self {
         for &joint in joints {
             for order in 1..=orders {
-                self.harmonics.push(Harmonic {
-                    joint,
-                    order,
-                    sin: 0.0,
-                    cos: 0.0,
-                    reach: None,
-                });
+                self.harmonics.push(Harmonic::zero(joint, order));
             }
         }
         self
