@@ -117,9 +117,10 @@ pub struct AutoSettings {
     /// Axis runouts of orders 1 up to this one (every joint, about both axes across it; 0: not
     /// tried), tried on the physics the joint-error blocks reached, before the flank search and
     /// the tilts: the parts beyond each joint turning across its axis periodically in its angle.
-    /// Off by default: at order 1 on the development twins beyond the model, 12 of 19 cases
-    /// lower (by 6–40 %) and one higher by 32 % (ARM5W seed 0, joint-1 extrapolation; +69 %
-    /// with those effects four times as large), `docs/accuracy.md`, session 43.
+    /// Off by default: at order 1 on the development twins, 20 of the 24 cases it changed
+    /// lower (by 5–48 %), four higher (+2.5 %, +3.6 %, and ARM5W seed 0's joint-1
+    /// extrapolation +32 %, +69 % with the effects beyond the model four times as large),
+    /// `docs/accuracy.md`, session 43.
     pub runout: u32,
     /// Backlash with its flanks searched also tried where the physics the chain chose holds no
     /// backlash (the block with the regression's flanks was not kept): for a joint whose play
