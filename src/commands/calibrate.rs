@@ -396,16 +396,7 @@ fn runout_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
                     format!("order {k} {:.4}°", squares.sqrt().to_degrees())
                 })
                 .collect();
-            let reach = terms[0].wave.reach.map_or_else(
-                || "continued periodically at every angle".to_string(),
-                |[lo, hi]| {
-                    format!(
-                        "continued over {:.1}..{:.1}°, held beyond",
-                        lo.to_degrees(),
-                        hi.to_degrees()
-                    )
-                },
-            );
+            let reach = reach_words(terms[0].wave.reach);
             format!(
                 "joint {} axis runout: {}; {reach} (the parts beyond it turning across its axis)",
                 terms[0].wave.joint + 1,
@@ -455,6 +446,20 @@ fn backlash_lines(
         .collect()
 }
 
+/// How far a wave (a harmonic's, a runout's) is continued before it is held, in words.
+fn reach_words(reach: Option<[f64; 2]>) -> String {
+    reach.map_or_else(
+        || "continued periodically at every angle".to_string(),
+        |[lo, hi]| {
+            format!(
+                "continued over {:.1}..{:.1}° (the readings widened by a quarter of their span), held beyond",
+                lo.to_degrees(),
+                hi.to_degrees()
+            )
+        },
+    )
+}
+
 /// One line per joint with identified transmission harmonics: each order's amplitude and how far
 /// the harmonics are continued (their reach) before they are held.
 fn harmonic_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
@@ -468,16 +473,7 @@ fn harmonic_lines(errors: &robocal_robot::JointErrors) -> Vec<String> {
             let orders: Vec<String> = (terms.iter())
                 .map(|h| format!("order {} {:.4}°", h.order, h.sin.hypot(h.cos).to_degrees()))
                 .collect();
-            let reach = terms[0].reach.map_or_else(
-                || "continued periodically at every angle".to_string(),
-                |[lo, hi]| {
-                    format!(
-                        "continued over {:.1}..{:.1}° (the readings widened by a quarter of their span), held beyond",
-                        lo.to_degrees(),
-                        hi.to_degrees()
-                    )
-                },
-            );
+            let reach = reach_words(terms[0].reach);
             format!(
                 "joint {} transmission harmonics: {}; {reach}",
                 terms[0].joint + 1,

@@ -395,10 +395,7 @@ impl CalibratedModel {
             let p = self.robot.point(&q);
             for r in &errors.runouts {
                 let j = r.wave.joint;
-                let lever = frames[j]
-                    .0
-                    .column(r.across.column())
-                    .cross(&(p - axes[j].1));
+                let lever = r.axis(&frames).cross(&(p - axes[j].1));
                 total += lever.norm_squared() * r.wave.held_variance(q[j]);
             }
         }

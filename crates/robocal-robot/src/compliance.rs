@@ -122,6 +122,16 @@ pub struct Runout {
     pub wave: Harmonic,
 }
 
+impl Runout {
+    /// The unit axis it turns about (world frame), from the arm's link `frames`.
+    pub fn axis(&self, frames: &[Frame]) -> Vector3<f64> {
+        frames[self.wave.joint]
+            .0
+            .column(self.across.column())
+            .into_owned()
+    }
+}
+
 /// An axis of a link frame across its joint's axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -976,8 +986,7 @@ impl JointErrors {
             let Pose { axes, frames, .. } = pose.get();
             out.extend(self.runouts.iter().map(|r| {
                 let j = r.wave.joint;
-                let turn = frames[j].0.column(r.across.column()) * r.wave.value(pose.q[j]);
-                (turn, axes[j].1)
+                (r.axis(frames) * r.wave.value(pose.q[j]), axes[j].1)
             }));
         }
         out
@@ -1038,7 +1047,7 @@ impl JointErrors {
                     } else {
                         sin
                     };
-                    out.push((k, axes[j].1, frames[j].0.column(r.across.column()) * b));
+                    out.push((k, axes[j].1, r.axis(frames) * b));
                 }
                 _ => {}
             }
