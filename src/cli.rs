@@ -79,8 +79,8 @@ pub enum Command {
         flank_search: bool,
         /// The highest order of the axis runouts the default calibration (no `--config`) tries
         /// on the physics the joint-error blocks reached (the parts beyond each joint turning
-        /// across its axis periodically in its angle; 1: four coefficients per joint); kept only
-        /// where it lowers the held-out error [default: 0, not tried]
+        /// across its axis periodically in its angle; four coefficients per joint and order);
+        /// kept only where it lowers the held-out error [default: 2; 0: not tried]
         #[arg(long, value_name = "ORDERS")]
         runout: Option<u32>,
         /// The frame the default calibration's (no `--config`) residual models learn in:

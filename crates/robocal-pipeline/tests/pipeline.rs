@@ -305,7 +305,6 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         folds: 3,
         min_residual_configurations: 10,
         tilt: true,
-        runout: 1,
         residuals: vec![
             ResidualStage {
                 settings: gp,
@@ -342,7 +341,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let tilt = physical - 1;
     assert!(names[tilt].ends_with(" + tilt"), "{names:?}");
     let runout = tilt - 1;
-    assert!(names[runout].ends_with(" + runout 1"), "{names:?}");
+    assert!(names[runout].ends_with(" + runout 2"), "{names:?}");
     assert_eq!(names[1], "kinematic");
     let blocks = |name: &str| {
         [" + harmonics 2", " + self-weight", " + backlash"]
@@ -368,7 +367,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     assert_eq!(
         runout_decision.held_out_without,
         (selection.candidates.iter())
-            .find(|c| c.name == names[runout].trim_end_matches(" + runout 1"))
+            .find(|c| c.name == names[runout].trim_end_matches(" + runout 2"))
             .unwrap()
             .score,
         "{names:?}"

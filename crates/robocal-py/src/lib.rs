@@ -678,7 +678,7 @@ impl PyModel {
 /// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
 /// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt,
 /// `flank_search` backlash with its flanks searched where the physics it chose holds none;
-/// `runout` the highest order of the axis runouts it tries (default 0: none);
+/// `runout` the highest order of the axis runouts it tries (default 2; 0: none);
 /// `residual_frame` (`"joint1"` or `"world"`) is the frame its residual models learn in (by
 /// default `"joint1"`, and both, the held-out poses choosing, where joint 1 lies more than 10°
 /// off the line of gravity).

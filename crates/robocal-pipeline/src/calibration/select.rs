@@ -117,10 +117,12 @@ pub struct AutoSettings {
     /// Axis runouts of orders 1 up to this one (every joint, about both axes across it; 0: not
     /// tried), tried on the physics the joint-error blocks reached, before the flank search and
     /// the tilts: the parts beyond each joint turning across its axis periodically in its angle.
-    /// Off by default: at order 1 on the development twins, 20 of the 24 cases it changed
-    /// lower (by 5–48 %), four higher (+2.5 %, +3.6 %, and ARM5W seed 0's joint-1
-    /// extrapolation +32 %, +69 % with the effects beyond the model four times as large),
-    /// `docs/accuracy.md`, session 43.
+    /// Default 2 (since session 44): orders 1 and 2, under the prior of their own spread, on
+    /// the 72 development cases lowered the 18 the folds kept them on by 2–69 % (the rest
+    /// identical); with the effects beyond the model four times as large, 15 of 16 lower by
+    /// 13–58 %, one higher: ARM5W seed 0's joint-1 extrapolation, +9 %, where the harmonic
+    /// reach then continued joint 1's harmonics (`docs/accuracy.md`, session 44). Order 1
+    /// alone had stayed opt-in (that case +32 %). 0 switches them off.
     pub runout: u32,
     /// Backlash with its flanks searched also tried where the physics the chain chose holds no
     /// backlash (the block with the regression's flanks was not kept): for a joint whose play
@@ -180,7 +182,7 @@ impl Default for AutoSettings {
             self_weight: true,
             backlash: true,
             tilt: false,
-            runout: 0,
+            runout: 2,
             flank_search: false,
             residuals: vec![
                 ResidualStage {
