@@ -1555,6 +1555,30 @@ fn identify_anew(
         // them can leave more than it did (a joint's flank chosen nearly constant, its step then
         // absorbed by its offset and bent into its harmonics).
         let mut best = fit.clone();
+        // With axis runouts, the rounds start from the flanks chosen on the model without them
+        // (the fit on the approach flanks competing): a runout can take part of a step on a fit
+        // that lacks it, and the choice made from what that fit leaves goes wrong (the paper's
+        // arm beyond the model); the rounds then choose again with the runouts in the model,
+        // and the lowest sum of squares of every fit is kept.
+        if je.runout > 0 {
+            let mut plain = settings.clone();
+            plain.joint_errors.as_mut().expect("joint errors").runout = 0;
+            let chosen = identify(nominal, obs, &plain, memo)?;
+            if let Some(errors) = chosen.compliance.as_ref() {
+                let mut flanks: Vec<Flank> = (home.iter())
+                    .map(|&h| Flank::Approach { home: h })
+                    .collect();
+                for b in &errors.backlash {
+                    flanks[b.joint] = b.flank.clone();
+                }
+                round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
+                let next = identify(nominal, obs, &round, memo)?;
+                if next.report.after.rms <= best.report.after.rms {
+                    best = next.clone();
+                }
+                fit = next;
+            }
+        }
         let mut signs: Option<Vec<f64>> = None;
         let rounds = if je.flank_search {
             SEARCH_FLANK_ROUNDS
