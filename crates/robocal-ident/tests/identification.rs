@@ -1383,18 +1383,11 @@ fn elasto_geometric_lm_recovers_injected_backlash() {
     );
 }
 
-/// Backlash on the flank the torque presses, injected on joint 4 (the forearm roll of the
-/// paper's arm: the wrist's and the payload's weight, and a preload, set which flank) with the
-/// compliances, noise-free: the identification chooses the torque flank for that joint, gives
-/// nearly every row, held-out ones too, the flank it was measured on, and recovers the half
-/// play; the flanks of the approach from home alone leave tenths of a millimetre.
-#[test]
-fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
-    use robocal_ident::JointErrorSettings;
+/// The identification tests' compliances with backlash on joint 4 (the forearm roll of the
+/// paper's arm) on the flank its torque presses: the wrist's and the payload's weight, and a
+/// preload, set which; half play 0.09°.
+fn joint4_torque_flank() -> Compliance {
     use robocal_robot::{Flank, JointErrors};
-    let nominal = nominal();
-    let configs = configurations();
-    let truth = injected(&nominal, &configs, 19);
     let mut errors = injected_compliance().with_backlash(&[3]);
     // Features of joint 4: links 4, 5, 6 (mass, x, y, z moments), the payload's four, 1.
     let mut weights = vec![0.0; JointErrors::torque_feature_count(6, 3)];
@@ -1404,6 +1397,35 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
     weights[16] = 0.8; // preload, N·m
     errors.backlash[0].flank = Flank::Torque { weights };
     errors.backlash[0].value = 0.09f64.to_radians();
+    errors
+}
+
+/// Asserts that `cal` put joint 4's backlash ([`joint4_torque_flank`]) on a torque flank with
+/// its half play within 5 %.
+fn assert_joint4_torque_flank(cal: &robocal_ident::KinematicCalibration) {
+    use robocal_robot::Flank;
+    let found = cal.compliance.as_ref().unwrap();
+    let b = found.backlash.iter().find(|b| b.joint == 3).unwrap();
+    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
+    assert!(
+        (b.value.abs() - 0.09f64.to_radians()).abs() < 0.05 * 0.09f64.to_radians(),
+        "{}",
+        b.value.to_degrees()
+    );
+}
+
+/// Backlash on the flank the torque presses, injected on joint 4 (the forearm roll of the
+/// paper's arm: the wrist's and the payload's weight, and a preload, set which flank) with the
+/// compliances, noise-free: the identification chooses the torque flank for that joint, gives
+/// nearly every row, held-out ones too, the flank it was measured on, and recovers the half
+/// play; the flanks of the approach from home alone leave tenths of a millimetre.
+#[test]
+fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
+    use robocal_ident::JointErrorSettings;
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 19);
+    let errors = joint4_torque_flank();
     let loads = [0.0, 5.0, 10.0, 20.0];
     let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
     let plus = (0..obs.len())
@@ -1419,14 +1441,7 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
         },
     );
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
-    let found = cal.compliance.as_ref().unwrap();
-    let b = found.backlash.iter().find(|b| b.joint == 3).unwrap();
-    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
-    assert!(
-        (b.value.abs() - 0.09f64.to_radians()).abs() < 0.05 * 0.09f64.to_radians(),
-        "{}",
-        b.value.to_degrees()
-    );
+    assert_joint4_torque_flank(&cal);
     let held = observe_loaded(&truth, &errors, &configs[100..], &[0.0, 12.0]);
     let mean = torque_flank_found(&cal, 3, &truth, &errors, [&obs, &held]);
     // Noise-free, a few rows beside the boundary on the wrong flank (half a millimetre each)
@@ -1449,18 +1464,11 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
 #[test]
 fn the_torque_flank_is_found_with_the_runouts_asked_for() {
     use robocal_ident::JointErrorSettings;
-    use robocal_robot::{Across, Flank, Harmonic, JointErrors, Runout};
+    use robocal_robot::{Across, Harmonic, Runout};
     let nominal = nominal();
     let configs = configurations();
     let truth = injected(&nominal, &configs, 19);
-    let mut errors = injected_compliance().with_backlash(&[3]);
-    let mut weights = vec![0.0; JointErrors::torque_feature_count(6, 3)];
-    weights[4 + 1] = 0.25;
-    weights[8 + 3] = 0.08;
-    weights[12..16].copy_from_slice(&[1.0, 0.1, 0.0, 0.06]);
-    weights[16] = 0.8;
-    errors.backlash[0].flank = Flank::Torque { weights };
-    errors.backlash[0].value = 0.09f64.to_radians();
+    let mut errors = joint4_torque_flank();
     let wave = Harmonic {
         sin: 0.006f64.to_radians(),
         cos: -0.004f64.to_radians(),
@@ -1482,14 +1490,7 @@ fn the_torque_flank_is_found_with_the_runouts_asked_for() {
         },
     );
     let cal = calibrate_kinematics(&nominal, &obs, &settings).unwrap();
-    let found = cal.compliance.as_ref().unwrap();
-    let b = found.backlash.iter().find(|b| b.joint == 3).unwrap();
-    assert!(matches!(b.flank, Flank::Torque { .. }), "{b:?}");
-    assert!(
-        (b.value.abs() - 0.09f64.to_radians()).abs() < 0.05 * 0.09f64.to_radians(),
-        "{}",
-        b.value.to_degrees()
-    );
+    assert_joint4_torque_flank(&cal);
     let held = observe_loaded(&truth, &errors, &configs[100..], &[0.0, 12.0]);
     let mean = torque_flank_found(&cal, 3, &truth, &errors, [&obs, &held]);
     // Noise-free: a few rows beside the boundary on the wrong flank. With the flanks chosen
