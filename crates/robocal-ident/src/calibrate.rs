@@ -1639,7 +1639,7 @@ fn identify_anew(
         columns.extend(params.iter().map(|&p| Column::of_error(model, p)));
         problem = problem.with_joint_errors(model.clone(), params.clone());
     }
-    let (_, jac) = problem.residuals_and_jacobian(&vec![0.0; problem.unknowns()]);
+    let jac = problem.first_order_jacobian(&vec![0.0; problem.unknowns()]);
     let ident = analyse(&jac, &columns, settings.rank_tolerance);
     let identified_by_reflectors = by_reflectors(obs, &jac, &columns, &ident, settings);
     let mut problem = problem.restricted(&ident.identifiable);

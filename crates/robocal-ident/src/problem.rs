@@ -13,8 +13,8 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use rayon::prelude::*;
 use robocal_data::MeasurementSet;
 use robocal_robot::{
-    Compliance, ErrorParam, JointErrors, JointField, ParamId, Robot, left_jacobian_inverse,
-    rotation_vector, rpy_to_matrix, turn_rotation, turned,
+    Compliance, DeflectionRates, ErrorParam, JointErrors, JointField, ParamId, ParamTwist, Robot,
+    Turns, left_jacobian_inverse, rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
 use crate::identifiability::posterior_covariance;
@@ -291,7 +291,7 @@ impl<'a> CalibrationProblem<'a> {
             prior: Vec::new(),
             prior_spread: None,
         };
-        let (_, full, _) = problem.full_jacobian(robot, None);
+        let (_, full, _) = problem.full_jacobian(robot, None, false);
         let m = obs.len().max(1) as f64;
         let norms: Vec<f64> = (problem.selected.iter())
             .map(|&j| full.column(j).norm() / m.sqrt())
@@ -308,10 +308,16 @@ impl<'a> CalibrationProblem<'a> {
     /// The unweighted residuals (position rows, then the rotation rows times the angle weight)
     /// of `robot` (deflected by `compliance`), with the Jacobian of every table parameter and
     /// of every identified joint-error coefficient (unscaled, internal units).
+    ///
+    /// `exact`: with the table's columns' second-order terms — the deflection's own dependence
+    /// on the table (a compliance times the change of the torques it holds, taken at the
+    /// command) and the turns' (their turn of every column and the motion of the runouts' axes
+    /// and origins); without them, the first-order columns ([`Self::first_order_jacobian`]).
     fn full_jacobian(
         &self,
         robot: &Robot,
         compliance: Option<&Compliance>,
+        exact: bool,
     ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
         let m = self.obs.len();
         let params = self.error_params();
@@ -348,10 +354,51 @@ impl<'a> CalibrationProblem<'a> {
                             let row = c.row_terms(robot, q, load, params);
                             let p =
                                 robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * l);
+                            // The turns move the point by `Σ t × (p − a)`, linear in `p`: every
+                            // column that moves `p` moves the turned point by `(I + Σ [t]×)`
+                            // times as much (the joint-error columns below take the corrected
+                            // `theta` columns).
+                            if exact && !row.turns.is_empty() {
+                                let sum: Vector3<f64> = row.turns.iter().map(|(t, _)| t).sum();
+                                for col in 0..full.ncols() {
+                                    let c = Vector3::new(
+                                        full[(3 * l, col)],
+                                        full[(3 * l + 1, col)],
+                                        full[(3 * l + 2, col)],
+                                    );
+                                    let moved = c + sum.cross(&c);
+                                    for a in 0..3 {
+                                        full[(3 * l + a, col)] = moved[a];
+                                    }
+                                }
+                            }
+                            // The joints' columns: how the point moves as each joint turns.
+                            let joints: Vec<Vector3<f64>> = (theta.iter())
+                                .map(|&c| {
+                                    Vector3::new(
+                                        full[(3 * l, c)],
+                                        full[(3 * l + 1, c)],
+                                        full[(3 * l + 2, c)],
+                                    )
+                                })
+                                .collect();
                             for (k, j, phi) in row.basis {
                                 for a in 0..3 {
-                                    cjac[(3 * l + a, k)] += full[(3 * l + a, theta[j])] * phi;
+                                    cjac[(3 * l + a, k)] += joints[j][a] * phi;
                                 }
+                            }
+                            // The table also moves the torques the joints deflect under and
+                            // the runouts' axes and origins.
+                            if exact {
+                                let twists = robot.param_twists(q);
+                                add_deflection_rates(
+                                    &twists,
+                                    &c.deflection_rates(robot, q, load),
+                                    &joints,
+                                    &mut full,
+                                    3 * l,
+                                );
+                                add_runout_rates(c, &twists, &row.turns, p, &mut full, 3 * l);
                             }
                             // A tilt turns the parts beyond its joint about the joint's origin
                             // (the geometry's columns leave out the micro-radians it turns them
@@ -387,6 +434,17 @@ impl<'a> CalibrationProblem<'a> {
                     cjac.view_mut((row, 0), (3, params.len())).copy_from(&jac);
                     let deflected = c.deflected(robot, q, load);
                     let rot = robot.write_orientation_jacobian(&deflected, &mut full, row);
+                    // The joints turn the tool frame about their axes (their `theta` columns).
+                    let joints: Vec<Vector3<f64>> = (theta.iter())
+                        .map(|&c| {
+                            Vector3::new(full[(row, c)], full[(row + 1, c)], full[(row + 2, c)])
+                        })
+                        .collect();
+                    if exact {
+                        let rates = c.deflection_rates(robot, q, load);
+                        let twists = robot.param_twists(q);
+                        add_deflection_rates(&twists, &rates, &joints, &mut full, row);
+                    }
                     if c.tilts.is_empty() {
                         rot
                     } else {
@@ -443,7 +501,7 @@ impl<'a> CalibrationProblem<'a> {
             start: start.clone(),
             params,
         });
-        let (_, _, cjac) = self.full_jacobian(&self.robot, Some(&start));
+        let (_, _, cjac) = self.full_jacobian(&self.robot, Some(&start), false);
         let norms: Vec<f64> = (0..cjac.ncols())
             .map(|k| cjac.column(k).norm() / m.sqrt())
             .collect();
@@ -536,11 +594,15 @@ impl<'a> CalibrationProblem<'a> {
             .collect()
     }
 
-    /// The unknowns' covariance at `u` (`u` units): the posterior's under the priors where there
+    /// The unknowns' covariance at `u` (`u` units), from the exact Jacobian
+    /// ([`Self::exact_jacobian`]): the posterior's under the priors where there
     /// are any ([`crate::posterior_covariance`]: the data's `σ²`, the priors' rows added to
     /// `JᵀJ`), else the data's alone. `None` as [`crate::posterior_covariance`].
     pub fn covariance(&self, u: &[f64]) -> Option<Mat<f64>> {
-        let (r, jac) = self.residuals_and_jacobian(u);
+        // At the solution, the exact linearization: the parameters' spread is what the exact
+        // columns say, where the first-order ones differ by several per cent on a heavily
+        // loaded compliant arm.
+        let (r, jac) = self.exact_jacobian(u);
         let prior: Vec<(usize, f64)> = (self.prior_rows(u).iter())
             .map(|&(_, j, d)| (j, d))
             .collect();
@@ -648,16 +710,50 @@ impl<'a> CalibrationProblem<'a> {
         r
     }
 
-    /// Residuals and the `3m × k` Jacobian with respect to `u`.
+    /// Residuals and the `3m × k` Jacobian with respect to `u`, the one the solvers step on.
     ///
-    /// With compliance, the geometric columns are taken at the deflected joint angles, leaving
-    /// out the torques' own (second-order) dependence on the geometry; the compliance columns
-    /// are exact.
+    /// The joint errors' columns are exact. The table's are taken at the deflected joint angles,
+    /// to first order ([`Self::first_order_jacobian`]): they leave out the torques' own
+    /// dependence on the table (a compliance times a torque's change) and the turns' (tilts',
+    /// runouts') dependence on it; the residual is exact, so LM converges to a true optimum.
+    /// [`Self::exact_jacobian`] has those terms; stepping on it was measured in session 45 and
+    /// not taken: on the paper's arm with the runouts its solves converge in tens of
+    /// iterations where these crawl to 200, but the fits land on other backlash flanks, better
+    /// on some cases and worse on others (`docs/accuracy.md`, session 45), and without runouts
+    /// it converges no faster (compliance and self-weight on the paper's arm: 33 iterations and
+    /// 2.0 s against 26 and 1.2 s, the same cost to four digits).
     pub fn residuals_and_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
+        self.residuals_and_columns(u, false)
+    }
+
+    /// Residuals and the Jacobian with the table's columns exact for every smooth term
+    /// (checked against central differences): the torques' own dependence on the geometry (the
+    /// joints deflect under torques taken at the command, whose lever arms the table sets:
+    /// [`JointErrors::deflection_rates`] along each parameter's [`Robot::param_twists`]); every
+    /// column turned with the point by the tilts' and runouts' turns; the motion of the
+    /// runouts' axes and origins. Left out: the tilts' moments' dependence on the table; a
+    /// backlash flank's switch (not differentiable).
+    pub fn exact_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
+        self.residuals_and_columns(u, true)
+    }
+
+    /// The Jacobian at `u` with the table's columns to first order: the geometry's at the
+    /// deflected angles, without the deflection's and the turns' own dependence on the table
+    /// (a compliance times a torque's change, micro-radians of turn; [`Self::exact_jacobian`]
+    /// has them). The identifiability analysis decides on these: those small terms would make
+    /// combinations the poses cannot tell apart (joint 6's offset and the payload's centre of
+    /// mass, say) look barely determined, through the compliances alone, and be identified,
+    /// ill-conditioned.
+    pub fn first_order_jacobian(&self, u: &[f64]) -> Mat<f64> {
+        self.residuals_and_columns(u, false).1
+    }
+
+    /// [`Self::residuals_and_jacobian`], the table's columns `exact` or to first order.
+    fn residuals_and_columns(&self, u: &[f64], exact: bool) -> (Vec<f64>, Mat<f64>) {
         let robot = self.robot_at(u);
         let compliance = self.compliance_at(u);
         let ng = self.selected.len();
-        let (mut r, full, cjac) = self.full_jacobian(&robot, compliance.as_ref());
+        let (mut r, full, cjac) = self.full_jacobian(&robot, compliance.as_ref(), exact);
         if self.root_weights.is_some() {
             for (row, v) in r.iter_mut().enumerate() {
                 *v *= self.row_weight(row);
@@ -737,6 +833,90 @@ impl<'a> CalibrationProblem<'a> {
         }
         g.iter_mut().for_each(|gk| *gk /= m);
         (cost / m, g)
+    }
+}
+
+/// Adds to the table's columns in rows `row..row + 3` of `full` what the deflection adds as the
+/// table moves the gravity torques it holds: `Σ_j joints[j] · δd_j`, with `δd_j` the rate of
+/// joint `j`'s deflection ([`JointErrors::deflection_rates`]) along each joint parameter's
+/// `twists` at the command ([`Robot::param_twists`]) and `joints[j]` the rows' column of joint
+/// `j`. The base's parameters turn gravity with the arm: they move no torque.
+fn add_deflection_rates(
+    twists: &[Option<ParamTwist>],
+    rates: &DeflectionRates,
+    joints: &[Vector3<f64>],
+    full: &mut DMatrix<f64>,
+    row: usize,
+) {
+    if rates.is_empty() {
+        return;
+    }
+    for (col, twist) in twists.iter().enumerate() {
+        let Some(ParamTwist {
+            joint: Some(k),
+            w,
+            v,
+            ..
+        }) = twist
+        else {
+            continue;
+        };
+        let mut add = Vector3::zeros();
+        for (joint, rate) in joints.iter().zip(rates) {
+            let (rw, rv) = rate[*k];
+            add += joint * (rw.dot(w) + rv.dot(v));
+        }
+        for a in 0..3 {
+            full[(row + a, col)] += add[a];
+        }
+    }
+}
+
+/// Adds to the table's position columns in rows `row..row + 3` of `full` how the runouts'
+/// turns of the point `p` (before them) change as the table moves their axes and origins: a
+/// parameter that moves runout joint `j`'s frame by the twist `(ω, v)` turns its turn `t` by
+/// `ω × t` and slides its origin `a` by `δa` (`ω × a + v`; the twist's `origin` for a parameter
+/// of joint `j` itself), moving `t × (p − a)` by `(ω × t) × (p − a) − t × δa` (the part through
+/// `p` is in the column already).
+/// Tilts (turns under gravity moments) are left out.
+fn add_runout_rates(
+    model: &JointErrors,
+    twists: &[Option<ParamTwist>],
+    turns: &Turns,
+    p: Vector3<f64>,
+    full: &mut DMatrix<f64>,
+    row: usize,
+) {
+    if model.runouts.is_empty() {
+        return;
+    }
+    let runouts = &turns[model.tilts.len()..];
+    for (col, twist) in twists.iter().enumerate() {
+        let Some(ParamTwist {
+            joint,
+            w,
+            v,
+            origin,
+        }) = twist
+        else {
+            continue;
+        };
+        let from = joint.unwrap_or(0);
+        let mut add = Vector3::zeros();
+        for (r, (t, a)) in model.runouts.iter().zip(runouts) {
+            let j = r.wave.joint;
+            if j >= from {
+                let slide = if *joint == Some(j) {
+                    *origin
+                } else {
+                    w.cross(a) + v
+                };
+                add += w.cross(t).cross(&(p - a)) - t.cross(&slide);
+            }
+        }
+        for k in 0..3 {
+            full[(row + k, col)] += add[k];
+        }
     }
 }
 

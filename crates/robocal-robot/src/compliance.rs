@@ -182,6 +182,53 @@ pub struct RowTerms {
     pub turn_basis: Vec<(usize, Vector3<f64>, Vector3<f64>)>,
 }
 
+/// How each joint's deflection (rad) changes as the table moves the parts of the arm: entry
+/// `[j][k]` is `(rω, rv)`, the rate of joint `j`'s deflection per unit twist of a parameter
+/// of joint `k` (`ω`, `v`: world frame, about the world origin, [`Robot::param_twists`]):
+/// `δd_j = rω · ω + rv · v`. The gravity torques the deflection holds are taken at the command,
+/// where the table's joint `k` turns its axis and every link from its own outwards; gravity
+/// stays. Empty when nothing deflects under the torques (no compliance, no self-weight term).
+pub type DeflectionRates = Vec<Vec<(Vector3<f64>, Vector3<f64>)>>;
+
+/// One link quantity a gravity torque acts through: a point (mm) that holds a mass, or a
+/// direction along which a first moment lies.
+#[derive(Clone, Copy)]
+enum Quantity {
+    Point(Vector3<f64>),
+    Direction(Vector3<f64>),
+}
+
+impl Quantity {
+    /// `part` of the link whose frame is `(r, o)`.
+    fn of((r, o): &(Matrix3<f64>, Vector3<f64>), part: MomentPart) -> Self {
+        match part {
+            MomentPart::Mass => Self::Point(*o),
+            MomentPart::X => Self::Direction(r.column(0).into_owned()),
+            MomentPart::Y => Self::Direction(r.column(1).into_owned()),
+            MomentPart::Z => Self::Direction(r.column(2).into_owned()),
+        }
+    }
+
+    /// The rate of its unit torque (as [`unit_torque`]) about the axis `(w, a)` under gravity
+    /// `g`, per unit twist `(ω, v)`: `(rω, rv)` when the axis and the quantity move together
+    /// (`ω · ((w × r) × g)`: the same as gravity turning by `−ω`), and when the quantity moves
+    /// alone (`ω · (r × (g × w)) + v · (g × w)` for a point `r`; a direction does not slide).
+    fn rates(
+        &self,
+        (w, a): &(Vector3<f64>, Vector3<f64>),
+        g: &Vector3<f64>,
+    ) -> (Vector3<f64>, (Vector3<f64>, Vector3<f64>)) {
+        let gw = g.cross(w);
+        match self {
+            Self::Point(x) => (
+                w.cross(&(x - a)).cross(g) * 1e-3,
+                (x.cross(&gw) * 1e-3, gw * 1e-3),
+            ),
+            Self::Direction(u) => (w.cross(u).cross(g), (u.cross(&gw), Vector3::zeros())),
+        }
+    }
+}
+
 /// `p` (mm) moved by `turns`, to first order (the turns are micro-radians): `p + Σ t × (p − a)`.
 pub fn turned(turns: &[(Vector3<f64>, Vector3<f64>)], p: Vector3<f64>) -> Vector3<f64> {
     turns
@@ -1459,6 +1506,69 @@ impl JointErrors {
             turns: self.turns_at(&pose, load),
             turn_basis: self.turn_basis_at(&pose, load, params),
         }
+    }
+
+    /// How each joint's deflection at command `q` (rad) under `load` kg changes with the
+    /// table's parameters, through the gravity torques it holds ([`DeflectionRates`]): the
+    /// payload's and the links' weights' times the joint's compliance, and the self-weight
+    /// terms. The harmonics and the backlash (a flank is constant between its switches) do not
+    /// move with the table.
+    pub fn deflection_rates(&self, robot: &Robot, q: &[f64], load: f64) -> DeflectionRates {
+        self.rates_at(&self.pose(robot, q), load)
+    }
+
+    /// [`Self::deflection_rates`] at the command `pose` holds.
+    fn rates_at(&self, pose: &PoseCache, load: f64) -> DeflectionRates {
+        let compliant = self.values.iter().any(|&c| c != 0.0);
+        if !compliant && self.self_weight.is_empty() {
+            return Vec::new();
+        }
+        let Pose { axes, frames, g } = pose.get();
+        let dof = axes.len();
+        let zero = (Vector3::zeros(), Vector3::zeros());
+        let mut out = vec![vec![zero; dof]; dof];
+        for (j, row) in out.iter_mut().enumerate() {
+            // Every torque term joint `j` deflects by: (its link, quantity, coefficient).
+            let mut terms: Vec<(usize, Quantity, f64)> = Vec::new();
+            let c = self.values[j];
+            if c != 0.0 {
+                if load != 0.0 {
+                    let (r, o) = frames.last().expect("an arm has a joint");
+                    let com = o + r * self.payload_com;
+                    terms.push((dof - 1, Quantity::Point(com), c * load));
+                }
+                for lw in self.link_weights.iter().filter(|lw| lw.body >= j) {
+                    let quantity = Quantity::of(&frames[lw.body], lw.part);
+                    terms.push((lw.body, quantity, c * lw.value));
+                }
+            }
+            for t in self.self_weight.iter().filter(|t| t.joint == j) {
+                terms.push((t.body, Quantity::of(&frames[t.body], t.part), t.value));
+            }
+            if terms.is_empty() {
+                continue;
+            }
+            // A parameter of joint `k <= j` moves the axis and every term together; one of
+            // `k > j` moves the terms on links `k` and beyond alone.
+            let mut together = Vector3::zeros();
+            let mut alone = vec![zero; dof];
+            for (body, quantity, coefficient) in terms {
+                let (t, (aw, av)) = quantity.rates(&axes[j], g);
+                together += t * coefficient;
+                alone[body].0 += aw * coefficient;
+                alone[body].1 += av * coefficient;
+            }
+            for entry in row.iter_mut().take(j + 1) {
+                *entry = (together, Vector3::zeros());
+            }
+            let mut from = zero;
+            for k in (j + 1..dof).rev() {
+                from.0 += alone[k].0;
+                from.1 += alone[k].1;
+                row[k] = from;
+            }
+        }
+        out
     }
 
     /// Jacobian of the point with respect to each of `params` (mm per internal unit), and the

@@ -144,6 +144,24 @@ struct JointStep {
     o: Vector3<f64>,
 }
 
+/// The rigid motion one table parameter gives the arm per unit ([`Robot::param_twists`]): a
+/// point `y` moves by `w × y + v` (world frame, mm; `w` rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamTwist {
+    /// The 0-based joint whose axis and links from its own outwards it moves (gravity stays);
+    /// `None` for the base's, which move the whole arm and the gravity fixed in its frame.
+    pub joint: Option<usize>,
+    /// Angular rate, rad per unit.
+    pub w: Vector3<f64>,
+    /// Linear rate at the world origin, mm per unit.
+    pub v: Vector3<f64>,
+    /// For a joint's parameter, the rate of the point its joint's axis starts from
+    /// ([`Robot::axes_and_frames`], after the `a` offset), mm per unit: `a` slides it along
+    /// the x axis before, the others leave it (α and β turn about lines through it, θ about
+    /// the axis, `d` slides the links along the axis from it). Zero for the base's.
+    pub origin: Vector3<f64>,
+}
+
 #[inline]
 fn step(r0: Matrix3<f64>, o0: Vector3<f64>, joint: &Joint, q: f64) -> JointStep {
     let (sa, ca) = table_sin_cos(joint.alpha);
@@ -332,6 +350,56 @@ impl Robot {
             }
         }
         p
+    }
+
+    /// How each parameter ([`Robot::param_ids`] order, internal units) moves the arm at `q`
+    /// (rad): the twist of a rigid motion, world frame, about the world origin — a point `y`
+    /// moves by `ω × y + v` per unit ([`ParamTwist`]). A joint's parameter moves that joint's
+    /// axis and every link frame from its own outwards (α turns about the x axis of the frame
+    /// before, β about the y axis after α, θ about the joint axis; a and d slide along x and
+    /// the axis); the base's move the whole arm; the tool's and the named points' move no axis
+    /// and no frame (`None`). The column of [`Self::write_param_jacobian_at`] of a parameter
+    /// with a twist is `ω × p + v` at the point `p`.
+    pub fn param_twists(&self, q: &[f64]) -> Vec<Option<ParamTwist>> {
+        let mut out = Vec::with_capacity(self.param_count());
+        let zero = Vector3::zeros();
+        let twist = |joint, w, v, origin| {
+            Some(ParamTwist {
+                joint,
+                w,
+                v,
+                origin,
+            })
+        };
+        for (index, (joint, s)) in self.joints.iter().zip(self.steps(q)).enumerate() {
+            let j = Some(index);
+            let wx = s.r0.column(0).into_owned();
+            out.push(twist(j, zero, wx, wx)); // a
+            out.push(twist(j, wx, s.o0.cross(&wx), zero)); // alpha
+            if joint.beta.is_some() {
+                let wy = s.r1.column(1).into_owned();
+                out.push(twist(j, wy, s.o2.cross(&wy), zero));
+            }
+            let wz = s.r3.column(2).into_owned();
+            out.push(twist(j, zero, wz, zero)); // d
+            out.push(twist(j, wz, s.o2.cross(&wz), zero)); // theta
+        }
+        for axis in 0..3 {
+            out.push(twist(None, zero, Vector3::ith(axis, 1.0), zero));
+        }
+        // Roll about R x̂, pitch about Rz(yaw) ŷ, yaw about world ẑ, through the base's origin.
+        let rb = self.base_rotation();
+        let (sy, cy) = table_sin_cos(self.base.rpy.z);
+        let o = self.base.xyz;
+        for w in [
+            rb.column(0).into_owned(),
+            Vector3::new(-sy, cy, 0.0),
+            Vector3::z(),
+        ] {
+            out.push(twist(None, w, o.cross(&w), zero));
+        }
+        out.resize(self.param_count(), None);
+        out
     }
 
     /// Orientation of the tool frame in the flange frame (`[tool] rpy`; identity without).

@@ -36,8 +36,8 @@ pub mod params;
 pub mod table;
 
 pub use compliance::{
-    Across, Backlash, Compliance, DEG_PER_KNM, ErrorParam, Flank, HARMONIC_REACH, Harmonic,
-    JointErrors, LinkWeight, MomentPart, RawCompliance, RowTerms, Runout, SelfWeight,
+    Across, Backlash, Compliance, DEG_PER_KNM, DeflectionRates, ErrorParam, Flank, HARMONIC_REACH,
+    Harmonic, JointErrors, LinkWeight, MomentPart, RawCompliance, RowTerms, Runout, SelfWeight,
     TORQUE_FEATURES_PER_LINK, Tilt, Turns, backlash_name, compliance_name, harmonic_name,
     link_weight_name, payload_com_name, payload_mass_feature, runout_name, self_weight_name,
     tilt_name, torque_side, turn_rotation, turned,
@@ -45,7 +45,7 @@ pub use compliance::{
 pub use covariance::{Parameter, ParameterCovariance, displaced};
 pub use error::{Result, RobotError};
 pub use ik::{IkOptions, IkTarget};
-pub use kinematics::JointAxes;
+pub use kinematics::{JointAxes, ParamTwist};
 pub use kinematics::{left_jacobian_inverse, matrix_to_rpy, rotation_vector, rpy_to_matrix};
 pub use params::{JointField, ParamId, Unit};
 pub use table::{

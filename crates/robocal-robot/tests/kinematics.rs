@@ -148,6 +148,63 @@ proptest! {
         }
     }
 
+    /// Each parameter's twist against central differences of the joint axes and link frames
+    /// (world frame): a joint's parameter moves its own axis and every frame from its own
+    /// outwards by `ω × y + v` (points) and `ω × u` (directions), and nothing before; the
+    /// base's move every axis and frame; the tool's and the points' none (`None`). And the
+    /// point's column of a parameter with a twist is `ω × p + v`.
+    #[test]
+    fn parameter_twists_match_central_differences((robot, q) in robot_strategy()) {
+        let twists = robot.param_twists(&q);
+        prop_assert_eq!(twists.len(), robot.param_count());
+        let (p, jac) = robot.param_jacobian(&q);
+        let x = robot.params();
+        let h = 1e-5;
+        let (axes, frames) = robot.axes_and_frames(&q);
+        for (k, id) in robot.param_ids().iter().enumerate() {
+            let mut plus = x.clone();
+            plus[k] += h;
+            let mut minus = x.clone();
+            minus[k] -= h;
+            let (ap, fp) = robot.with_params(&plus).unwrap().axes_and_frames(&q);
+            let (am, fm) = robot.with_params(&minus).unwrap().axes_and_frames(&q);
+            let rate = |a: Vector3<f64>, b: Vector3<f64>| (a - b) / (2.0 * h);
+            let (first, own, w, v, origin) = match twists[k] {
+                Some(t) => (t.joint.unwrap_or(0), t.joint, t.w, t.v, t.origin),
+                None => (usize::MAX, None, Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
+            };
+            if first != usize::MAX {
+                let column = Vector3::new(jac[(0, k)], jac[(1, k)], jac[(2, k)]);
+                let e = w.cross(&p) + v;
+                prop_assert!((column - e).norm() < 1e-9 * (1.0 + e.norm()), "{id}: column {column} vs {e}");
+            }
+            for j in 0..robot.dof() {
+                let moved = j >= first;
+                let (ew, ea) = if own == Some(j) {
+                    (w.cross(&axes[j].0), origin)
+                } else if moved {
+                    (w.cross(&axes[j].0), w.cross(&axes[j].1) + v)
+                } else {
+                    (Vector3::zeros(), Vector3::zeros())
+                };
+                let dw = rate(ap[j].0, am[j].0);
+                prop_assert!((dw - ew).norm() < 1e-5 * (1.0 + ew.norm()), "{id}, axis {j}: {dw} vs {ew}");
+                let da = rate(ap[j].1, am[j].1);
+                prop_assert!((da - ea).norm() < 1e-5 * (1.0 + ea.norm()), "{id}, axis {j} origin: {da} vs {ea}");
+                let (m, o) = &frames[j];
+                let eo = if moved { w.cross(o) + v } else { Vector3::zeros() };
+                let d_o = rate(fp[j].1, fm[j].1);
+                prop_assert!((d_o - eo).norm() < 1e-5 * (1.0 + eo.norm()), "{id}, frame {j}: {d_o} vs {eo}");
+                for c in 0..3 {
+                    let u = m.column(c).into_owned();
+                    let eu = if moved { w.cross(&u) } else { Vector3::zeros() };
+                    let du = rate(fp[j].0.column(c).into_owned(), fm[j].0.column(c).into_owned());
+                    prop_assert!((du - eu).norm() < 1e-5, "{id}, frame {j} column {c}: {du} vs {eu}");
+                }
+            }
+        }
+    }
+
     /// The orientation Jacobian against central differences of the tool frame's rotation
     /// (rotation vector of `R(x + h) R(x − h)ᵀ` over 2h), and the tool frame against the plain
     /// matrix product.
