@@ -568,6 +568,16 @@ fn compliance_needs_two_loads_and_joints_that_exist() {
     assert!(err.contains("joint 7 does not exist"), "{err}");
 }
 
+/// The central differences of `problem`'s residuals along unknown `col` at `u` (step 1e-6).
+fn central_column(problem: &CalibrationProblem, u: &[f64], col: usize) -> Vec<f64> {
+    let h = 1e-6;
+    let (mut up, mut down) = (u.to_vec(), u.to_vec());
+    up[col] += h;
+    down[col] -= h;
+    let (a, b) = (problem.residuals(&up), problem.residuals(&down));
+    a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect()
+}
+
 /// The compliances' columns against central differences; the table's at the unloaded points
 /// (first-order: [`CalibrationProblem::residuals_and_jacobian`]), and
 /// every column of [`CalibrationProblem::exact_jacobian`] at every point, loaded or not (it
@@ -587,17 +597,11 @@ fn elastic_jacobian_matches_central_differences() {
     let (_, jac) = problem.residuals_and_jacobian(&u);
     let (_, exact) = problem.exact_jacobian(&u);
     let ng = nominal.param_count();
-    let h = 1e-6;
     for col in 0..k {
-        let (mut up, mut down) = (u.clone(), u.clone());
-        up[col] += h;
-        down[col] -= h;
-        let (a, b) = (problem.residuals(&up), problem.residuals(&down));
         let mut worst: f64 = 0.0;
         let mut first_worst: f64 = 0.0;
         let mut size: f64 = 0.0;
-        for row in 0..a.len() {
-            let fd = (a[row] - b[row]) / (2.0 * h);
+        for (row, fd) in central_column(&problem, &u, col).into_iter().enumerate() {
             worst = worst.max((fd - exact[(row, col)]).abs());
             size = size.max(fd.abs());
             // Geometric columns at loaded points, to first order, leave out the torques' own
@@ -651,15 +655,9 @@ fn jacobian_with_every_smooth_joint_error_matches_central_differences() {
     let k = problem.unknowns();
     let u: Vec<f64> = (0..k).map(|_| rng.random_range(-0.5..0.5)).collect();
     let (_, jac) = problem.exact_jacobian(&u);
-    let h = 1e-6;
     for col in 0..k {
-        let (mut up, mut down) = (u.clone(), u.clone());
-        up[col] += h;
-        down[col] -= h;
-        let (a, b) = (problem.residuals(&up), problem.residuals(&down));
         let (mut worst, mut size) = (0.0_f64, 0.0_f64);
-        for row in 0..a.len() {
-            let fd = (a[row] - b[row]) / (2.0 * h);
+        for (row, fd) in central_column(&problem, &u, col).into_iter().enumerate() {
             worst = worst.max((fd - jac[(row, col)]).abs());
             size = size.max(fd.abs());
         }
