@@ -718,8 +718,9 @@ impl<'a> CalibrationProblem<'a> {
     /// runouts') dependence on it; the residual is exact, so LM converges to a true optimum.
     /// [`Self::exact_jacobian`] has those terms; stepping on it was measured in session 45 and
     /// not taken: on the paper's arm with the runouts its solves converge in tens of
-    /// iterations where these crawl to 200, but the fits land on other backlash flanks, better
-    /// on some cases and worse on others (`docs/accuracy.md`, session 45), and without runouts
+    /// iterations where these crawl to 200, but the fits land elsewhere, 6 of 24 development
+    /// cases lower and 6 higher (ARM6H by up to 123 %; `docs/accuracy.md`, session 45), and
+    /// without runouts
     /// it converges no faster (compliance and self-weight on the paper's arm: 33 iterations and
     /// 2.0 s against 26 and 1.2 s, the same cost to four digits).
     pub fn residuals_and_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
