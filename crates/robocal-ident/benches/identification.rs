@@ -3,7 +3,9 @@
 //! whole kinematic calibration (registration, alignment, identifiability, solve, covariance);
 //! and the default's fullest physical candidate on all 3528 rows of the bundled twin (every
 //! load): compliances, harmonics to order 2, the links' weights and the payload's centre of
-//! mass, backlash with its flank rounds (target: a fold's share of the 120 s budget).
+//! mass, backlash with its flank rounds (target: a fold's share of the 120 s budget); and one
+//! Jacobian of those rows with compliances, harmonics, the links' weights and axis runouts, the
+//! solvers' first-order columns against the exact ones the covariance takes.
 
 use divan::{Bencher, black_box};
 use robocal_data::MeasurementSet;
@@ -11,7 +13,7 @@ use robocal_ident::{
     CalibrationProblem, ComplianceSettings, JointErrorSettings, KinematicSettings, LeastSquares,
     Observations, SolverKind, align, analyse, calibrate_kinematics, run_lm,
 };
-use robocal_robot::Robot;
+use robocal_robot::{DEG_PER_KNM, JointErrors, Robot};
 
 fn main() {
     divan::main();
@@ -95,5 +97,44 @@ fn full_physics_3528_rows(b: Bencher) {
     };
     b.bench_local(|| {
         calibrate_kinematics(black_box(&robot), &obs, &settings).expect("calibration")
+    });
+}
+
+/// Which Jacobian [`jacobian_3528_rows`] evaluates.
+#[derive(Debug, Clone, Copy)]
+enum Columns {
+    /// The solvers' (`residuals_and_jacobian`).
+    FirstOrder,
+    /// The covariance's (`exact_jacobian`).
+    Exact,
+}
+
+#[divan::bench(args = [Columns::FirstOrder, Columns::Exact], sample_count = 10)]
+fn jacobian_3528_rows(b: Bencher, columns: Columns) {
+    let (robot, set) = bundled();
+    let obs = Observations::from_rows(6, set.rows.iter());
+    let aligned = align(&robot, &obs).expect("align");
+    let values = [0.0, 0.076, 0.136, 0.38, 0.48, 0.57];
+    let mut errors = JointErrors::new(
+        values.iter().map(|c| c * DEG_PER_KNM).collect(),
+        nalgebra::Vector3::new(0.0, 0.0, -9.80665),
+        nalgebra::Vector3::new(100.0, 0.0, 60.0),
+    )
+    .with_harmonics(&[0, 1, 2, 3, 4, 5], 2)
+    .with_link_weights(&[1, 2, 3, 4, 5])
+    .with_runouts(&[0, 1, 2, 3, 4, 5], 2);
+    for w in &mut errors.link_weights {
+        w.value = 1.0;
+    }
+    for r in &mut errors.runouts {
+        r.wave.sin = 1e-4;
+    }
+    let all: Vec<usize> = (0..aligned.param_count()).collect();
+    let problem = CalibrationProblem::new(&aligned, all, &obs)
+        .with_joint_errors(errors.clone(), errors.params());
+    let u = vec![0.0; problem.unknowns()];
+    b.bench_local(|| match columns {
+        Columns::FirstOrder => problem.residuals_and_jacobian(black_box(&u)),
+        Columns::Exact => problem.exact_jacobian(black_box(&u)),
     });
 }
