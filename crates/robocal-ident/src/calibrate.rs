@@ -1555,6 +1555,16 @@ fn identify_anew(
         // them can leave more than it did (a joint's flank chosen nearly constant, its step then
         // absorbed by its offset and bent into its harmonics).
         let mut best = fit.clone();
+        // The identification on `flanks`, kept as the best when its sum of squares (the
+        // identification's own objective) is the lowest yet (of equal ones, the later).
+        let mut on_flanks = |flanks: Vec<Flank>, best: &mut KinematicCalibration| {
+            round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
+            let next = identify(nominal, obs, &round, memo)?;
+            if next.report.after.rms <= best.report.after.rms {
+                *best = next.clone();
+            }
+            Ok::<_, IdentError>(next)
+        };
         // With axis runouts, the rounds start from the flanks chosen on the model without them
         // (the fit on the approach flanks competing): a runout can take part of a step on a fit
         // that lacks it, and the choice made from what that fit leaves goes wrong (the paper's
@@ -1571,12 +1581,7 @@ fn identify_anew(
                 for b in &errors.backlash {
                     flanks[b.joint] = b.flank.clone();
                 }
-                round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
-                let next = identify(nominal, obs, &round, memo)?;
-                if next.report.after.rms <= best.report.after.rms {
-                    best = next.clone();
-                }
-                fit = next;
+                fit = on_flanks(flanks, &mut best)?;
             }
         }
         let mut signs: Option<Vec<f64>> = None;
@@ -1594,20 +1599,11 @@ fn identify_anew(
             if signs.is_none() && flanks.iter().all(|f| matches!(f, Flank::Approach { .. })) {
                 break;
             }
-            round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
-            let next = identify(nominal, obs, &round, memo)?;
-            let now = next
-                .compliance
-                .as_ref()
-                .map(|e| crate::flank::flank_signs(&next.robot, e, obs));
+            fit = on_flanks(flanks, &mut best)?;
+            let now =
+                (fit.compliance.as_ref()).map(|e| crate::flank::flank_signs(&fit.robot, e, obs));
             let settled = now.is_some() && now == signs;
             signs = now;
-            // The fit kept: the lowest sum of squares (the identification's own objective; of
-            // equal ones, the later).
-            if next.report.after.rms <= best.report.after.rms {
-                best = next.clone();
-            }
-            fit = next;
             if settled {
                 break;
             }

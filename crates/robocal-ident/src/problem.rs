@@ -354,51 +354,23 @@ impl<'a> CalibrationProblem<'a> {
                             let row = c.row_terms(robot, q, load, params);
                             let p =
                                 robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * l);
-                            // The turns move the point by `Σ t × (p − a)`, linear in `p`: every
-                            // column that moves `p` moves the turned point by `(I + Σ [t]×)`
-                            // times as much (the joint-error columns below take the corrected
-                            // `theta` columns).
-                            if exact && !row.turns.is_empty() {
-                                let sum: Vector3<f64> = row.turns.iter().map(|(t, _)| t).sum();
-                                for col in 0..full.ncols() {
-                                    let c = Vector3::new(
-                                        full[(3 * l, col)],
-                                        full[(3 * l + 1, col)],
-                                        full[(3 * l + 2, col)],
-                                    );
-                                    let moved = c + sum.cross(&c);
-                                    for a in 0..3 {
-                                        full[(3 * l + a, col)] = moved[a];
-                                    }
-                                }
-                            }
-                            // The joints' columns: how the point moves as each joint turns.
-                            let joints: Vec<Vector3<f64>> = (theta.iter())
-                                .map(|&c| {
-                                    Vector3::new(
-                                        full[(3 * l, c)],
-                                        full[(3 * l + 1, c)],
-                                        full[(3 * l + 2, c)],
-                                    )
-                                })
-                                .collect();
                             for (k, j, phi) in row.basis {
                                 for a in 0..3 {
-                                    cjac[(3 * l + a, k)] += joints[j][a] * phi;
+                                    cjac[(3 * l + a, k)] += full[(3 * l + a, theta[j])] * phi;
                                 }
                             }
-                            // The table also moves the torques the joints deflect under and
-                            // the runouts' axes and origins.
                             if exact {
-                                let twists = robot.param_twists(q);
-                                add_deflection_rates(
-                                    &twists,
-                                    &c.deflection_rates(robot, q, load),
-                                    &joints,
-                                    &mut full,
+                                let columns = (&mut full, &mut cjac);
+                                exact_terms(
+                                    robot,
+                                    c,
+                                    (q, load),
+                                    &row.turns,
+                                    p,
+                                    &theta,
+                                    columns,
                                     3 * l,
                                 );
-                                add_runout_rates(c, &twists, &row.turns, p, &mut full, 3 * l);
                             }
                             // A tilt turns the parts beyond its joint about the joint's origin
                             // (the geometry's columns leave out the micro-radians it turns them
@@ -434,13 +406,10 @@ impl<'a> CalibrationProblem<'a> {
                     cjac.view_mut((row, 0), (3, params.len())).copy_from(&jac);
                     let deflected = c.deflected(robot, q, load);
                     let rot = robot.write_orientation_jacobian(&deflected, &mut full, row);
-                    // The joints turn the tool frame about their axes (their `theta` columns).
-                    let joints: Vec<Vector3<f64>> = (theta.iter())
-                        .map(|&c| {
-                            Vector3::new(full[(row, c)], full[(row + 1, c)], full[(row + 2, c)])
-                        })
-                        .collect();
                     if exact {
+                        // The joints turn the tool frame about their axes (their `theta`
+                        // columns).
+                        let joints = joint_columns(&full, &theta, row);
                         let rates = c.deflection_rates(robot, q, load);
                         let twists = robot.param_twists(q);
                         add_deflection_rates(&twists, &rates, &joints, &mut full, row);
@@ -837,6 +806,46 @@ impl<'a> CalibrationProblem<'a> {
     }
 }
 
+/// The second-order terms of [`CalibrationProblem::exact_jacobian`] in the position rows
+/// `row..row + 3` of the table's columns `full` and the joint errors' `cjac` for the command `q`
+/// under `load` (the point `p` before the `turns`; the joint errors' columns written from the
+/// `theta` columns, the turns' own not yet): every column turned with the point — the turns
+/// move it by `Σ t × (p − a)`, linear in `p`, so a column that moves `p` moves the turned point
+/// `(I + Σ [t]×)` times as much —, then the torques' and the runouts' dependence on the table.
+#[allow(clippy::too_many_arguments)]
+fn exact_terms(
+    robot: &Robot,
+    model: &JointErrors,
+    (q, load): (&[f64], f64),
+    turns: &Turns,
+    p: Vector3<f64>,
+    theta: &[usize],
+    (full, cjac): (&mut DMatrix<f64>, &mut DMatrix<f64>),
+    row: usize,
+) {
+    if !turns.is_empty() {
+        let sum: Vector3<f64> = turns.iter().map(|(t, _)| t).sum();
+        let turn = Matrix3::identity() + sum.cross_matrix();
+        for m in [&mut *full, &mut *cjac] {
+            let turned = turn * m.rows(row, 3);
+            m.rows_mut(row, 3).copy_from(&turned);
+        }
+    }
+    let joints = joint_columns(full, theta, row);
+    let twists = robot.param_twists(q);
+    let rates = model.deflection_rates(robot, q, load);
+    add_deflection_rates(&twists, &rates, &joints, full, row);
+    add_runout_rates(model, &twists, turns, p, full, row);
+}
+
+/// Each joint's column (its `theta` column) in rows `row..row + 3` of `full`: how the point
+/// (or the tool frame) moves as the joint turns, copied before the table's columns change.
+fn joint_columns(full: &DMatrix<f64>, theta: &[usize], row: usize) -> Vec<Vector3<f64>> {
+    (theta.iter())
+        .map(|&c| full.fixed_view::<3, 1>(row, c).into_owned())
+        .collect()
+}
+
 /// Adds to the table's columns in rows `row..row + 3` of `full` what the deflection adds as the
 /// table moves the gravity torques it holds: `Σ_j joints[j] · δd_j`, with `δd_j` the rate of
 /// joint `j`'s deflection ([`JointErrors::deflection_rates`]) along each joint parameter's
@@ -862,13 +871,10 @@ fn add_deflection_rates(
         else {
             continue;
         };
-        let mut add = Vector3::zeros();
+        let mut column = full.fixed_view_mut::<3, 1>(row, col);
         for (joint, rate) in joints.iter().zip(rates) {
             let (rw, rv) = rate[*k];
-            add += joint * (rw.dot(w) + rv.dot(v));
-        }
-        for a in 0..3 {
-            full[(row + a, col)] += add[a];
+            column += joint * (rw.dot(w) + rv.dot(v));
         }
     }
 }
@@ -891,6 +897,7 @@ fn add_runout_rates(
     if model.runouts.is_empty() {
         return;
     }
+    // The runouts' turns follow the tilts' ([`JointErrors::turns`]).
     let runouts = &turns[model.tilts.len()..];
     for (col, twist) in twists.iter().enumerate() {
         let Some(ParamTwist {
@@ -903,7 +910,7 @@ fn add_runout_rates(
             continue;
         };
         let from = joint.unwrap_or(0);
-        let mut add = Vector3::zeros();
+        let mut column = full.fixed_view_mut::<3, 1>(row, col);
         for (r, (t, a)) in model.runouts.iter().zip(runouts) {
             let j = r.wave.joint;
             if j >= from {
@@ -912,11 +919,8 @@ fn add_runout_rates(
                 } else {
                     w.cross(a) + v
                 };
-                add += w.cross(t).cross(&(p - a)) - t.cross(&slide);
+                column += w.cross(t).cross(&(p - a)) - t.cross(&slide);
             }
-        }
-        for k in 0..3 {
-            full[(row + k, col)] += add[k];
         }
     }
 }

@@ -627,11 +627,11 @@ fn elastic_jacobian_matches_central_differences() {
 /// joint-error term at once, at a point away from the nominal table: the links' weights,
 /// self-weight terms, harmonics and axis runouts of a heavily loaded arm (a coefficient whose
 /// column vanishes at the start keeps a scale of 1: the point lies up to half a unit along it,
-/// far beyond a real arm's turns). The
-/// table's columns hold the torques' own dependence on the table (the compliances deflect under
-/// torques taken at the command, whose lever arms the table sets), the turn of every column and
-/// the motion of the runouts' axes and origins; with any of the three left out, columns are off
-/// by 0.1 % to several times their size here (checked).
+/// far beyond a real arm's turns). The table's columns hold the torques' own dependence on the
+/// table (the compliances deflect under torques taken at the command, whose lever arms the
+/// table sets), the turn of every column and the motion of the runouts' axes and origins; with
+/// any of the three left out, columns are off by 0.1 % to several times their size here
+/// (checked).
 #[test]
 fn jacobian_with_every_smooth_joint_error_matches_central_differences() {
     let nominal = nominal();

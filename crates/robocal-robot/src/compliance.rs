@@ -1514,15 +1514,11 @@ impl JointErrors {
     /// terms. The harmonics and the backlash (a flank is constant between its switches) do not
     /// move with the table.
     pub fn deflection_rates(&self, robot: &Robot, q: &[f64], load: f64) -> DeflectionRates {
-        self.rates_at(&self.pose(robot, q), load)
-    }
-
-    /// [`Self::deflection_rates`] at the command `pose` holds.
-    fn rates_at(&self, pose: &PoseCache, load: f64) -> DeflectionRates {
         let compliant = self.values.iter().any(|&c| c != 0.0);
         if !compliant && self.self_weight.is_empty() {
             return Vec::new();
         }
+        let pose = self.pose(robot, q);
         let Pose { axes, frames, g } = pose.get();
         let dof = axes.len();
         let zero = (Vector3::zeros(), Vector3::zeros());
