@@ -15,7 +15,7 @@ use crate::error::{IdentError, Result};
 use crate::identifiability::{
     Column, Identifiability, analyse, deviations_of, standard_deviations,
 };
-use crate::lm::run_lm;
+use crate::lm::{run_lm, run_lm_until};
 use crate::problem::{
     CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, Observations,
     angle_weight, select,
@@ -74,6 +74,10 @@ pub struct KinematicSettings {
     pub noise_mm: f64,
     /// The 6-DoF probe's angular noise, deg per axis (1σ).
     pub noise_deg: f64,
+    /// When the fit must have ended (the default calibration's share of its time budget for a
+    /// fold of a candidate): a Levenberg–Marquardt solve still running then stops, and the fit
+    /// with [`crate::IdentError::Deadline`]; BFGS (the paper's) runs on. `None`: no limit.
+    pub deadline: Option<std::time::Instant>,
 }
 
 impl KinematicSettings {
@@ -205,6 +209,7 @@ impl Default for KinematicSettings {
             angle_weight: None,
             noise_mm: DEFAULT_NOISE_MM,
             noise_deg: DEFAULT_NOISE_DEG,
+            deadline: None,
         }
     }
 }
@@ -941,7 +946,12 @@ fn solve_gated(
             (u0, 0, "nothing to identify".to_string())
         } else {
             match settings.solver {
-                SolverKind::Lm => run_lm(LeastSquares(problem), u0, settings.max_iterations)?,
+                SolverKind::Lm => run_lm_until(
+                    LeastSquares(problem),
+                    u0,
+                    settings.max_iterations,
+                    settings.deadline,
+                )?,
                 SolverKind::Bfgs => run_bfgs(problem, u0, settings.max_iterations)?,
             }
         };

@@ -40,6 +40,9 @@ pub enum IdentError {
     /// Registration could not place the robot (e.g. all points coincide).
     #[error("registration failed: {0}")]
     Registration(String),
+    /// A solve still running at the fit's deadline ([`crate::KinematicSettings::deadline`]).
+    #[error("stopped: the fit ran past its deadline")]
+    Deadline,
 }
 
 /// Result with [`IdentError`].

@@ -36,7 +36,7 @@ pub use identifiability::{
     Column, Identifiability, analyse, posterior_covariance, posterior_standard_deviations,
     standard_deviations,
 };
-pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm};
+pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm, run_lm_until};
 pub use problem::{
     BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, MeanDistance,
     Observations, angle_weight, select,

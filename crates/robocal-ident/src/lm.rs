@@ -7,6 +7,7 @@ use argmin::core::{
 };
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
+use std::time::Instant;
 
 /// The relative decrease of the cost below which [`STALLED_STEPS`] accepted steps in a row end
 /// the solve. With `N` residuals of a fit that leaves noise, the cost sits `δ² / N` of itself
@@ -178,13 +179,35 @@ where
     O: Operator<Param = Vec<f64>, Output = Vec<f64>>
         + Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>,
 {
+    run_lm_until(op, u0, max_iters, None)
+}
+
+/// [`run_lm`] that stops with [`crate::IdentError::Deadline`] once `deadline` has passed (checked
+/// at every evaluation of the residuals).
+pub fn run_lm_until<O>(
+    op: O,
+    u0: Vec<f64>,
+    max_iters: u64,
+    deadline: Option<Instant>,
+) -> crate::Result<(Vec<f64>, u64, String)>
+where
+    O: Operator<Param = Vec<f64>, Output = Vec<f64>>
+        + Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>,
+{
     let solver = LevenbergMarquardt::default();
+    let op = UntilDeadline { op, deadline };
     let result = argmin::core::Executor::new(op, solver)
         .configure(|s| s.param(u0).max_iters(max_iters))
         .run()
-        .map_err(|e| crate::IdentError::Solver {
-            solver: "lm",
-            message: e.to_string(),
+        .map_err(|e| {
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                crate::IdentError::Deadline
+            } else {
+                crate::IdentError::Solver {
+                    solver: "lm",
+                    message: e.to_string(),
+                }
+            }
         })?;
     let reason = match result.solver.converged() {
         Some(why) => format!("converged: {why}"),
@@ -196,6 +219,31 @@ where
     let iters = result.state.get_iter();
     let u = result.state.get_best_param().cloned().unwrap_or_default();
     Ok((u, iters, reason))
+}
+
+/// An operator whose residuals fail once `deadline` has passed.
+struct UntilDeadline<O> {
+    op: O,
+    deadline: Option<Instant>,
+}
+
+impl<O: Operator<Param = Vec<f64>, Output = Vec<f64>>> Operator for UntilDeadline<O> {
+    type Param = Vec<f64>;
+    type Output = Vec<f64>;
+    fn apply(&self, u: &Vec<f64>) -> Result<Vec<f64>, Error> {
+        if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            return Err(Error::msg("the deadline has passed"));
+        }
+        self.op.apply(u)
+    }
+}
+
+impl<O: Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>> Jacobian for UntilDeadline<O> {
+    type Param = Vec<f64>;
+    type Jacobian = Mat<f64>;
+    fn jacobian(&self, u: &Vec<f64>) -> Result<Mat<f64>, Error> {
+        self.op.jacobian(u)
+    }
 }
 
 #[cfg(test)]
@@ -290,6 +338,24 @@ mod tests {
                 "parameter {p}: {off} σ from the minimum ({why})"
             );
         }
+    }
+
+    /// A deadline already passed stops the solve at its first evaluation, with the deadline's
+    /// own error (the default calibration abandons the candidate on it); one far ahead changes
+    /// nothing, to the bit.
+    #[test]
+    fn a_solve_past_its_deadline_stops_with_the_deadline_error() {
+        let past = Instant::now();
+        let stopped = run_lm_until(curve(0.001), START.to_vec(), 500, Some(past));
+        assert!(
+            matches!(stopped, Err(crate::IdentError::Deadline)),
+            "{stopped:?}"
+        );
+        let ahead = Instant::now() + std::time::Duration::from_secs(3600);
+        let (u, iterations, _) =
+            run_lm_until(curve(0.001), START.to_vec(), 500, Some(ahead)).unwrap();
+        let (free, free_iterations, _) = run_lm(curve(0.001), START.to_vec(), 500).unwrap();
+        assert_eq!((u, iterations), (free, free_iterations));
     }
 
     /// A noise-free fit is not stopped by the rule: its cost falls by large fractions down to

@@ -1,6 +1,7 @@
 //! Identification against known injected errors, on the twin's pose design.
 
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -8,8 +9,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use robocal_data::MeasurementSet;
 use robocal_ident::{
-    CalibrationProblem, ComplianceSettings, KinematicSettings, Loss, Observations, SolverKind,
-    analyse, calibrate_kinematics,
+    CalibrationProblem, ComplianceSettings, IdentError, KinematicSettings, Loss, Observations,
+    SolverKind, analyse, calibrate_kinematics,
 };
 use robocal_robot::{Base, Compliance, DEG_PER_KNM, Robot};
 
@@ -119,6 +120,31 @@ fn lm_recovers_injected_errors_from_noise_free_data() {
         before > 0.2,
         "the injected errors are visible before calibration: {before} mm"
     );
+}
+
+/// An identification still solving at its deadline (the default calibration's share of the
+/// budget for a fold) stops with the deadline's error, not with a model; one with a deadline far
+/// ahead gives the same table as one without, to the bit.
+#[test]
+fn an_identification_past_its_deadline_stops_with_the_deadline_error() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 1);
+    let obs = observe(&truth, &configs[..40], 0.01, 3);
+    let until = |deadline| KinematicSettings {
+        deadline: Some(deadline),
+        ..KinematicSettings::default()
+    };
+    let stopped = calibrate_kinematics(&nominal, &obs, &until(Instant::now()));
+    assert!(
+        matches!(stopped, Err(IdentError::Deadline)),
+        "{:?}",
+        stopped.map(|c| c.report.after.mean)
+    );
+    let ahead = Instant::now() + Duration::from_secs(3600);
+    let timed = calibrate_kinematics(&nominal, &obs, &until(ahead)).unwrap();
+    let free = calibrate_kinematics(&nominal, &obs, &KinematicSettings::default()).unwrap();
+    assert_eq!(timed.robot.params(), free.robot.params());
 }
 
 #[test]

@@ -1,16 +1,16 @@
 //! The default calibration: candidates scored on held-out poses, a chain of decisions, the
 //! chosen model fitted again on every row.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
 use robocal_ident::{
-    ComplianceSettings, FLANK_ROUNDS, FitMemo, JointErrorSettings, KinematicCalibration,
-    KinematicSettings, MOUNTING_ANGLE_DEG, Observations, SEARCH_FLANK_ROUNDS, calibrate_kinematics,
-    tracker_down,
+    ComplianceSettings, FLANK_ROUNDS, FitMemo, IdentError, JointErrorSettings,
+    KinematicCalibration, KinematicSettings, MOUNTING_ANGLE_DEG, Observations, SEARCH_FLANK_ROUNDS,
+    calibrate_kinematics, tracker_down,
 };
 use robocal_model::{CalibratedModel, Domain};
 use robocal_residual::{Frame, ResidualKind, ResidualSettings, ResidualStage};
@@ -23,7 +23,7 @@ use super::spread::{self, SpreadCalibration};
 use super::{
     Built, configurations, configured, fit_kinematic_with, loads, physical_model, train_residual,
 };
-use crate::error::Result;
+use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
 
 /// What the default calibration decided about one stage.
@@ -401,11 +401,24 @@ struct Scored {
     fitted: Vec<Option<CalibratedModel>>,
 }
 
+/// The seconds one fold's fit of a candidate may take when `left` seconds of the budget remain
+/// for its `folds` fits, `at_once` at a time, and the final fit after them
+/// ([`FINAL_FIT_SHARE`] of the folds' time): a fold past it leaves too little for the rest
+/// at its pace (each round of folds takes as long as its slowest). Never negative.
+fn fold_share(left: f64, folds: usize, at_once: usize) -> f64 {
+    let rounds = folds.div_ceil(at_once.max(1)).max(1);
+    (left / (1.0 + FINAL_FIT_SHARE) / rounds as f64).max(0.0)
+}
+
 /// Fits `physics` on every fold and scores it on the fold's held-out rows. A joint-error
 /// candidate is abandoned once its remaining folds, at the pace of those fitted, and the final
-/// fit would run past the time budget (`over_budget`): the folds not yet started are not fitted
-/// and the candidate has no score. Its start was projected from the candidates before it
-/// ([`physics_chain`]); one that unites more blocks than any before can take twice that.
+/// fit would run past the time budget (`over_budget`), or once a fold's fit runs past its share
+/// of what the budget has left (`left`, seconds; [`fold_share`]): the folds not yet ended are
+/// not fitted and the candidate has no score. Its start was projected from the candidates
+/// before it ([`physics_chain`]); one that unites more blocks than any before can take twice
+/// that, and one with many more unknowns far more (the axis runouts on the paper's arm: 22–46 s
+/// of folds spent before the pace said so, session 46).
+#[allow(clippy::too_many_arguments)]
 fn score_physics(
     physics: Physics,
     auto: &AutoSettings,
@@ -414,16 +427,18 @@ fn score_physics(
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
     over_budget: &(dyn Fn(f64) -> bool + Sync),
+    left: &(dyn Fn() -> f64 + Sync),
 ) -> Scored {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     let splits = &plan.splits;
     let t = std::time::Instant::now();
     let kinematic = physics.settings(auto);
+    let at_once = rayon::current_num_threads().max(1);
+    let share = fold_share(left(), splits.len(), at_once);
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
     let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
-    let at_once = rayon::current_num_threads().max(1);
     // The folds' fits are independent: on every core at once, taken in fold order (the same
     // results on any number of cores), each sharing with the candidates before it the fits of
     // its rows they made. Before a fold starts, once a core's worth are fitted, the rest are
@@ -442,7 +457,19 @@ fn score_physics(
             if abandoned.load(Ordering::SeqCst) {
                 return None;
             }
-            let fit = fit_kinematic_with(nominal, &fold.train, &kinematic, memo);
+            let fit = if physics.has_joint_errors() {
+                let until = KinematicSettings {
+                    deadline: Some(Instant::now() + Duration::from_secs_f64(share)),
+                    ..kinematic.clone()
+                };
+                fit_kinematic_with(nominal, &fold.train, &until, memo)
+            } else {
+                fit_kinematic_with(nominal, &fold.train, &kinematic, memo)
+            };
+            if matches!(fit, Err(PipelineError::Ident(IdentError::Deadline))) {
+                abandoned.store(true, Ordering::SeqCst);
+                return None;
+            }
             done.fetch_add(1, Ordering::SeqCst);
             observer.advance(1);
             Some(fit)
@@ -740,6 +767,7 @@ fn physics_chain(
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
     over_budget: &(dyn Fn(f64) -> bool + Sync),
+    left: &(dyn Fn() -> f64 + Sync),
 ) -> Chain {
     let mut score = |physics: Physics| {
         // A joint-error candidate does not start when the budget would be spent before it and the
@@ -781,6 +809,7 @@ fn physics_chain(
             candidates,
             observer,
             over_budget,
+            left,
         )
     };
     let mut chain = Chain {
@@ -1436,6 +1465,7 @@ pub fn automatic(
         return Ok(built);
     };
     let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
+    let left = || settings.budget_seconds - start.elapsed().as_secs_f64();
     // The progress bar counts fits: every candidate on every fold, and the final one. Physical
     // candidates: nominal, identified, compliance, and at most n + (n − 1) + … + 1 of the n
     // joint-error blocks' stepwise selection.
@@ -1458,6 +1488,7 @@ pub fn automatic(
         &mut candidates,
         observer,
         &over_budget,
+        &left,
     );
     // The final fit of the chosen physics on every row, kept out of the residual models'
     // budget: about a fold's fit of the slowest physical candidate (its folds ran two at a time)
@@ -1647,6 +1678,20 @@ mod tests {
     /// The residual pick: the lowest score among the models that pass the paired test against
     /// the physics (1.0); a lower-scoring model that fails it does not hide one that passes, and
     /// one that passes but scores above the physics is not taken.
+    /// A fold's share of the budget left: the folds' rounds (`at_once` at a time) and the final
+    /// fit's share after them take it all; nothing left gives nothing.
+    #[test]
+    fn a_fold_gets_its_rounds_share_of_the_budget_left() {
+        // Ten folds two at a time: five rounds, and the final fit's 0.2 of them.
+        let share = fold_share(60.0, 10, 2);
+        assert!((share * 5.0 * (1.0 + FINAL_FIT_SHARE) - 60.0).abs() < 1e-12);
+        // An odd fold is a round of its own; one core runs every fold in turn.
+        assert_eq!(fold_share(60.0, 9, 2), fold_share(60.0, 10, 2));
+        assert_eq!(fold_share(60.0, 5, 1), fold_share(60.0, 10, 2));
+        assert_eq!(fold_share(60.0, 5, 0), fold_share(60.0, 5, 1));
+        assert_eq!(fold_share(-3.0, 10, 2), 0.0);
+    }
+
     #[test]
     fn the_residual_pick_is_the_lowest_score_among_the_significant() {
         let model = |score: f64, significant: bool| ResidualScore {
