@@ -1675,9 +1675,6 @@ mod tests {
         );
     }
 
-    /// The residual pick: the lowest score among the models that pass the paired test against
-    /// the physics (1.0); a lower-scoring model that fails it does not hide one that passes, and
-    /// one that passes but scores above the physics is not taken.
     /// A fold's share of the budget left: the folds' rounds (`at_once` at a time) and the final
     /// fit's share after them take it all; nothing left gives nothing.
     #[test]
@@ -1692,6 +1689,9 @@ mod tests {
         assert_eq!(fold_share(-3.0, 10, 2), 0.0);
     }
 
+    /// The residual pick: the lowest score among the models that pass the paired test against
+    /// the physics (1.0); a lower-scoring model that fails it does not hide one that passes, and
+    /// one that passes but scores above the physics is not taken.
     #[test]
     fn the_residual_pick_is_the_lowest_score_among_the_significant() {
         let model = |score: f64, significant: bool| ResidualScore {
