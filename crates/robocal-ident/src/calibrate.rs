@@ -1380,10 +1380,11 @@ impl FitMemo {
         obs: &Observations,
         settings: &KinematicSettings,
     ) -> Option<KinematicCalibration> {
+        let settings = undated(settings);
         let e = self.entries();
         let k = e.rows_of(obs)?;
         (e.fits.iter())
-            .find(|(r, o, s, _)| *o == k && s == settings && r == nominal)
+            .find(|(r, o, s, _)| *o == k && *s == settings && r == nominal)
             .map(|(_, _, _, fit)| fit.clone())
     }
 
@@ -1397,12 +1398,21 @@ impl FitMemo {
     ) {
         let mut e = self.entries();
         let k = e.keep_rows(obs);
-        (e.fits).push((nominal.clone(), k, settings.clone(), fit.clone()));
+        (e.fits).push((nominal.clone(), k, undated(settings), fit.clone()));
     }
 
     /// How many identifications it remembers.
     pub fn fits(&self) -> usize {
         self.entries().fits.len()
+    }
+}
+
+/// `settings` without their deadline: a fit that ended is the same whatever time it had to end
+/// by, so the candidates' folds, each with its own deadline, share it through a [`FitMemo`].
+fn undated(settings: &KinematicSettings) -> KinematicSettings {
+    KinematicSettings {
+        deadline: None,
+        ..settings.clone()
     }
 }
 

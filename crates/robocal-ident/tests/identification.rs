@@ -1029,8 +1029,8 @@ fn elasto_geometric_lm_recovers_injected_link_weights() {
 
 /// A memo of one set of rows' fits: the fit with the links' weights remembers its first fit
 /// (the compliances alone), the fit from there and itself; the compliances alone asked next
-/// come from the memo (nothing new remembered), and other rows are fitted anew; every result
-/// equals the one made without a memo, bit for bit.
+/// come from the memo (nothing new remembered), with a deadline too, and other rows are fitted
+/// anew; every result equals the one made without a memo, bit for bit.
 #[test]
 fn a_memo_shares_the_first_fit_and_changes_no_result() {
     use robocal_ident::{FitMemo, JointErrorSettings, KinematicCalibration};
@@ -1071,6 +1071,15 @@ fn a_memo_shares_the_first_fit_and_changes_no_result() {
         3,
         "the compliances alone are the first fit, remembered"
     );
+    // A deadline makes no other fit: one that ended is the same whatever time it had to end by
+    // (the default calibration gives every candidate's folds their own).
+    let dated = KinematicSettings {
+        deadline: Some(Instant::now() + Duration::from_secs(3600)),
+        ..alone.clone()
+    };
+    let again = robocal_ident::calibrate_kinematics_with(&nominal, &obs, &dated, &memo).unwrap();
+    assert_eq!(memo.fits(), 3, "a deadline's fit is the one remembered");
+    assert!(same(&again, &first));
     assert!(same(
         &with,
         &calibrate_kinematics(&nominal, &obs, &weights).unwrap()
