@@ -196,6 +196,11 @@ pub fn run(
             "robocal: transmission harmonics under a prior of spread {spread:.4}° (chosen by marginal likelihood: a harmonic the poses barely determine is drawn toward it)"
         );
     }
+    if let Some(spread) = r.runout_prior_deg {
+        eprintln!(
+            "robocal: axis runouts under a prior of spread {spread:.4}° (chosen by marginal likelihood, as the harmonics')"
+        );
+    }
     if !r.identified_by_reflectors.is_empty() {
         eprintln!(
             "robocal: identified thanks to the extra reflectors (the default one alone would hold them fixed): {}",

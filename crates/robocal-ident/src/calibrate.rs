@@ -18,7 +18,7 @@ use crate::identifiability::{
 use crate::lm::{run_lm, run_lm_until};
 use crate::problem::{
     CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, Observations,
-    angle_weight, select,
+    PriorSpreads, angle_weight, select,
 };
 use crate::registration::{register_base, register_tool_rotation};
 
@@ -428,6 +428,10 @@ pub struct KinematicReport {
     /// ([`JointErrorSettings::harmonic_prior`]), when the harmonics were identified under one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub harmonic_prior_deg: Option<f64>,
+    /// The spread (standard deviation, deg) of the axis runouts' prior the data chose, when the
+    /// runouts were identified under one (their own, beside the harmonics').
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub runout_prior_deg: Option<f64>,
     /// What the user should know about the data's ability to determine the parameters.
     pub warnings: Vec<String>,
 }
@@ -1110,14 +1114,14 @@ fn held_compliance(problem: &CalibrationProblem<'_>, joint: usize) -> String {
 /// `τ`. The axis runouts' coefficients, waves of the joint angles too, get a prior of their own
 /// the same way (their own `τ`: a turn across an axis is not a gear's error). `model`, `r` and
 /// `std` are the fit's joint errors, residuals and unknowns' standard deviations. Returns the
-/// priors and the harmonics' `τ` (rad; none without harmonics); none where neither group has
-/// two coefficients.
+/// priors and each group's `τ` (rad; none for a group without two coefficients); none where
+/// neither group has two.
 fn harmonic_prior(
     problem: &CalibrationProblem<'_>,
     model: &Compliance,
     r: &[f64],
     std: &[f64],
-) -> Option<(Priors, Option<f64>)> {
+) -> Option<(Priors, PriorSpreads)> {
     let ng = problem.selected().len();
     let params = problem.error_params().to_vec();
     let dof = (r.len().checked_sub(problem.unknowns())).filter(|&d| d > 0)?;
@@ -1143,7 +1147,10 @@ fn harmonic_prior(
     if harmonics.is_none() && runouts.is_none() {
         return None;
     }
-    let spread = harmonics.as_ref().map(|(_, tau)| *tau);
+    let spread = PriorSpreads {
+        harmonics: harmonics.as_ref().map(|(_, tau)| *tau),
+        runouts: runouts.as_ref().map(|(_, tau)| *tau),
+    };
     let prior = (harmonics.into_iter().chain(runouts))
         .flat_map(|(p, _)| p)
         .collect();
@@ -1848,7 +1855,8 @@ fn identify_anew(
             observability_index: ident.observability_index,
             compliance: compliance_report,
             joint_errors,
-            harmonic_prior_deg: problem.prior_spread().map(f64::to_degrees),
+            harmonic_prior_deg: problem.prior_spread().harmonics.map(f64::to_degrees),
+            runout_prior_deg: problem.prior_spread().runouts.map(f64::to_degrees),
             warnings,
         },
     })

@@ -39,7 +39,7 @@ pub use identifiability::{
 pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm, run_lm_until};
 pub use problem::{
     BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, MeanDistance,
-    Observations, angle_weight, select,
+    Observations, PriorSpreads, angle_weight, select,
 };
 pub use registration::{kabsch, register_base, register_tool_rotation};
 pub use stage::{MAX_HARMONICS, RawComplianceStage, RawJointErrorStage, RawKinematicStage};

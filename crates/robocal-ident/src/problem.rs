@@ -244,8 +244,18 @@ pub struct CalibrationProblem<'a> {
     /// Zero-mean Gaussian priors on joint-error coefficients: `(coefficient, weight)`, each a
     /// residual row `weight × value` (mm-equivalent) that the least-squares view appends.
     prior: Vec<(ErrorParam, f64)>,
-    /// The priors' spread (their standard deviation, internal units), when they share one.
-    prior_spread: Option<f64>,
+    /// The priors' spreads (their standard deviations, internal units), by group.
+    prior_spread: PriorSpreads,
+}
+
+/// The spreads (standard deviations, rad) of the priors on the joint errors, one per group of
+/// coefficients that shares one: the transmission harmonics' and the axis runouts'.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PriorSpreads {
+    /// The harmonics' spread, when they are under a prior.
+    pub harmonics: Option<f64>,
+    /// The runouts' spread, when they are under a prior.
+    pub runouts: Option<f64>,
 }
 
 /// The joint-error part of a problem.
@@ -289,7 +299,7 @@ impl<'a> CalibrationProblem<'a> {
             oriented: obs.oriented(),
             root_weights: None,
             prior: Vec::new(),
-            prior_spread: None,
+            prior_spread: PriorSpreads::default(),
         };
         let (_, full, _) = problem.full_jacobian(robot, None, false);
         let m = obs.len().max(1) as f64;
@@ -527,9 +537,8 @@ impl<'a> CalibrationProblem<'a> {
     /// Sets zero-mean Gaussian priors on joint-error coefficients, `(coefficient, weight)`: the
     /// least-squares view ([`LeastSquares`]) appends a row `weight × value` for each (a prior of
     /// standard deviation `τ` against residuals of standard deviation `σ`: weight `σ / τ`);
-    /// coefficients not identified are left out. `spread` is the priors' `τ` when they share one
-    /// (reported).
-    pub fn set_prior(&mut self, prior: Vec<(ErrorParam, f64)>, spread: Option<f64>) {
+    /// coefficients not identified are left out. `spread` holds the groups' `τ` (reported).
+    pub fn set_prior(&mut self, prior: Vec<(ErrorParam, f64)>, spread: PriorSpreads) {
         let params = self.error_params().to_vec();
         self.prior = prior
             .into_iter()
@@ -543,9 +552,13 @@ impl<'a> CalibrationProblem<'a> {
         !self.prior.is_empty()
     }
 
-    /// The priors' shared spread, internal units ([`Self::set_prior`]).
-    pub fn prior_spread(&self) -> Option<f64> {
-        self.prior_spread.filter(|_| self.has_prior())
+    /// The priors' spreads, internal units ([`Self::set_prior`]; none without priors).
+    pub fn prior_spread(&self) -> PriorSpreads {
+        if self.has_prior() {
+            self.prior_spread
+        } else {
+            PriorSpreads::default()
+        }
     }
 
     /// The priors' rows at `u`, and for each its unknown's position and derivative.

@@ -2319,7 +2319,13 @@ fn the_harmonic_prior_rows_match_central_differences() {
         .map(|(i, &p)| (p, 3.0 + i as f64))
         .collect();
     assert_eq!(harmonics.len(), 12);
-    problem.set_prior(harmonics.clone(), Some(1e-4));
+    problem.set_prior(
+        harmonics.clone(),
+        robocal_ident::PriorSpreads {
+            harmonics: Some(1e-4),
+            runouts: None,
+        },
+    );
     let k = problem.unknowns();
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let u: Vec<f64> = (0..k).map(|_| rng.random_range(-0.5..0.5)).collect();
@@ -2518,6 +2524,27 @@ fn runouts_model_the_twins_axis_runout() {
     );
     // Each joint's turn across its axis, model against twin, at the held-out angles.
     let found = wobbling.compliance.as_ref().unwrap();
+    // The runouts' prior spread is reported, on its own (no harmonics here): noise-free, every
+    // standard error is nearly zero and the marginal likelihood's maximum is the identified
+    // coefficients' root mean square (those the poses do not separate from the geometry are held
+    // at zero and take no part; the prior, weighed by a residual σ near zero, moves none).
+    let coefficients: Vec<f64> = (found.runouts.iter())
+        .flat_map(|r| [r.wave.sin, r.wave.cos])
+        .filter(|c| *c != 0.0)
+        .collect();
+    let rms = (coefficients.iter().map(|c| c * c).sum::<f64>() / coefficients.len() as f64)
+        .sqrt()
+        .to_degrees();
+    let spread = wobbling
+        .report
+        .runout_prior_deg
+        .expect("the runouts' spread");
+    assert!(
+        (spread - rms.max(1e-3)).abs() < 0.02 * spread,
+        "spread {spread}° against the coefficients' RMS {rms}°"
+    );
+    assert_eq!(wobbling.report.harmonic_prior_deg, None);
+    assert_eq!(rigid.report.runout_prior_deg, None);
     eprintln!(
         "fitted {} vs {}, held out {wobbling_left} vs {rigid_left}",
         wobbling.report.after.mean, rigid.report.after.mean
