@@ -199,15 +199,12 @@ where
     let result = argmin::core::Executor::new(op, solver)
         .configure(|s| s.param(u0).max_iters(max_iters))
         .run()
-        .map_err(|e| {
-            if deadline.is_some_and(|d| Instant::now() >= d) {
-                crate::IdentError::Deadline
-            } else {
-                crate::IdentError::Solver {
-                    solver: "lm",
-                    message: e.to_string(),
-                }
-            }
+        .map_err(|e| match e.downcast::<crate::IdentError>() {
+            Ok(deadline) => deadline,
+            Err(e) => crate::IdentError::Solver {
+                solver: "lm",
+                message: e.to_string(),
+            },
         })?;
     let reason = match result.solver.converged() {
         Some(why) => format!("converged: {why}"),
@@ -221,7 +218,8 @@ where
     Ok((u, iters, reason))
 }
 
-/// An operator whose residuals fail once `deadline` has passed.
+/// An operator whose residuals fail with [`crate::IdentError::Deadline`] once `deadline` has
+/// passed.
 struct UntilDeadline<O> {
     op: O,
     deadline: Option<Instant>,
@@ -232,7 +230,7 @@ impl<O: Operator<Param = Vec<f64>, Output = Vec<f64>>> Operator for UntilDeadlin
     type Output = Vec<f64>;
     fn apply(&self, u: &Vec<f64>) -> Result<Vec<f64>, Error> {
         if self.deadline.is_some_and(|d| Instant::now() >= d) {
-            return Err(Error::msg("the deadline has passed"));
+            return Err(crate::IdentError::Deadline.into());
         }
         self.op.apply(u)
     }

@@ -457,15 +457,12 @@ fn score_physics(
             if abandoned.load(Ordering::SeqCst) {
                 return None;
             }
-            let fit = if physics.has_joint_errors() {
-                let until = KinematicSettings {
-                    deadline: Some(Instant::now() + Duration::from_secs_f64(share)),
-                    ..kinematic.clone()
-                };
-                fit_kinematic_with(nominal, &fold.train, &until, memo)
-            } else {
-                fit_kinematic_with(nominal, &fold.train, &kinematic, memo)
+            let until = KinematicSettings {
+                deadline: (physics.has_joint_errors())
+                    .then(|| Instant::now() + Duration::from_secs_f64(share)),
+                ..kinematic.clone()
             };
+            let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
             if matches!(fit, Err(PipelineError::Ident(IdentError::Deadline))) {
                 abandoned.store(true, Ordering::SeqCst);
                 return None;
