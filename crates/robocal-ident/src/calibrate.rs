@@ -1822,6 +1822,7 @@ fn identify_anew(
         &fixed,
         &std_of,
     );
+    let spread = problem.prior_spread();
     let joint_errors = match &compliance {
         Some(model)
             if settings.joint_errors.is_some()
@@ -1855,8 +1856,8 @@ fn identify_anew(
             observability_index: ident.observability_index,
             compliance: compliance_report,
             joint_errors,
-            harmonic_prior_deg: problem.prior_spread().harmonics.map(f64::to_degrees),
-            runout_prior_deg: problem.prior_spread().runouts.map(f64::to_degrees),
+            harmonic_prior_deg: spread.harmonics.map(f64::to_degrees),
+            runout_prior_deg: spread.runouts.map(f64::to_degrees),
             warnings,
         },
     })

@@ -910,8 +910,7 @@ fn add_runout_rates(
     if model.runouts.is_empty() {
         return;
     }
-    // The runouts' turns follow the tilts' ([`JointErrors::turns`]).
-    let runouts = &turns[model.tilts.len()..];
+    let runouts = model.runout_turns(turns);
     for (col, twist) in twists.iter().enumerate() {
         let Some(ParamTwist {
             joint,

@@ -1046,6 +1046,22 @@ impl JointErrors {
         self.turns_at(&self.pose(robot, q), load)
     }
 
+    /// The runouts' turns among `turns`, this model's ([`Self::turns`]: the tilting joints'
+    /// first, then one per runout in the order of `runouts`), each with the origin it turns
+    /// about. Panics where `turns` are not this model's (a count that does not match).
+    pub fn runout_turns<'t>(
+        &self,
+        turns: &'t [(Vector3<f64>, Vector3<f64>)],
+    ) -> &'t [(Vector3<f64>, Vector3<f64>)] {
+        let runouts = &turns[self.tilts.len().min(turns.len())..];
+        assert_eq!(
+            (turns.len(), runouts.len()),
+            (self.tilts.len() + self.runouts.len(), self.runouts.len()),
+            "the turns of another model"
+        );
+        runouts
+    }
+
     /// For each of `params` (by position `k`) that turns the parts beyond a tilting joint, the
     /// turn per unit (rad, world frame) and the joint's origin it turns about, as entries
     /// `(k, origin, turn)`: a tilting compliance its moment across the axis; a link weight and

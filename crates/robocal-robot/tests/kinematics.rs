@@ -694,6 +694,19 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     assert!((alone.point(&robot, &q, 0.0) - expected).norm() < 1e-12);
     assert!((alone.point(&robot, &q, 0.0) - p).norm() > 1e-2);
     assert_eq!(alone.deflected(&robot, &q, 0.0), q);
+    // The runouts' turns among a model's turns (the tilting joints' first): those of the same
+    // runouts without the tilts; joint 3's order-1 cosine alone, the turn by hand.
+    let turns = e.turns(&robot, &q, load);
+    assert_eq!(turns.len(), e.tilts.len() + e.runouts.len());
+    let mut without_tilts = e.clone();
+    without_tilts.tilts.clear();
+    assert_eq!(
+        e.runout_turns(&turns),
+        without_tilts.turns(&robot, &q, load).as_slice()
+    );
+    let turns = alone.turns(&robot, &q, 0.0);
+    assert_eq!(alone.runout_turns(&turns).len(), 2);
+    assert!((alone.runout_turns(&turns)[1].0 - turn).norm() < 1e-15);
     let params = e.params();
     let (p, jac) = e.param_jacobian(&robot, &q, load, &params);
     assert!((p - e.point(&robot, &q, load)).norm() < 1e-12);
