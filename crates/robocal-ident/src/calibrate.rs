@@ -13,7 +13,8 @@ use serde::Serialize;
 use crate::bfgs::run_bfgs;
 use crate::error::{IdentError, Result};
 use crate::identifiability::{
-    Column, Identifiability, analyse, deviations_of, standard_deviations,
+    Column, Identifiability, analyse, deviations_of, ridged_standard_deviations,
+    standard_deviations,
 };
 use crate::lm::{run_lm, run_lm_until};
 use crate::problem::{
@@ -986,16 +987,25 @@ fn solve_gated(
         let prior_wanted = !problem.has_prior()
             && settings.solver == SolverKind::Lm
             && (settings.joint_errors.as_ref()).is_some_and(|je| je.harmonic_prior);
-        // The fit's residuals and standard deviations, once, for the gate and the prior.
+        // The fit's residuals and standard deviations, once, for the gate and the prior. Where
+        // the data's covariance is singular (at the fit, a backlash whose rows all rest on one
+        // flank is its joint's offset), the prior's spread comes from the deviations under a
+        // vanishing ridge ([`ridged_standard_deviations`]): until session 48 such a fit kept no
+        // prior at all, and the flank rounds then compared it with fits under the prior.
         let fitted = (gate || prior_wanted).then(|| {
             let (r, jac) = problem.residuals_and_jacobian(&solved.0);
             let std = standard_deviations(&jac, &r);
-            (r, std)
+            let for_prior = if prior_wanted && std.is_none() {
+                ridged_standard_deviations(&jac, &r)
+            } else {
+                std.clone()
+            };
+            (r, std, for_prior)
         });
         let std_u = fitted
             .as_ref()
             .filter(|_| gate)
-            .and_then(|(_, std)| std.as_ref());
+            .and_then(|(_, std, _)| std.as_ref());
         let implausible = |p: usize| -> Option<String> {
             let value = match kept[p] {
                 Column::Compliance(j) => model.values[j],
@@ -1042,7 +1052,7 @@ fn solve_gated(
             // The harmonics' prior, once the gate holds none of them: its spread comes from the
             // plausible ones (a term beyond a gear's bound is no gear's), and every coefficient
             // is solved again under it from zero, like any other re-solve.
-            if let Some((r, Some(std))) = fitted.as_ref().filter(|_| prior_wanted)
+            if let Some((r, _, Some(std))) = fitted.as_ref().filter(|_| prior_wanted)
                 && let Some((prior, spread)) = harmonic_prior(problem, &model, r, std)
             {
                 problem.set_prior(prior, spread);

@@ -278,6 +278,30 @@ pub fn posterior_standard_deviations(
     deviations_of(&posterior_covariance(jac, residuals, prior)?)
 }
 
+/// The ridge [`ridged_standard_deviations`] adds where `JᵀJ` is singular, as a fraction of its
+/// largest diagonal entry: a hundred times above the round-off of `JᵀJ` with a hundred unknowns
+/// (`10⁻¹⁶ k`), a hundred times below the smallest eigenvalue of the correlations seen among the
+/// harmonics and runouts the identifiability analysis keeps (`10⁻¹⁰`).
+pub const NULL_RIDGE: f64 = 1e-12;
+
+/// The data's standard deviations ([`standard_deviations`]), or where `JᵀJ` is singular, those
+/// under a vanishing ridge: `σ² (JᵀJ + ε I)⁻¹`, `ε` [`NULL_RIDGE`] times `JᵀJ`'s largest
+/// diagonal entry (`σ²` the data's, as [`posterior_standard_deviations`]'s). A direction the data
+/// leave undetermined comes out some 10⁶ times as uncertain as the best determined unknown, so
+/// that it tells a prior's spread next to nothing, where the data's covariance says nothing at
+/// all; the determined directions keep the data's. `None` with no degrees of freedom left.
+pub fn ridged_standard_deviations(jac: &Mat<f64>, residuals: &[f64]) -> Option<Vec<f64>> {
+    if let Some(std) = standard_deviations(jac, residuals) {
+        return Some(std);
+    }
+    let largest = (0..jac.ncols())
+        .map(|j| (0..jac.nrows()).map(|i| jac[(i, j)].powi(2)).sum::<f64>())
+        .fold(0.0, f64::max);
+    let d = (NULL_RIDGE * largest).sqrt();
+    let ridge: Vec<(usize, f64)> = (0..jac.ncols()).map(|j| (j, d)).collect();
+    posterior_standard_deviations(jac, residuals, &ridge)
+}
+
 /// The roots of a covariance's diagonal; `None` when one is not finite.
 pub fn deviations_of(cov: &Mat<f64>) -> Option<Vec<f64>> {
     let std: Vec<f64> = (0..cov.nrows())

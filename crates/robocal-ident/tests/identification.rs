@@ -2299,6 +2299,51 @@ fn posterior_standard_deviations_match_the_closed_form_of_orthogonal_columns() {
     assert_eq!(post[1], data[1]);
 }
 
+/// Where `JᵀJ` is singular (two unknowns the data see only together, as a backlash whose rows
+/// all rest on one flank and its joint's offset), the ridged deviations against the closed form
+/// of `σ² (JᵀJ + d² I)⁻¹`, `d² = ε max_j |Jⱼ|²`: the pair, each of squared norm `n`, has the
+/// variance `σ² (n + d²) / (d² (2n + d²))` — some 10⁶ times the deviation of a determined
+/// unknown —, an unknown of its own `σ² / (|Jⱼ|² + d²)`. Where the data's covariance exists it
+/// is returned unchanged.
+#[test]
+fn ridged_standard_deviations_match_the_closed_form_where_the_data_leave_a_direction_free() {
+    use faer::Mat;
+    use robocal_ident::{NULL_RIDGE, ridged_standard_deviations, standard_deviations};
+    // Unknowns 0 and 1 seen only together (the same column, rows 0–3), 2 by rows 4–11.
+    let column = |i: usize, j: usize| match (i, j) {
+        (0..4, 0 | 1) => 0.5,
+        (4.., 2) => 0.5 + 0.1 * i as f64,
+        _ => 0.0,
+    };
+    let jac = Mat::from_fn(12, 3, column);
+    let r: Vec<f64> = (0..12).map(|i| 0.3 * ((i * 7 % 5) as f64 - 2.0)).collect();
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / 9.0;
+    let norm2 = |j: usize| (0..12).map(|i| jac[(i, j)].powi(2)).sum::<f64>();
+    assert_eq!(standard_deviations(&jac, &r), None);
+    let std = ridged_standard_deviations(&jac, &r).expect("deviations under the ridge");
+    let d2 = NULL_RIDGE * norm2(2).max(norm2(0));
+    let n = norm2(0);
+    let pair = (sigma2 * (n + d2) / (d2 * (2.0 * n + d2))).sqrt();
+    let own = (sigma2 / (norm2(2) + d2)).sqrt();
+    // The pair's to the round-off of `JᵀJ` against the ridge (10⁻¹⁶ / 10⁻¹²).
+    for (j, expected, tolerance) in [(0, pair, 1e-3), (1, pair, 1e-3), (2, own, 1e-12)] {
+        assert!(
+            (std[j] - expected).abs() < tolerance * expected,
+            "{j}: {} vs {expected}",
+            std[j]
+        );
+    }
+    assert!(std[0] > 1e5 * std[2], "{std:?}");
+    // The determined unknown keeps the data's deviation, to the ridge's share.
+    let alone = (sigma2 / norm2(2)).sqrt();
+    assert!((std[2] - alone).abs() < 1e-9 * alone);
+    let apart = Mat::from_fn(12, 3, |i, j| column(i, j) + f64::from(i == 0 && j == 1));
+    assert_eq!(
+        ridged_standard_deviations(&apart, &r),
+        standard_deviations(&apart, &r)
+    );
+}
+
 /// The prior's rows (`weight × coefficient`, appended by the least-squares view) and their
 /// Jacobian columns, against central differences of the view's own residuals.
 #[test]
