@@ -280,8 +280,9 @@ pub fn posterior_standard_deviations(
 
 /// The ridge [`ridged_standard_deviations`] adds where `JᵀJ` is singular, as a fraction of its
 /// largest diagonal entry: a hundred times above the round-off of `JᵀJ` with a hundred unknowns
-/// (`10⁻¹⁶ k`), a hundred times below the smallest eigenvalue of the correlations seen among the
-/// harmonics and runouts the identifiability analysis keeps (`10⁻¹⁰`).
+/// (`10⁻¹⁶ k`), and below the smallest eigenvalues other than the null ones seen on the twins
+/// (about `10⁻¹⁰` of the column-normalised `JᵀJ`, among runouts and offsets, whose columns'
+/// squared norms differed there by up to 70 times).
 pub const NULL_RIDGE: f64 = 1e-12;
 
 /// The data's standard deviations ([`standard_deviations`]), or where `JᵀJ` is singular, those
