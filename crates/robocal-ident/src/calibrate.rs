@@ -125,7 +125,8 @@ pub struct JointErrorSettings {
     /// without them, from that fit's compliances (at zero compliance a weight moves nothing).
     pub link_weights: bool,
     /// Backlash of every joint (a joint whose flanks the poses do not separate from its offset
-    /// is held at zero), each on the flank of its approach from home, or (with
+    /// is held at zero: at the start, and at the fit where its rows all rest on one flank),
+    /// each on the flank of its approach from home, or (with
     /// `backlash_torque`) on the flank its gravity torque presses where that explains more.
     pub backlash: bool,
     /// The home readings, rad, one per joint (`None`: 0 for every joint).
@@ -992,7 +993,8 @@ fn solve_gated(
         // flank is its joint's offset), the prior's spread comes from the deviations under a
         // vanishing ridge ([`ridged_standard_deviations`]): until session 48 such a fit kept no
         // prior at all, and the flank rounds then compared it with fits under the prior.
-        let fitted = (gate || prior_wanted).then(|| {
+        let has_backlash = kept.iter().any(|c| matches!(c, Column::Backlash(_)));
+        let fitted = (gate || prior_wanted || has_backlash).then(|| {
             let (r, jac) = problem.residuals_and_jacobian(&solved.0);
             let std = standard_deviations(&jac, &r);
             let for_prior = if prior_wanted && std.is_none() {
@@ -1037,6 +1039,23 @@ fn solve_gated(
                 })
             }
         };
+        // A backlash whose rows all rest on one flank at the fit is its joint's offset there (a
+        // torque flank's boundary turns with the identified geometry, so the analysis at the
+        // start, which saw both flanks, cannot tell): its split with the offset is left where
+        // the solver's path put it, and a pose on the other flank, which the data never showed,
+        // would move by twice that. The flank (`±1`) all rows rest on, where they do; looked
+        // for only where the data's covariance is singular, which such a term makes it.
+        let singular = fitted.as_ref().is_some_and(|(_, std, _)| std.is_none());
+        let at_fit = (singular && has_backlash).then(|| problem.robot_at(&solved.0));
+        let one_flank = |joint: usize| -> Option<f64> {
+            let robot = at_fit.as_ref()?;
+            let b = model.backlash.iter().find(|b| b.joint == joint)?;
+            let obs = problem.observations();
+            let mut sides =
+                (0..obs.len()).map(|i| model.flank(b, robot, obs.joints(i), obs.loads[i]));
+            let first = sides.next()?;
+            sides.all(|s| s == first).then_some(first)
+        };
         // A coordinate of the payload's centre of mass beyond where a payload can hang.
         let com_too_far = |axis: usize| {
             let c = model.payload_com[axis];
@@ -1045,6 +1064,7 @@ fn solve_gated(
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
                 && !matches!(kept[p], Column::Backlash(j) if half_play(j) > BACKLASH_BOUND_DEG)
+                && !matches!(kept[p], Column::Backlash(j) if one_flank(j).is_some())
                 && !matches!(kept[p], Column::PayloadCom(axis) if com_too_far(axis))
                 && implausible(p).is_none()
         });
@@ -1065,6 +1085,14 @@ fn solve_gated(
                 Column::Harmonic { joint, order, .. } => format!(
                     "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
                     amplitude(joint, order)
+                ),
+                Column::Backlash(j) if half_play(j) <= BACKLASH_BOUND_DEG => format!(
+                    "held at zero: at the fit every row rests on its {} flank, where it is its joint's offset (its flank's boundary turned with the identified geometry): the data cannot tell its play",
+                    if one_flank(j).unwrap_or(1.0) > 0.0 {
+                        "+"
+                    } else {
+                        "−"
+                    }
                 ),
                 Column::Backlash(j) => format!(
                     "held at zero: its backlash came out at {:.3}° half play, beyond the {BACKLASH_BOUND_DEG}° a reducer's can have (an effect it does not model, or poses that barely move the point with the joint)",
