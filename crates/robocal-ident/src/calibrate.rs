@@ -1046,16 +1046,25 @@ fn solve_gated(
         // would move by twice that. The flank (`±1`) all rows rest on, where they do; looked
         // for only where the data's covariance is singular, which such a term makes it.
         let singular = fitted.as_ref().is_some_and(|(_, std, _)| std.is_none());
-        let at_fit = (singular && has_backlash).then(|| problem.robot_at(&solved.0));
-        let one_flank = |joint: usize| -> Option<f64> {
-            let robot = at_fit.as_ref()?;
-            let b = model.backlash.iter().find(|b| b.joint == joint)?;
+        let one_flank: Vec<(usize, f64)> = if singular && has_backlash {
+            let robot = problem.robot_at(&solved.0);
             let obs = problem.observations();
-            let mut sides =
-                (0..obs.len()).map(|i| model.flank(b, robot, obs.joints(i), obs.loads[i]));
-            let first = sides.next()?;
-            sides.all(|s| s == first).then_some(first)
+            kept.iter()
+                .filter_map(|c| match c {
+                    Column::Backlash(j) => model.backlash.iter().find(|b| b.joint == *j),
+                    _ => None,
+                })
+                .filter_map(|b| {
+                    let mut sides =
+                        (0..obs.len()).map(|i| model.flank(b, &robot, obs.joints(i), obs.loads[i]));
+                    let first = sides.next()?;
+                    sides.all(|s| s == first).then_some((b.joint, first))
+                })
+                .collect()
+        } else {
+            Vec::new()
         };
+        let flank_of = |joint: usize| one_flank.iter().find(|(j, _)| *j == joint).map(|f| f.1);
         // A coordinate of the payload's centre of mass beyond where a payload can hang.
         let com_too_far = |axis: usize| {
             let c = model.payload_com[axis];
@@ -1064,7 +1073,7 @@ fn solve_gated(
         let (keep, drop): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&p| {
             !matches!(kept[p], Column::Harmonic { joint, order, .. } if too_large(joint, order))
                 && !matches!(kept[p], Column::Backlash(j) if half_play(j) > BACKLASH_BOUND_DEG)
-                && !matches!(kept[p], Column::Backlash(j) if one_flank(j).is_some())
+                && !matches!(kept[p], Column::Backlash(j) if flank_of(j).is_some())
                 && !matches!(kept[p], Column::PayloadCom(axis) if com_too_far(axis))
                 && implausible(p).is_none()
         });
@@ -1086,18 +1095,18 @@ fn solve_gated(
                     "held at zero: its harmonic came out at {:.3}° amplitude, beyond the {HARMONIC_BOUND_DEG}° a gear's transmission error can have (an effect it does not model, such as backlash, or poses that barely determine it)",
                     amplitude(joint, order)
                 ),
-                Column::Backlash(j) if half_play(j) <= BACKLASH_BOUND_DEG => format!(
-                    "held at zero: at the fit every row rests on its {} flank, where it is its joint's offset (its flank's boundary turned with the identified geometry): the data cannot tell its play",
-                    if one_flank(j).unwrap_or(1.0) > 0.0 {
-                        "+"
-                    } else {
-                        "−"
+                Column::Backlash(j) => {
+                    match flank_of(j).filter(|_| half_play(j) <= BACKLASH_BOUND_DEG) {
+                        Some(side) => format!(
+                            "held at zero: at the fit every row rests on its {} flank, where it is its joint's offset (its flank's boundary turned with the identified geometry): the data cannot tell its play",
+                            if side > 0.0 { "+" } else { "−" }
+                        ),
+                        None => format!(
+                            "held at zero: its backlash came out at {:.3}° half play, beyond the {BACKLASH_BOUND_DEG}° a reducer's can have (an effect it does not model, or poses that barely move the point with the joint)",
+                            half_play(j)
+                        ),
                     }
-                ),
-                Column::Backlash(j) => format!(
-                    "held at zero: its backlash came out at {:.3}° half play, beyond the {BACKLASH_BOUND_DEG}° a reducer's can have (an effect it does not model, or poses that barely move the point with the joint)",
-                    half_play(j)
-                ),
+                }
                 Column::PayloadCom(axis) => format!(
                     "held at its start: it came out at {:.0} mm, beyond the {PAYLOAD_COM_BOUND} mm from the flange a payload's centre of mass can lie (an effect it does not model, or loads that barely determine it)",
                     model.payload_com[axis]
