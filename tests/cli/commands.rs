@@ -1007,6 +1007,35 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
         assert!(!c.harmonics.is_empty());
     }
     assert!(r["kinematic"]["after"]["mean"].as_f64().unwrap() < 0.2);
+    // 90 s scored every candidate: no word of the budget. A budget spent before the first
+    // joint-error candidate cuts the search, and calibrate says so, naming what it cut, on
+    // stderr and in report.json; the model is still written.
+    assert!(!stderr.contains("ended the search"), "{stderr}");
+    let cut = dir.path().join("cut");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/arm5.toml",
+        "--data",
+        s(&unloaded),
+        "--out",
+        s(&cut),
+        "--budget",
+        "0.001",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("robocal: warning: the time budget (0.001 s) ended the search before")
+            && stderr.contains("kinematic + harmonics 2"),
+        "{stderr}"
+    );
+    let warnings = report(&cut)["kinematic"]["warnings"].clone();
+    assert!(
+        (warnings.as_array().unwrap().iter())
+            .any(|w| w.as_str().unwrap().contains("ended the search before")),
+        "{warnings}"
+    );
 }
 
 #[test]
