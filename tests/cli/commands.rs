@@ -955,18 +955,22 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
     let dir = tempfile::tempdir().unwrap();
     let data = simulate("configs/twin/arm5.toml", &dir.path().join("sim"));
     let unloaded = subset(&data, "unloaded.csv", |pose, load| pose < 36 && load == 0.0);
+    // The default calibration of those rows into `out` within `budget` seconds.
+    let calibrate = |out: &Path, budget: &str| {
+        robocal(&[
+            "calibrate",
+            "--robot",
+            "configs/robots/arm5.toml",
+            "--data",
+            s(&unloaded),
+            "--out",
+            s(out),
+            "--budget",
+            budget,
+        ])
+    };
     let model = dir.path().join("model");
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        "configs/robots/arm5.toml",
-        "--data",
-        s(&unloaded),
-        "--out",
-        s(&model),
-        "--budget",
-        "90",
-    ]);
+    let o = calibrate(&model, "90");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     let r = report(&model);
@@ -1012,17 +1016,7 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
     // stderr and in report.json; the model is still written.
     assert!(!stderr.contains("ended the search"), "{stderr}");
     let cut = dir.path().join("cut");
-    let o = robocal(&[
-        "calibrate",
-        "--robot",
-        "configs/robots/arm5.toml",
-        "--data",
-        s(&unloaded),
-        "--out",
-        s(&cut),
-        "--budget",
-        "0.001",
-    ]);
+    let o = calibrate(&cut, "0.001");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     assert!(
