@@ -473,10 +473,7 @@ fn score_physics(
         })
         .collect();
     if abandoned.load(Ordering::SeqCst) {
-        failure = Some(format!(
-            "abandoned: its folds would run past the time budget ({} s)",
-            auto.budget_seconds
-        ));
+        failure = Some(abandoned_for(auto.budget_seconds));
     }
     for (fold, fit) in splits.iter().zip(fits) {
         // A fold not fitted (the candidate abandoned).
@@ -785,8 +782,8 @@ fn physics_chain(
                 score: None,
                 seconds: 0.0,
                 status: format!(
-                    "skipped: the time budget ({} s) would be spent before its folds and the final fit end (projected from the slowest candidate, {slowest:.1} s: {projected:.1} s)",
-                    settings.budget_seconds
+                    "skipped: {} would be spent before its folds and the final fit end (projected from the slowest candidate, {slowest:.1} s: {projected:.1} s)",
+                    the_budget(settings.budget_seconds)
                 ),
             };
             report(&c, observer);
@@ -1018,10 +1015,7 @@ fn residual_candidates(
                 settings.min_residual_configurations
             );
         } else if over_budget(pending_final + last_pace) {
-            c.status = format!(
-                "skipped: the time budget ({} s) is spent",
-                settings.budget_seconds
-            );
+            c.status = format!("skipped: {} is spent", the_budget(settings.budget_seconds));
         } else {
             let mut held = Held::default();
             let mut abandoned = None;
@@ -1080,10 +1074,7 @@ fn residual_candidates(
                 slowest = slowest.max(took);
                 last_pace = slowest;
                 if done < splits.len() && over_budget(left + pending_final) {
-                    abandoned = Some(format!(
-                        "abandoned: its folds would run past the time budget ({} s)",
-                        settings.budget_seconds
-                    ));
+                    abandoned = Some(abandoned_for(settings.budget_seconds));
                 }
             }
             match abandoned {
@@ -1610,6 +1601,20 @@ pub fn automatic(
     Ok(built)
 }
 
+/// `the time budget (120 s)`: how every status of a candidate the budget cut names it (and
+/// how [`budget_warning`] finds them).
+fn the_budget(budget_seconds: f64) -> String {
+    format!("the time budget ({budget_seconds} s)")
+}
+
+/// The status of a candidate abandoned during its folds for the budget.
+fn abandoned_for(budget_seconds: f64) -> String {
+    format!(
+        "abandoned: its folds would run past {}",
+        the_budget(budget_seconds)
+    )
+}
+
 /// Where the time budget ended the search before every candidate was scored (skipped before
 /// its folds, or abandoned during them: the statuses that name the budget), a warning naming
 /// them: the model chosen is the best of those scored, and a larger budget scores the rest. On
@@ -1618,13 +1623,14 @@ pub fn automatic(
 /// 0.14 and 0.11 to 0.03 and 0.05 mm on two seeds (`docs/accuracy.md`, session 50): a user who
 /// can wait should know.
 fn budget_warning(candidates: &[Candidate], budget_seconds: f64) -> Option<String> {
+    let words = the_budget(budget_seconds);
     let cut: Vec<&str> = (candidates.iter())
-        .filter(|c| c.score.is_none() && c.status.contains("the time budget ("))
+        .filter(|c| c.score.is_none() && c.status.contains(&words))
         .map(|c| c.name.as_str())
         .collect();
     (!cut.is_empty()).then(|| {
         format!(
-            "the time budget ({budget_seconds} s) ended the search before {} candidate{} {} scored ({}): the model chosen is the best of those scored; a larger budget (`--budget`, or `budget=` in Python) scores {}",
+            "{words} ended the search before {} candidate{} {} scored ({}): the model chosen is the best of those scored; a larger budget (`--budget`, or `budget=` in Python) scores {}",
             cut.len(),
             if cut.len() == 1 { "" } else { "s" },
             if cut.len() == 1 { "was" } else { "were" },
