@@ -103,7 +103,8 @@ pub fn compensate(
         position_tolerance: options.tolerance * 1e-2,
         ..IkOptions::default()
     };
-    // The residual (with the bearings' tilts, which move the point but turn no joint) and the
+    // The residual (with the bearings' tilts and the axis runouts, which move the point but
+    // turn no joint) and the
     // deflection at the current command, evaluated once per iteration: they set the next aim
     // and, with the kinematics, the model's error there.
     let offset = |q: &[f64]| model.residual_at(q, load) + model.turn_offset(q, load);

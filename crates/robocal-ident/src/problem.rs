@@ -424,7 +424,9 @@ impl<'a> CalibrationProblem<'a> {
                         let twists = robot.param_twists(q);
                         add_deflection_rates(&twists, &rates, &joints, &mut full, row);
                     }
-                    if c.tilts.is_empty() {
+                    // The tilts and the runouts turn the parts beyond their joints, the tool
+                    // frame with them (until session 51 the runouts' turns were left out here).
+                    if !c.has_turns() {
                         rot
                     } else {
                         turn_rotation(&c.turns(robot, q, load)) * rot

@@ -2179,6 +2179,56 @@ fn orientation_rows_jacobian_matches_central_differences() {
     }
 }
 
+/// A 6-DoF probe on an arm whose axes run out (orders 1–2 on joints 1, 3 and 5, turns of
+/// 0.01–0.03°, with its compliances and harmonics): at the model that made the noise-free rows,
+/// every position and every rotation row of the identification problem is zero — the rotation
+/// rows turn the tool frame by the runouts as the model's `rotation` does (until session 51
+/// they took the tilts' turns only, and left the runouts' out).
+#[test]
+fn orientation_rows_turn_with_the_runouts() {
+    let mut nominal = nominal();
+    nominal.tool_rpy = Some(Vector3::new(0.2, -0.4, 1.3));
+    let configs = configurations();
+    let mut errors = injected_compliance()
+        .with_harmonics(&[1, 3], 2)
+        .with_runouts(&[0, 2, 4], 2);
+    for (k, r) in errors.runouts.iter_mut().enumerate() {
+        r.wave.sin = (0.01 + 0.005 * (k % 5) as f64).to_radians();
+        r.wave.cos = -(0.02 - 0.003 * (k % 4) as f64).to_radians();
+    }
+    let mut obs = observe_loaded(&nominal, &errors, &configs[..12], &[0.0, 15.0]);
+    obs.orientations = (0..obs.len())
+        .map(|i| Some(errors.rotation(&nominal, obs.joints(i), obs.loads[i])))
+        .collect();
+    // The runouts turn the tool frame by more than the probe's noise.
+    let rigid = {
+        let mut e = errors.clone();
+        e.runouts.clear();
+        e
+    };
+    let turned = (0..obs.len())
+        .map(|i| {
+            let (q, load) = (obs.joints(i), obs.loads[i]);
+            let d =
+                errors.rotation(&nominal, q, load) * rigid.rotation(&nominal, q, load).transpose();
+            nalgebra::Rotation3::from_matrix(&d).angle().to_degrees()
+        })
+        .fold(0.0, f64::max);
+    assert!(turned > 0.01, "{turned}°");
+    let problem = CalibrationProblem::new(&nominal, (0..nominal.param_count()).collect(), &obs)
+        .with_joint_errors(errors.clone(), errors.params());
+    // Both ways the solvers evaluate them: the residuals alone, and with the Jacobian.
+    let zero = vec![0.0; problem.unknowns()];
+    for r in [
+        problem.residuals(&zero),
+        problem.residuals_and_jacobian(&zero).0,
+    ] {
+        assert_eq!(r.len(), 6 * obs.len());
+        let worst = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(worst < 1e-9, "{worst}");
+    }
+}
+
 /// A 6-DoF probe identifies the geometry and the probe's frame on the flange from noise-free
 /// data, starting from a table that declares no tool frame; its rotation rows weigh in the
 /// report; held-out positions and orientations come back exact.

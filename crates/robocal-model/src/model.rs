@@ -99,12 +99,15 @@ impl CalibratedModel {
     }
 
     /// What the joint errors move the point by besides the joint angles at command `q` (rad)
-    /// under `load`, mm, world frame: the bearings' tilts ([`robocal_robot::Tilt`]; zero
-    /// without any) — the physical point less the table's at the deflected angles, computed
-    /// without evaluating the table there twice.
+    /// under `load`, mm, world frame: the bearings' tilts ([`robocal_robot::Tilt`]) and the
+    /// axis runouts ([`robocal_robot::Runout`]; zero without either) — the physical point less
+    /// the table's at the deflected angles, computed without evaluating the table there twice.
+    /// (Until session 51 the runouts were left out, and commands compensated through a model
+    /// with them missed their targets by what the runouts move the point: `docs/accuracy.md`,
+    /// "Compensation".)
     pub fn turn_offset(&self, q: &[f64], load: f64) -> Vector3<f64> {
         match &self.joint_errors {
-            Some(e) if !e.tilts.is_empty() => {
+            Some(e) if e.has_turns() => {
                 let p = self.robot.point(&e.deflected(&self.robot, q, load));
                 robocal_robot::turned(&e.turns(&self.robot, q, load), p) - p
             }
