@@ -262,23 +262,53 @@ fn a_seed_at_the_wrist_singularity_still_gets_a_command() {
     }
 }
 
-/// A model whose bearings tilt (compliances, the links' weights and tilting compliances of the
-/// size a stiff arm has): the compensated commands put the whole model's point — tilts included,
-/// computed here through the model — on the target, at several loads.
-#[test]
-fn compensation_takes_the_bearings_tilt_into_account() {
-    use robocal_robot::{DEG_PER_KNM, JointErrors, MomentPart};
-    let (_, data, nominal, calibrated) = setup();
-    let mut errors = JointErrors::new(
+/// The bundled arm's joint compliances (of the size a stiff arm has), gravity down, the payload's
+/// centre of mass on the flange: the joint errors the tests below add their terms to.
+fn stiff_arm() -> robocal_robot::JointErrors {
+    robocal_robot::JointErrors::new(
         [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
             .iter()
-            .map(|c| c * DEG_PER_KNM)
+            .map(|c| c * robocal_robot::DEG_PER_KNM)
             .collect(),
         Vector3::new(0.0, 0.0, -9.80665),
         Vector3::new(100.0, 0.0, 60.0),
     )
-    .with_link_weights(&[1, 2, 3])
-    .with_tilts(&[0, 1, 2, 3, 4]);
+}
+
+/// Every twelfth configuration of the bundled rows as a seed, at 0, 10 and 20 kg in turn, its
+/// nominal point the target: each compensated through `model`, whose whole point (computed
+/// here through the model) must lie within the tolerance of the target. The commands and loads.
+fn lands_on_the_targets(model: &CalibratedModel) -> Vec<(Vec<f64>, f64)> {
+    let (_, data, nominal, _) = setup();
+    let options = CompensationOptions::default();
+    let mut poses: Vec<&[f64]> = (data.rows.iter())
+        .map(|r| r.sample.joints.as_slice())
+        .collect();
+    poses.dedup();
+    (poses.iter().step_by(12).enumerate())
+        .map(|(k, seed)| {
+            let load = [0.0, 10.0, 20.0][k % 3];
+            let target = nominal.point(&rad(seed));
+            let c = compensate(model, &target, load, seed, &options).unwrap();
+            let q = rad(&c.joints_deg);
+            let miss = (model.point(&q, load) - target).norm();
+            assert!(miss < options.tolerance, "{miss} mm at {load} kg");
+            (q, load)
+        })
+        .collect()
+}
+
+/// A model whose bearings tilt (compliances, the links' weights and tilting compliances of the
+/// size a stiff arm has): the compensated commands put the whole model's point — tilts included —
+/// on the target, at several loads; the tilts move the point there by more than ten times the
+/// tolerance, so commands that left them out of the aim would miss.
+#[test]
+fn compensation_takes_the_bearings_tilt_into_account() {
+    use robocal_robot::{DEG_PER_KNM, MomentPart};
+    let (_, _, _, calibrated) = setup();
+    let mut errors = stiff_arm()
+        .with_link_weights(&[1, 2, 3])
+        .with_tilts(&[0, 1, 2, 3, 4]);
     for w in &mut errors.link_weights {
         w.value = match w.part {
             MomentPart::Mass => 30.0,
@@ -289,45 +319,24 @@ fn compensation_takes_the_bearings_tilt_into_account() {
         t.value = c * DEG_PER_KNM;
     }
     let model = CalibratedModel::new(calibrated, Some(errors), None);
-    let options = CompensationOptions::default();
-    let mut poses: Vec<&[f64]> = (data.rows.iter())
-        .map(|r| r.sample.joints.as_slice())
-        .collect();
-    poses.dedup();
-    let mut tilted = 0.0f64;
-    for (k, seed) in poses.iter().step_by(12).enumerate() {
-        let load = [0.0, 10.0, 20.0][k % 3];
-        let target = nominal.point(&rad(seed));
-        let c = compensate(&model, &target, load, seed, &options).unwrap();
-        let q = rad(&c.joints_deg);
-        let miss = (model.point(&q, load) - target).norm();
-        assert!(miss < options.tolerance, "{miss} mm at {load} kg");
-        tilted = tilted.max(model.turn_offset(&q, load).norm());
-    }
-    // The tilts move the point by more than the tolerance: without them in the aim, the
-    // commands would miss.
-    assert!(tilted > 10.0 * options.tolerance, "{tilted}");
+    let tilted = (lands_on_the_targets(&model).iter())
+        .map(|(q, load)| model.turn_offset(q, *load).norm())
+        .fold(0.0, f64::max);
+    assert!(
+        tilted > 10.0 * CompensationOptions::default().tolerance,
+        "{tilted}"
+    );
 }
 
 /// A model with axis runouts (orders 1 and 2 on every joint, turns of 0.003–0.012°, the size
 /// the development twins' runouts are identified at) and its compliances: the compensated
-/// commands put the whole model's point — runouts included, computed here through the model —
-/// on the target, at several loads; the runouts move the point there by more than ten times the
-/// tolerance (the same model without them, at the same commands), so commands that left them
-/// out of the aim would miss.
+/// commands put the whole model's point — runouts included — on the target, at several loads;
+/// the runouts move the point there by more than ten times the tolerance (the same model
+/// without them, at the same commands), so commands that left them out of the aim would miss.
 #[test]
 fn compensation_takes_the_axis_runouts_into_account() {
-    use robocal_robot::{DEG_PER_KNM, JointErrors};
-    let (_, data, nominal, calibrated) = setup();
-    let mut errors = JointErrors::new(
-        [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
-            .iter()
-            .map(|c| c * DEG_PER_KNM)
-            .collect(),
-        Vector3::new(0.0, 0.0, -9.80665),
-        Vector3::new(100.0, 0.0, 60.0),
-    )
-    .with_runouts(&[0, 1, 2, 3, 4, 5], 2);
+    let (_, _, _, calibrated) = setup();
+    let mut errors = stiff_arm().with_runouts(&[0, 1, 2, 3, 4, 5], 2);
     for (k, r) in errors.runouts.iter_mut().enumerate() {
         let size = (0.003 + 0.003 * (k % 4) as f64).to_radians();
         r.wave.sin = size * if k % 2 == 0 { 1.0 } else { -0.6 };
@@ -337,20 +346,11 @@ fn compensation_takes_the_axis_runouts_into_account() {
     rigid.runouts.clear();
     let model = CalibratedModel::new(calibrated.clone(), Some(errors), None);
     let without = CalibratedModel::new(calibrated, Some(rigid), None);
-    let options = CompensationOptions::default();
-    let mut poses: Vec<&[f64]> = (data.rows.iter())
-        .map(|r| r.sample.joints.as_slice())
-        .collect();
-    poses.dedup();
-    let mut moved = 0.0f64;
-    for (k, seed) in poses.iter().step_by(12).enumerate() {
-        let load = [0.0, 10.0, 20.0][k % 3];
-        let target = nominal.point(&rad(seed));
-        let c = compensate(&model, &target, load, seed, &options).unwrap();
-        let q = rad(&c.joints_deg);
-        let miss = (model.point(&q, load) - target).norm();
-        assert!(miss < options.tolerance, "{miss} mm at {load} kg");
-        moved = moved.max((model.point(&q, load) - without.point(&q, load)).norm());
-    }
-    assert!(moved > 10.0 * options.tolerance, "{moved}");
+    let moved = (lands_on_the_targets(&model).iter())
+        .map(|(q, load)| (model.point(q, *load) - without.point(q, *load)).norm())
+        .fold(0.0, f64::max);
+    assert!(
+        moved > 10.0 * CompensationOptions::default().tolerance,
+        "{moved}"
+    );
 }
