@@ -104,9 +104,8 @@ pub fn compensate(
         ..IkOptions::default()
     };
     // The residual (with the bearings' tilts and the axis runouts, which move the point but
-    // turn no joint) and the
-    // deflection at the current command, evaluated once per iteration: they set the next aim
-    // and, with the kinematics, the model's error there.
+    // turn no joint) and the deflection at the current command, evaluated once per iteration:
+    // they set the next aim and, with the kinematics, the model's error there.
     let offset = |q: &[f64]| model.residual_at(q, load) + model.turn_offset(q, load);
     let mut q = seed;
     let mut r = offset(&q);

@@ -215,12 +215,8 @@ fn row_left(
     let target = robot.for_target(obs.target(robot, i));
     let d = errors.deflection(robot, q, load);
     let deflected: Vec<f64> = q.iter().zip(&d).map(|(q, d)| q + d).collect();
-    let p = target.point(&deflected);
-    let p = if errors.has_turns() {
-        turned(&errors.turns(robot, q, load), p)
-    } else {
-        p
-    };
+    // No turns (neither tilts nor runouts): `turns` is empty, found without the arm's frames.
+    let p = turned(&errors.turns(robot, q, load), target.point(&deflected));
     (d, obs.points[i] - p, target.joint_jacobian(&deflected))
 }
 
