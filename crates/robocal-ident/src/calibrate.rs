@@ -1461,13 +1461,23 @@ impl FitMemo {
     }
 }
 
-/// `settings` without their deadline: a fit that ended is the same whatever time it had to end
-/// by, so the candidates' folds, each with its own deadline, share it through a [`FitMemo`].
+/// `settings` as a [`FitMemo`] tells identifications apart: without their deadline (a fit that
+/// ended is the same whatever time it had to end by, so the candidates' folds, each with its own
+/// deadline, share it), and without the flank search where no flank is chosen (no backlash, the
+/// approach flanks alone, or the flanks given): the search candidate's folds share the fits its
+/// rounds start from — the first fit without the links' weights and the fit on the approach
+/// flanks — with the candidate without the search.
 fn undated(settings: &KinematicSettings) -> KinematicSettings {
-    KinematicSettings {
+    let mut key = KinematicSettings {
         deadline: None,
         ..settings.clone()
+    };
+    if let Some(je) = key.joint_errors.as_mut()
+        && (!je.backlash || !je.backlash_torque || je.flanks.is_some())
+    {
+        je.flank_search = false;
     }
+    key
 }
 
 /// [`identify_anew`], or the identification `memo` remembers for the same table, rows and

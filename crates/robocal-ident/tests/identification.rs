@@ -1757,6 +1757,47 @@ fn a_torque_flank_whose_boundary_lies_inside_the_torques_is_found() {
     assert!(plain_mean > 5.0 * mean, "{plain_mean} vs {mean}");
 }
 
+/// The flank search's rounds start from fits it shares with the fit without it (the default
+/// calibration scores both on the same folds): with a memo that holds the fit without the
+/// search, the search takes from it the first fit (the compliances alone) and the fit on the
+/// approach flanks, and its result is the one made without a memo, bit for bit.
+#[test]
+fn a_flank_search_shares_the_fits_its_rounds_start_from() {
+    use robocal_ident::FitMemo;
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 23);
+    let mut errors = with_injected_weights(injected_compliance()).with_backlash(&[2]);
+    let loads = [0.0, 10.0, 20.0];
+    let rows = observe_loaded(&truth, &errors, &configs[..60], &loads);
+    errors.backlash[0].flank = flank_at_median_torque(&errors, &truth, &rows, 2).0;
+    errors.backlash[0].value = 0.013f64.to_radians();
+    let obs = observe_loaded(&truth, &errors, &configs[..60], &loads);
+    let search = flank_search_settings(errors.payload_com);
+    let mut regression = search.clone();
+    regression.joint_errors.as_mut().unwrap().flank_search = false;
+    let fresh = FitMemo::default();
+    let alone = robocal_ident::calibrate_kinematics_with(&nominal, &obs, &search, &fresh).unwrap();
+    let memo = FitMemo::default();
+    robocal_ident::calibrate_kinematics_with(&nominal, &obs, &regression, &memo).unwrap();
+    let before = memo.fits();
+    let shared = robocal_ident::calibrate_kinematics_with(&nominal, &obs, &search, &memo).unwrap();
+    assert!(
+        memo.fits() - before + 2 <= fresh.fits(),
+        "{} new fits beside {} without the memo",
+        memo.fits() - before,
+        fresh.fits()
+    );
+    assert_eq!(shared.robot, alone.robot);
+    assert_eq!(shared.compliance, alone.compliance);
+    assert_eq!(
+        shared.report.after.mean.to_bits(),
+        alone.report.after.mean.to_bits()
+    );
+    let without = calibrate_kinematics(&nominal, &obs, &search).unwrap();
+    assert_eq!(shared.robot, without.robot);
+}
+
 /// Settings identifying the compliances, the links' weights and backlash on either flank, each
 /// torque flank by the search (`flank_search`), no harmonics (the payload's centre of mass at
 /// `payload_com`).

@@ -24,6 +24,14 @@ pub struct Domain {
     pub load: [f64; 2],
 }
 
+/// How far (deg) a joint reading may lie beyond its calibrated range before [`Domain::warning`]
+/// names it: half the tenth of a degree the warning states excesses in. A compensated command
+/// moves each joint by the model's correction, hundredths of a degree, and a joint the
+/// calibration held at one reading (a palletiser's locked wrist) would otherwise be warned of on
+/// every row for a correction no tracker could tell from its reading. Predictions and the
+/// calibration's own decisions use the exact range ([`Domain::excess`]).
+pub const WARN_BEYOND_DEG: f64 = 0.05;
+
 /// How far one row lies outside a [`Domain`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Excess {
@@ -89,7 +97,7 @@ impl Domain {
 
     /// A warning naming how many of `rows` (read from `file`) lie outside the domain, for each
     /// joint (and the load) how many and how far, and the first such row; none when every row
-    /// lies inside.
+    /// lies inside, or within [`WARN_BEYOND_DEG`] of a joint's range.
     pub fn warning<'a>(
         &self,
         file: &Path,
@@ -103,7 +111,8 @@ impl Domain {
         let mut outside = 0;
         let mut first: Option<&Sample> = None;
         for &s in &rows {
-            let excess = self.excess(s);
+            let mut excess = self.excess(s);
+            excess.retain(|e| e.beyond >= WARN_BEYOND_DEG);
             let load = self.load_excess(s);
             if excess.is_empty() && load == 0.0 {
                 continue;

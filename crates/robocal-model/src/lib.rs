@@ -36,7 +36,7 @@ pub mod export;
 mod model;
 
 pub use dir::{COMPLIANCE_FILE, KINEMATICS_FILE, MODEL_FORMAT, NOMINAL_FILE, REPORT_FILE};
-pub use domain::{DOMAIN_FILE, Domain, Excess};
+pub use domain::{DOMAIN_FILE, Domain, Excess, WARN_BEYOND_DEG};
 pub use error::{ModelError, Result};
 pub use model::{
     CalibratedModel, gate_physics_row, gate_physics_rows, resolve_gate_physics, rotation_angle,

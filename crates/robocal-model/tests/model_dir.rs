@@ -199,9 +199,17 @@ fn the_calibrated_domain_round_trips_and_warns_of_rows_outside() {
         CalibratedModel::load(&out).unwrap().domain,
         Some(domain.clone())
     );
-    // Inside: no warning.
+    // Inside: no warning; nor within a compensation's correction of a range's end (a joint
+    // held at one reading, then commanded a few thousandths of a degree off it).
     let file = Path::new("held.csv");
     assert_eq!(domain.warning(file, &rows), None);
+    let mut near = rows[..3].to_vec();
+    near[0].joints[4] = domain.joints[4][0] - 0.0009;
+    near[2].joints[0] = domain.joints[0][1] + 0.9 * robocal_model::WARN_BEYOND_DEG;
+    assert_eq!(domain.warning(file, &near), None);
+    near[2].joints[0] = domain.joints[0][1] + 1.1 * robocal_model::WARN_BEYOND_DEG;
+    let w = domain.warning(file, &near).unwrap();
+    assert!(w.starts_with("held.csv: 1 of 3 rows lie outside"), "{w}");
     // Two rows beyond joint 2's range, one of them also beyond the loads.
     let [lo2, hi2] = domain.joints[1];
     let mut outside = rows[..5].to_vec();

@@ -754,6 +754,35 @@ impl Chain {
     }
 }
 
+/// The seconds a physical candidate's folds and the final fit of its physics are projected to
+/// take from the candidates scored before it, with what the projection is taken from and its
+/// seconds: the slowest candidate so far (a new one holds at least as many terms), × (1 +
+/// [`FINAL_FIT_SHARE`]). The flank search fits the physics it extends, choosing the flanks up to
+/// [`SEARCH_FLANK_ROUNDS`] times where that candidate chose them [`FLANK_ROUNDS`] times: projected
+/// from that candidate where it was scored, × their ratio (a slower one before it — the axis
+/// runouts the chain dropped — holds terms the search does not fit: on ARM7 it took 38 s against
+/// 2.6 s, and the search was skipped until session 52), from the slowest elsewhere.
+fn projection(physics: Physics, candidates: &[Candidate]) -> (&'static str, f64, f64) {
+    let slowest = candidates.iter().map(|c| c.seconds).fold(0.0, f64::max);
+    let extended = Physics {
+        flank_search: false,
+        ..physics
+    }
+    .name();
+    let (from, seconds) = match (candidates.iter().rev())
+        .find(|c| physics.flank_search && c.name == extended && c.score.is_some())
+    {
+        Some(c) => ("the candidate it extends", c.seconds),
+        None => ("the slowest candidate", slowest),
+    };
+    let rounds = if physics.flank_search {
+        SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
+    } else {
+        1.0
+    };
+    (from, seconds, seconds * rounds * (1.0 + FINAL_FIT_SHARE))
+}
+
 /// The physical models, each scored on every fold: the nominal table, the identified one, with
 /// compliances (two or more loads); then, on the current identified one, transmission
 /// harmonics and self-weight terms by forward stepwise selection — each kept only if it lowers
@@ -772,15 +801,8 @@ fn physics_chain(
 ) -> Chain {
     let mut score = |physics: Physics| {
         // A joint-error candidate does not start when the budget would be spent before it and the
-        // final fit of its physics end, projected from the slowest candidate so far (it holds at
-        // least as many terms); the flank search's fits choose the flanks up to
-        // SEARCH_FLANK_ROUNDS times where the others choose them FLANK_ROUNDS times.
-        let slowest = candidates.iter().map(|c| c.seconds).fold(0.0, f64::max);
-        let projected = if physics.flank_search {
-            slowest * SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
-        } else {
-            slowest
-        } * (1.0 + FINAL_FIT_SHARE);
+        // final fit of its physics end (`projection`).
+        let (from, seconds, projected) = projection(physics, candidates);
         if physics.has_joint_errors() && over_budget(projected) {
             let c = Candidate {
                 name: physics.name(),
@@ -789,7 +811,7 @@ fn physics_chain(
                 score: None,
                 seconds: 0.0,
                 status: format!(
-                    "skipped: {} would be spent before its folds and the final fit end (projected from the slowest candidate, {slowest:.1} s: {projected:.1} s)",
+                    "skipped: {} would be spent before its folds and the final fit end (projected from {from}, {seconds:.1} s: {projected:.1} s)",
                     the_budget(settings.budget_seconds)
                 ),
                 budget_cut: true,
@@ -1764,6 +1786,57 @@ mod tests {
             "{two}"
         );
         assert!(two.contains("`--budget`") && !two.contains("gp"), "{two}");
+    }
+
+    /// A candidate is projected from the slowest before it; the flank search from the candidate
+    /// it extends where that was scored, however slow a candidate between them (the runouts
+    /// the chain dropped), × the flank rounds' ratio; from the slowest where it was not.
+    #[test]
+    fn the_flank_search_is_projected_from_the_candidate_it_extends() {
+        let scored = |physics: Physics, seconds: f64| Candidate {
+            name: physics.name(),
+            held_out: None,
+            held_out_blocks: None,
+            score: Some(0.03),
+            seconds,
+            status: "evaluated".into(),
+            budget_cut: false,
+        };
+        let base = Physics {
+            compliance: true,
+            harmonics: 2,
+            backlash: true,
+            ..Physics::RIGID
+        };
+        let runout = Physics { runout: 2, ..base };
+        let search = Physics {
+            flank_search: true,
+            ..base
+        };
+        let ratio = SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64 * (1.0 + FINAL_FIT_SHARE);
+        let mut candidates = vec![scored(base, 2.6), scored(runout, 38.2)];
+        let (from, seconds, projected) = projection(search, &candidates);
+        assert_eq!((from, seconds), ("the candidate it extends", 2.6));
+        assert!((projected - 2.6 * ratio).abs() < 1e-12);
+        // Any other candidate from the slowest.
+        let tilt = Physics { tilt: true, ..base };
+        let (from, seconds, projected) = projection(tilt, &candidates);
+        assert_eq!((from, seconds), ("the slowest candidate", 38.2));
+        assert!((projected - 38.2 * (1.0 + FINAL_FIT_SHARE)).abs() < 1e-12);
+        // The search on the runouts' physics extends the runouts' candidate.
+        let (_, seconds, _) = projection(
+            Physics {
+                runout: 2,
+                ..search
+            },
+            &candidates,
+        );
+        assert_eq!(seconds, 38.2);
+        // An extended candidate without a score (abandoned) projects nothing.
+        candidates[0].score = None;
+        let (from, seconds, projected) = projection(search, &candidates);
+        assert_eq!((from, seconds), ("the slowest candidate", 38.2));
+        assert!((projected - 38.2 * ratio).abs() < 1e-12);
     }
 
     /// A fold's share of the budget left: the folds' rounds (`at_once` at a time) and the final
