@@ -3,15 +3,17 @@
 //! whole kinematic calibration (registration, alignment, identifiability, solve, covariance);
 //! and the default's fullest physical candidate on all 3528 rows of the bundled twin (every
 //! load): compliances, harmonics to order 2, the links' weights and the payload's centre of
-//! mass, backlash with its flank rounds (target: a fold's share of the 120 s budget); and one
+//! mass, backlash with its flank rounds (target: a fold's share of the 120 s budget), and its
+//! flank search alone and after the fit without it (what the two share); and one
 //! Jacobian of those rows with compliances, harmonics, the links' weights and axis runouts, the
 //! solvers' first-order columns against the exact ones the covariance takes.
 
 use divan::{Bencher, black_box};
 use robocal_data::MeasurementSet;
 use robocal_ident::{
-    CalibrationProblem, ComplianceSettings, JointErrorSettings, KinematicSettings, LeastSquares,
-    Observations, SolverKind, align, analyse, calibrate_kinematics, run_lm,
+    CalibrationProblem, ComplianceSettings, FitMemo, JointErrorSettings, KinematicSettings,
+    LeastSquares, Observations, SolverKind, align, analyse, calibrate_kinematics,
+    calibrate_kinematics_with, run_lm,
 };
 use robocal_robot::{DEG_PER_KNM, JointErrors, Robot};
 
@@ -81,7 +83,16 @@ fn whole_kinematic_calibration(b: Bencher, solver: SolverKind) {
 fn full_physics_3528_rows(b: Bencher) {
     let (robot, set) = bundled();
     let obs = Observations::from_rows(6, set.rows.iter());
-    let settings = KinematicSettings {
+    let settings = full_physics_settings();
+    b.bench_local(|| {
+        calibrate_kinematics(black_box(&robot), &obs, &settings).expect("calibration")
+    });
+}
+
+/// Compliances, harmonics to order 2, the links' weights and the payload's centre of mass,
+/// backlash with its flank rounds: the default's fullest physical candidate.
+fn full_physics_settings() -> KinematicSettings {
+    KinematicSettings {
         compliance: Some(ComplianceSettings {
             plausible_only: true,
             identify_payload_com: true,
@@ -94,9 +105,42 @@ fn full_physics_3528_rows(b: Bencher) {
             ..JointErrorSettings::default()
         }),
         ..KinematicSettings::default()
-    };
-    b.bench_local(|| {
-        calibrate_kinematics(black_box(&robot), &obs, &settings).expect("calibration")
+    }
+}
+
+/// What the flank search's memo holds before it starts ([`flank_search_3528_rows`]).
+#[derive(Debug, Clone, Copy)]
+enum Memo {
+    /// Nothing: the search alone.
+    Empty,
+    /// The fit without the search on the same rows, as the default calibration's folds hold it
+    /// when the search candidate starts: the search takes its first fits from it.
+    AfterRegression,
+}
+
+/// The flank search on the fullest physical candidate of [`full_physics_3528_rows`], with an
+/// empty memo and after the fit without the search (the search's time in the default
+/// calibration, session 52: the first fit and the fit on the approach flanks shared).
+#[divan::bench(args = [Memo::Empty, Memo::AfterRegression], sample_count = 3)]
+fn flank_search_3528_rows(b: Bencher, memo: Memo) {
+    let (robot, set) = bundled();
+    let obs = Observations::from_rows(6, set.rows.iter());
+    let regression = full_physics_settings();
+    let mut search = regression.clone();
+    search
+        .joint_errors
+        .as_mut()
+        .expect("joint errors")
+        .flank_search = true;
+    b.with_inputs(|| {
+        let held = FitMemo::default();
+        if let Memo::AfterRegression = memo {
+            calibrate_kinematics_with(&robot, &obs, &regression, &held).expect("calibration");
+        }
+        held
+    })
+    .bench_local_values(|held| {
+        calibrate_kinematics_with(black_box(&robot), &obs, &search, &held).expect("calibration")
     });
 }
 
