@@ -763,22 +763,25 @@ impl Chain {
 /// runouts the chain dropped — holds terms the search does not fit: on ARM7 it took 38 s against
 /// 2.6 s, and the search was skipped until session 52), from the slowest elsewhere.
 fn projection(physics: Physics, candidates: &[Candidate]) -> (&'static str, f64, f64) {
-    let slowest = candidates.iter().map(|c| c.seconds).fold(0.0, f64::max);
-    let extended = Physics {
-        flank_search: false,
-        ..physics
-    }
-    .name();
-    let (from, seconds) = match (candidates.iter().rev())
-        .find(|c| physics.flank_search && c.name == extended && c.score.is_some())
-    {
-        Some(c) => ("the candidate it extends", c.seconds),
-        None => ("the slowest candidate", slowest),
-    };
     let rounds = if physics.flank_search {
         SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
     } else {
         1.0
+    };
+    let extended = (physics.flank_search).then(|| {
+        let name = Physics {
+            flank_search: false,
+            ..physics
+        }
+        .name();
+        (candidates.iter().rev()).find(|c| c.name == name && c.score.is_some())
+    });
+    let (from, seconds) = match extended.flatten() {
+        Some(c) => ("the candidate it extends", c.seconds),
+        None => (
+            "the slowest candidate",
+            candidates.iter().map(|c| c.seconds).fold(0.0, f64::max),
+        ),
     };
     (from, seconds, seconds * rounds * (1.0 + FINAL_FIT_SHARE))
 }
