@@ -6,7 +6,9 @@
 //! mass, backlash with its flank rounds (target: a fold's share of the 120 s budget), and its
 //! flank search alone and after the fit without it (what the two share); and one
 //! Jacobian of those rows with compliances, harmonics, the links' weights and axis runouts, the
-//! solvers' first-order columns against the exact ones the covariance takes.
+//! solvers' first-order columns against the exact ones the covariance takes; and, on one core,
+//! what a residual evaluation and a Jacobian compute per row of those rows with the fullest
+//! candidate as fitted (its torque flanks, its links' weights, most held at zero).
 
 use divan::{Bencher, black_box};
 use robocal_data::MeasurementSet;
@@ -180,5 +182,51 @@ fn jacobian_3528_rows(b: Bencher, columns: Columns) {
     b.bench_local(|| match columns {
         Columns::FirstOrder => problem.residuals_and_jacobian(black_box(&u)),
         Columns::Exact => problem.exact_jacobian(black_box(&u)),
+    });
+}
+
+/// The fullest physical candidate fitted on every row of the bundled twin, once for the
+/// per-row benches: its table, its joint errors (torque flanks, the links' weights, most of them
+/// held at zero, harmonics) and the rows.
+fn fitted() -> &'static (Robot, JointErrors, Observations) {
+    static FITTED: std::sync::OnceLock<(Robot, JointErrors, Observations)> =
+        std::sync::OnceLock::new();
+    FITTED.get_or_init(|| {
+        let (robot, set) = bundled();
+        let obs = Observations::from_rows(6, set.rows.iter());
+        let fit = calibrate_kinematics(&robot, &obs, &full_physics_settings()).expect("fit");
+        let errors = fit.compliance.expect("joint errors");
+        (fit.robot, errors, obs)
+    })
+}
+
+/// What one residual evaluation computes per row, on one core: the fitted model's point for
+/// every row of the bundled twin (its torques, flanks and deflection, then the chain).
+#[divan::bench(sample_count = 30)]
+fn point_3528_rows(b: Bencher) {
+    let (robot, errors, obs) = fitted();
+    b.bench_local(|| {
+        (0..obs.len())
+            .map(|i| errors.point(robot, obs.joints(i), obs.loads[i]))
+            .fold(nalgebra::Vector3::zeros(), |sum, p| sum + p)
+    });
+}
+
+/// What one Jacobian computes per row before the chain's columns, on one core: the fitted
+/// model's deflection, and the basis and turns of the coefficients it identified (those not
+/// held at zero), for every row.
+#[divan::bench(sample_count = 30)]
+fn row_terms_3528_rows(b: Bencher) {
+    let (robot, errors, obs) = fitted();
+    let params: Vec<_> = (errors.params().into_iter())
+        .filter(|p| errors.param(*p) != 0.0)
+        .collect();
+    b.bench_local(|| {
+        (0..obs.len())
+            .map(|i| {
+                let row = errors.row_terms(robot, obs.joints(i), obs.loads[i], &params);
+                row.basis.len()
+            })
+            .sum::<usize>()
     });
 }

@@ -564,20 +564,26 @@ fn torque_features_at(
     f
 }
 
-/// [`torque_features_at`] one by one, without collecting them.
+/// [`torque_features_at`] one by one, without collecting them: the flange's unit torques
+/// computed once for its link's features and the payload's (`load` times them).
 fn torque_features_iter<'a>(
     axis: &'a (Vector3<f64>, Vector3<f64>),
     frames: &'a [(Matrix3<f64>, Vector3<f64>)],
     g: &'a Vector3<f64>,
     load: f64,
 ) -> impl Iterator<Item = f64> + 'a {
-    let links = frames
+    let (flange, links) = match frames.split_last() {
+        Some((flange, links)) => (Some(flange), links),
+        None => (None, frames),
+    };
+    let links = links
         .iter()
         .flat_map(move |frame| MomentPart::ALL.map(|part| unit_torque(axis, frame, g, part)));
-    let payload = frames.last().into_iter().flat_map(move |flange| {
-        MomentPart::ALL.map(|part| load * unit_torque(axis, flange, g, part))
-    });
-    links.chain(payload).chain(std::iter::once(1.0))
+    let flange = flange.map(|f| MomentPart::ALL.map(|part| unit_torque(axis, f, g, part)));
+    let payload = flange.into_iter().flatten().map(move |t| load * t);
+    (links.chain(flange.into_iter().flatten()))
+        .chain(payload)
+        .chain(std::iter::once(1.0))
 }
 
 /// `q` (rad) turned by the deflection `d` (rad).
@@ -1133,10 +1139,12 @@ impl JointErrors {
         self
     }
 
-    /// For each link weight ([`Self::link_weights`]), the gravity torque (N·m per kg or per
-    /// kg·m) of its unit quantity about every joint axis up to its link's (entry `j` for joint
-    /// `j`), at command `q` (rad); empty without any.
-    fn link_weight_basis(&self, pose: &PoseCache) -> LinkUnits {
+    /// For each link weight ([`Self::link_weights`]) that loads the joints (a value not zero)
+    /// or is among `params`, the gravity torque (N·m per kg or per kg·m) of its unit quantity
+    /// about every joint axis up to its link's (entry `j` for joint `j`), at command `q` (rad);
+    /// none for the others (held at zero and not identified: most of a fit's, whose poses tell
+    /// few of the links' masses from the geometry); empty without any link weight.
+    fn link_weight_basis(&self, pose: &PoseCache, params: &[ErrorParam]) -> LinkUnits {
         let mut units = LinkUnits {
             values: Vec::new(),
             ends: Vec::with_capacity(self.link_weights.len()),
@@ -1144,11 +1152,20 @@ impl JointErrors {
         if self.link_weights.is_empty() {
             return units;
         }
+        let mut wanted: Vec<bool> = (self.link_weights.iter()).map(|w| w.value != 0.0).collect();
+        for p in params {
+            if let ErrorParam::LinkWeight(i) = p {
+                wanted[*i] = true;
+            }
+        }
         let Pose { axes, frames, g } = pose.get();
-        for w in &self.link_weights {
-            (units.values).extend(
-                (axes[..=w.body].iter()).map(|axis| unit_torque(axis, &frames[w.body], g, w.part)),
-            );
+        for (w, wanted) in self.link_weights.iter().zip(wanted) {
+            if wanted {
+                (units.values).extend(
+                    (axes[..=w.body].iter())
+                        .map(|axis| unit_torque(axis, &frames[w.body], g, w.part)),
+                );
+            }
             units.ends.push(units.values.len());
         }
         units
@@ -1167,6 +1184,12 @@ impl JointErrors {
         }
         let mut links = vec![0.0; torques.len()];
         for (w, unit) in self.link_weights.iter().zip(units) {
+            // A weight at zero adds nothing, and its unit torques are not computed: the same
+            // sums to the bit (`links` starts at +0 and a sum of products never turns −0, so
+            // adding ±0 leaves every entry as it is).
+            if w.value == 0.0 {
+                continue;
+            }
             for (t, phi) in links.iter_mut().zip(unit) {
                 *t += w.value * phi;
             }
@@ -1315,14 +1338,14 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> Vec<(usize, usize, f64)> {
-        self.basis_from(pose, load, params, &self.shared_at(pose, load))
+        self.basis_from(pose, load, params, &self.shared_at(pose, load, params))
     }
 
     /// What the deflection and the basis at the command `pose` holds under `load` kg share,
     /// each computed once: the gravity torques the compliances meet, the links' unit torques,
     /// the self-weight basis and the backlash flanks.
-    fn shared_at(&self, pose: &PoseCache, load: f64) -> RowShared {
-        let links = self.link_weight_basis(pose);
+    fn shared_at(&self, pose: &PoseCache, load: f64, params: &[ErrorParam]) -> RowShared {
+        let links = self.link_weight_basis(pose, params);
         let torques = self.with_link_torques(
             self.torques_at(pose, load),
             (0..links.ends.len()).map(|i| links.of(i).iter().copied()),
@@ -1504,7 +1527,7 @@ impl JointErrors {
         params: &[ErrorParam],
     ) -> RowTerms {
         let pose = self.pose(robot, q);
-        let shared = self.shared_at(&pose, load);
+        let shared = self.shared_at(&pose, load, params);
         let deflected = if self.holds_still(load) {
             q.to_vec()
         } else {

@@ -1085,6 +1085,71 @@ fn backlash_rests_on_the_flank_the_torque_presses() {
     }
 }
 
+/// A link weight held at zero adds nothing to the deflection (its unit torques are not
+/// computed): the same points, deflections and rows as without it, bit for bit. Where it is
+/// identified, its basis is there all the same: the same as with any value, since a link
+/// weight's basis is each joint's compliance times its unit torque.
+#[test]
+fn a_link_weight_at_zero_adds_nothing_and_keeps_its_basis() {
+    use robocal_robot::{ErrorParam, JointErrors};
+    let robot = pmc6();
+    let gravity = Vector3::new(0.0, 0.0, -9.80665);
+    let compliances = [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
+        .map(|c| c * 1e-5)
+        .to_vec();
+    let com = Vector3::new(100.0, 0.0, 60.0);
+    // Every link's mass and moments; a few of them loaded, the rest at zero.
+    let mut all = JointErrors::new(compliances.clone(), gravity, com)
+        .with_link_weights(&[0, 1, 2, 3, 4, 5])
+        .with_backlash(&[2]);
+    let loaded = [(9, 6.8), (10, 11.75), (13, -0.27), (17, 0.21), (22, -0.03)];
+    for (i, v) in loaded {
+        all.link_weights[i].value = v;
+    }
+    all.backlash[0].value = 0.01f64.to_radians();
+    let mut few = all.clone();
+    few.link_weights.retain(|w| w.value != 0.0);
+    assert_eq!(few.link_weights.len(), loaded.len());
+    let zero = (all.link_weights.iter()).position(|w| w.value == 0.0 && w.body == 4);
+    let zero = zero.expect("a link weight at zero");
+    let mut one = all.clone();
+    one.link_weights[zero].value = 1.0;
+    let params = [ErrorParam::Compliance(3), ErrorParam::LinkWeight(zero)];
+    for k in 0..40 {
+        let q: Vec<f64> = (0..6)
+            .map(|j| ((k * 7 + j * 13) % 23) as f64 / 23.0 * 3.0 - 1.5)
+            .collect();
+        for load in [0.0, 8.0, 20.0] {
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&all.deflected(&robot, &q, load)),
+                bits(&few.deflected(&robot, &q, load)),
+                "{q:?} {load}"
+            );
+            let p = all.point(&robot, &q, load);
+            assert_eq!(
+                bits(p.as_slice()),
+                bits(few.point(&robot, &q, load).as_slice())
+            );
+            let basis = all.basis(&robot, &q, load, &params);
+            let unit = one.basis(&robot, &q, load, &params);
+            // Joints 2–5 (those up to link 5 with a compliance) each turn by the weight.
+            let of_weight = |b: &[(usize, usize, f64)]| {
+                (b.iter().filter(|(k, _, _)| *k == 1))
+                    .map(|(_, j, phi)| (*j, phi.to_bits()))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(of_weight(&basis).len(), 4, "{basis:?}");
+            assert_eq!(of_weight(&basis), of_weight(&unit));
+            assert!(
+                of_weight(&basis)
+                    .iter()
+                    .any(|(_, b)| f64::from_bits(*b) != 0.0)
+            );
+        }
+    }
+}
+
 /// A harmonic's reach: inside it the joint error is the Fourier term of the joint angle itself,
 /// beyond it the term's value at the nearer end (computed here from the coefficients); the
 /// deflected angles and the coefficient Jacobian follow it; the file round trip keeps it; a
