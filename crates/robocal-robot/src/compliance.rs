@@ -616,8 +616,9 @@ fn torque_side_of(weights: &[f64], features: impl Iterator<Item = f64>) -> f64 {
 
 /// [`torque_side`] of the features [`torque_features_iter`] gives for `axis`, `frames`, `g` and
 /// `load`, in one loop: each feature computed as its weight is reached and summed in the same
-/// order (the same flank; the loop spares the iterators' own work, a fifth of a residual
-/// evaluation with five torque flanks).
+/// order, so the same flank (the sum may start from a zero of the other sign than a float
+/// `sum()`'s, which changes no sum but one of zeros, and `±0 ≥ 0` alike); the loop spares the
+/// iterators' own work, a quarter of a residual evaluation with five torque flanks.
 fn torque_side_at(
     weights: &[f64],
     axis: &(Vector3<f64>, Vector3<f64>),
