@@ -1225,7 +1225,8 @@ impl JointErrors {
 
     /// The payload's gravity torques (`torques`) plus the links' weights', N·m: `units` gives,
     /// for each link weight, its unit quantity's torque about every joint up to its link's (the
-    /// rows of [`Self::link_weight_basis`], or computed as they are summed).
+    /// rows of [`Self::link_weight_basis`]; [`Self::load_torques_at`] sums the same in its own
+    /// loops, computing them as it goes).
     fn with_link_torques<U>(&self, mut torques: Vec<f64>, units: U) -> Vec<f64>
     where
         U: IntoIterator,
