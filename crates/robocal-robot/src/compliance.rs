@@ -560,30 +560,47 @@ fn torque_features_at(
     load: f64,
 ) -> Vec<f64> {
     let mut f = Vec::with_capacity(TORQUE_FEATURES_PER_LINK * (frames.len() + 1) + 1);
-    f.extend(torque_features_iter(axis, frames, g, load));
+    visit_torque_features(axis, frames, g, load, |v| {
+        f.push(v);
+        true
+    });
     f
 }
 
-/// [`torque_features_at`] one by one, without collecting them: the flange's unit torques
-/// computed once for its link's features and the payload's (`load` times them).
-fn torque_features_iter<'a>(
-    axis: &'a (Vector3<f64>, Vector3<f64>),
-    frames: &'a [(Matrix3<f64>, Vector3<f64>)],
-    g: &'a Vector3<f64>,
+/// Hands [`torque_features_at`]'s features to `visit` one by one, in their order, until it
+/// returns false: the links' (the joint's own outwards, each link's parts in
+/// [`MomentPart::ALL`] order), the payload's (`load` times the flange's, whose unit torques are
+/// computed once for both), the preload's constant 1.
+fn visit_torque_features(
+    axis: &(Vector3<f64>, Vector3<f64>),
+    frames: &[(Matrix3<f64>, Vector3<f64>)],
+    g: &Vector3<f64>,
     load: f64,
-) -> impl Iterator<Item = f64> + 'a {
-    let (flange, links) = match frames.split_last() {
-        Some((flange, links)) => (Some(flange), links),
-        None => (None, frames),
+    mut visit: impl FnMut(f64) -> bool,
+) {
+    let Some((flange, links)) = frames.split_last() else {
+        visit(1.0);
+        return;
     };
-    let links = links
-        .iter()
-        .flat_map(move |frame| MomentPart::ALL.map(|part| unit_torque(axis, frame, g, part)));
-    let flange = flange.map(|f| MomentPart::ALL.map(|part| unit_torque(axis, f, g, part)));
-    let payload = flange.into_iter().flatten().map(move |t| load * t);
-    (links.chain(flange.into_iter().flatten()))
-        .chain(payload)
-        .chain(std::iter::once(1.0))
+    for frame in links {
+        for part in MomentPart::ALL {
+            if !visit(unit_torque(axis, frame, g, part)) {
+                return;
+            }
+        }
+    }
+    let at_flange = MomentPart::ALL.map(|part| unit_torque(axis, flange, g, part));
+    for t in at_flange {
+        if !visit(t) {
+            return;
+        }
+    }
+    for t in at_flange {
+        if !visit(load * t) {
+            return;
+        }
+    }
+    visit(1.0);
 }
 
 /// `q` (rad) turned by the deflection `d` (rad).
@@ -614,11 +631,12 @@ fn torque_side_of(weights: &[f64], features: impl Iterator<Item = f64>) -> f64 {
     )
 }
 
-/// [`torque_side`] of the features [`torque_features_iter`] gives for `axis`, `frames`, `g` and
-/// `load`, in one loop: each feature computed as its weight is reached and summed in the same
-/// order, so the same flank (the sum may start from a zero of the other sign than a float
-/// `sum()`'s, which changes no sum but one of zeros, and `±0 ≥ 0` alike); the loop spares the
-/// iterators' own work, a quarter of a residual evaluation with five torque flanks.
+/// [`torque_side`] of the features [`torque_features_at`] gives for `axis`, `frames`, `g` and
+/// `load`, without collecting them: each summed with its weight in the same order, so the same
+/// flank (the sum may start from a zero of the other sign than a float `sum()`'s, which changes
+/// no sum but one of zeros, and `±0 ≥ 0` alike; it stops where the weights do, as a zip). The
+/// nested iterators this replaced cost a quarter of a residual evaluation with five torque
+/// flanks.
 fn torque_side_at(
     weights: &[f64],
     axis: &(Vector3<f64>, Vector3<f64>),
@@ -628,41 +646,13 @@ fn torque_side_at(
 ) -> f64 {
     let mut weights = weights.iter();
     let mut sum = 0.0;
-    // Adds the next weight times `feature`; false once the weights have run out (as a zip of
-    // the weights and the features stops).
-    let mut add = |feature: &dyn Fn() -> f64| match weights.next() {
+    visit_torque_features(axis, frames, g, load, |f| match weights.next() {
         Some(w) => {
-            sum += w * feature();
+            sum += w * f;
             true
         }
         None => false,
-    };
-    'features: {
-        let Some((flange, links)) = frames.split_last() else {
-            add(&|| 1.0);
-            break 'features;
-        };
-        for frame in links {
-            for part in MomentPart::ALL {
-                if !add(&|| unit_torque(axis, frame, g, part)) {
-                    break 'features;
-                }
-            }
-        }
-        let mut at_flange = [0.0; TORQUE_FEATURES_PER_LINK];
-        for (k, part) in MomentPart::ALL.into_iter().enumerate() {
-            at_flange[k] = unit_torque(axis, flange, g, part);
-            if !add(&|| at_flange[k]) {
-                break 'features;
-            }
-        }
-        for t in at_flange {
-            if !add(&|| load * t) {
-                break 'features;
-            }
-        }
-        add(&|| 1.0);
-    }
+    });
     side(sum >= 0.0)
 }
 
@@ -1223,28 +1213,27 @@ impl JointErrors {
         units
     }
 
-    /// The payload's gravity torques (`torques`) plus the links' weights', N·m: `units` gives,
-    /// for each link weight, its unit quantity's torque about every joint up to its link's (the
-    /// rows of [`Self::link_weight_basis`]; [`Self::load_torques_at`] sums the same in its own
-    /// loops, computing them as it goes).
-    fn with_link_torques<U>(&self, mut torques: Vec<f64>, units: U) -> Vec<f64>
-    where
-        U: IntoIterator,
-        U::Item: IntoIterator<Item = f64>,
-    {
+    /// The payload's gravity torques (`torques`) plus the links' weights', N·m: `unit(i, w, j)`
+    /// is link weight `i`'s (`w`'s) unit quantity's torque about joint `j` (for every joint up to
+    /// its link's), read from [`Self::link_weight_basis`] or computed as it is summed.
+    fn with_link_torques(
+        &self,
+        mut torques: Vec<f64>,
+        unit: impl Fn(usize, &LinkWeight, usize) -> f64,
+    ) -> Vec<f64> {
         if self.link_weights.is_empty() {
             return torques;
         }
         let mut links = vec![0.0; torques.len()];
-        for (w, unit) in self.link_weights.iter().zip(units) {
-            // A weight at zero adds nothing, and its unit torques are not computed: the same
+        for (i, w) in self.link_weights.iter().enumerate() {
+            // A weight at zero adds nothing, and its unit torques are not asked for: the same
             // sums to the bit (`links` starts at +0 and a sum of products never turns −0, so
             // adding ±0 leaves every entry as it is).
             if w.value == 0.0 {
                 continue;
             }
-            for (t, phi) in links.iter_mut().zip(unit) {
-                *t += w.value * phi;
+            for (j, t) in links.iter_mut().enumerate().take(w.body + 1) {
+                *t += w.value * unit(i, w, j);
             }
         }
         for (t, l) in torques.iter_mut().zip(links) {
@@ -1265,21 +1254,11 @@ impl JointErrors {
         if self.link_weights.is_empty() {
             return torques;
         }
-        // The links' unit torques as they are summed, without collecting the basis: the sums
-        // of [`Self::with_link_torques`] in its order, in plain loops.
+        // The links' unit torques as they are summed, without collecting the basis.
         let Pose { axes, frames, g } = pose.get();
-        let mut torques = torques;
-        let mut links = vec![0.0; torques.len()];
-        for w in self.link_weights.iter().filter(|w| w.value != 0.0) {
-            let frame = &frames[w.body];
-            for (t, axis) in links.iter_mut().zip(&axes[..=w.body]) {
-                *t += w.value * unit_torque(axis, frame, g, w.part);
-            }
-        }
-        for (t, l) in torques.iter_mut().zip(links) {
-            *t += l;
-        }
-        torques
+        self.with_link_torques(torques, |_, w, j| {
+            unit_torque(&axes[j], &frames[w.body], g, w.part)
+        })
     }
 
     /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
@@ -1407,10 +1386,7 @@ impl JointErrors {
     /// the self-weight basis and the backlash flanks.
     fn shared_at(&self, pose: &PoseCache, load: f64, params: &[ErrorParam]) -> RowShared {
         let links = self.link_weight_basis(pose, params);
-        let torques = self.with_link_torques(
-            self.torques_at(pose, load),
-            (0..links.ends.len()).map(|i| links.of(i).iter().copied()),
-        );
+        let torques = self.with_link_torques(self.torques_at(pose, load), |i, _, j| links.of(i)[j]);
         RowShared {
             torques,
             links,
