@@ -200,14 +200,41 @@ fn fitted() -> &'static (Robot, JointErrors, Observations) {
     })
 }
 
+/// Where a per-row bench's wave bases (the harmonics' sines and cosines) come from.
+#[derive(Debug, Clone, Copy)]
+enum Waves {
+    /// Computed by the model at every row (`point`, `row_terms`).
+    Computed,
+    /// Computed once before, as a fit's problem does (`point_on_waves`, `row_terms_on_waves`).
+    Given,
+}
+
+/// Every row's wave bases for the fitted model.
+fn wave_bases() -> &'static Vec<Vec<(f64, f64)>> {
+    static BASES: std::sync::OnceLock<Vec<Vec<(f64, f64)>>> = std::sync::OnceLock::new();
+    BASES.get_or_init(|| {
+        let (_, errors, obs) = fitted();
+        (0..obs.len())
+            .map(|i| errors.wave_bases(obs.joints(i)))
+            .collect()
+    })
+}
+
 /// What one residual evaluation computes per row, on one core: the fitted model's point for
 /// every row of the bundled twin (its torques, flanks and deflection, then the chain).
-#[divan::bench(sample_count = 30)]
-fn point_3528_rows(b: Bencher) {
+#[divan::bench(args = [Waves::Computed, Waves::Given], sample_count = 30)]
+fn point_3528_rows(b: Bencher, waves: Waves) {
     let (robot, errors, obs) = fitted();
+    let bases = wave_bases();
     b.bench_local(|| {
         (0..obs.len())
-            .map(|i| errors.point(robot, obs.joints(i), obs.loads[i]))
+            .map(|i| {
+                let (q, load) = (obs.joints(i), obs.loads[i]);
+                match waves {
+                    Waves::Computed => errors.point(robot, q, load),
+                    Waves::Given => errors.point_on_waves(robot, q, load, &bases[i]),
+                }
+            })
             .fold(nalgebra::Vector3::zeros(), |sum, p| sum + p)
     });
 }
@@ -215,16 +242,21 @@ fn point_3528_rows(b: Bencher) {
 /// What one Jacobian computes per row before the chain's columns, on one core: the fitted
 /// model's deflection, and the basis and turns of the coefficients it identified (those not
 /// held at zero), for every row.
-#[divan::bench(sample_count = 30)]
-fn row_terms_3528_rows(b: Bencher) {
+#[divan::bench(args = [Waves::Computed, Waves::Given], sample_count = 30)]
+fn row_terms_3528_rows(b: Bencher, waves: Waves) {
     let (robot, errors, obs) = fitted();
+    let bases = wave_bases();
     let params: Vec<_> = (errors.params().into_iter())
         .filter(|p| errors.param(*p) != 0.0)
         .collect();
     b.bench_local(|| {
         (0..obs.len())
             .map(|i| {
-                let row = errors.row_terms(robot, obs.joints(i), obs.loads[i], &params);
+                let (q, load) = (obs.joints(i), obs.loads[i]);
+                let row = match waves {
+                    Waves::Computed => errors.row_terms(robot, q, load, &params),
+                    Waves::Given => errors.row_terms_on_waves(robot, q, load, &params, &bases[i]),
+                };
                 row.basis.len()
             })
             .sum::<usize>()

@@ -6,6 +6,7 @@
 
 use std::cell::RefCell;
 use std::rc::Rc;
+use std::sync::Arc;
 
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Operator};
 use faer::Mat;
@@ -265,6 +266,38 @@ struct ComplianceFit {
     start: JointErrors,
     /// Its coefficients that are identified.
     params: Vec<ErrorParam>,
+    /// The bases of its waves at every row.
+    waves: RowWaves,
+}
+
+/// The bases of a model's waves at every row's readings ([`JointErrors::wave_bases`]): the
+/// same at every `u`, where only coefficients change, so computed once per problem (shared by
+/// its restrictions) rather than at every evaluation.
+#[derive(Debug, Clone)]
+struct RowWaves {
+    /// Row after row, `per_row` each.
+    bases: Arc<[(f64, f64)]>,
+    per_row: usize,
+}
+
+impl RowWaves {
+    /// `model`'s wave bases at every row of `obs`.
+    fn of(model: &JointErrors, obs: &Observations) -> Self {
+        let per_row = model.harmonics.len() + model.runouts.len();
+        let bases = if per_row == 0 {
+            Arc::from([])
+        } else {
+            (0..obs.len())
+                .flat_map(|i| model.wave_bases(obs.joints(i)))
+                .collect()
+        };
+        Self { bases, per_row }
+    }
+
+    /// Row `i`'s bases.
+    fn row(&self, i: usize) -> &[(f64, f64)] {
+        &self.bases[i * self.per_row..(i + 1) * self.per_row]
+    }
 }
 
 /// Scale of each column from its RMS length per point: `1 / norm`, or 1 for a column that is
@@ -336,6 +369,7 @@ impl<'a> CalibrationProblem<'a> {
         let mut cjac = DMatrix::zeros(rows, params.len());
         let mut r = Vec::with_capacity(rows);
         let targets = self.obs.target_indices(robot);
+        let waves = compliance.and_then(|c| self.row_waves(c));
         // Each joint's `theta` column: the joint Jacobian's column (every joint is revolute), of
         // which a joint-error coefficient's column is the sum over the joints it turns, each
         // times its basis value.
@@ -361,7 +395,12 @@ impl<'a> CalibrationProblem<'a> {
                     let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
                     let p = match compliance {
                         Some(c) => {
-                            let row = c.row_terms(robot, q, load, params);
+                            let row = match waves {
+                                Some(waves) => {
+                                    c.row_terms_on_waves(robot, q, load, params, waves.row(i))
+                                }
+                                None => c.row_terms(robot, q, load, params),
+                            };
                             let p =
                                 robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * l);
                             for (k, j, phi) in row.basis {
@@ -479,6 +518,7 @@ impl<'a> CalibrationProblem<'a> {
     pub fn with_joint_errors(mut self, start: JointErrors, params: Vec<ErrorParam>) -> Self {
         let m = self.obs.len().max(1) as f64;
         self.compliance = Some(ComplianceFit {
+            waves: RowWaves::of(&start, self.obs),
             start: start.clone(),
             params,
         });
@@ -510,7 +550,12 @@ impl<'a> CalibrationProblem<'a> {
                     start.tilts[i].value = 0.0;
                 }
             }
-            ComplianceFit { start, params }
+            // Only tilts' values changed: the same waves.
+            ComplianceFit {
+                start,
+                params,
+                waves: c.waves.clone(),
+            }
         });
         // The priors of the coefficients still identified.
         let prior = (self.prior.iter())
@@ -608,12 +653,41 @@ impl<'a> CalibrationProblem<'a> {
     pub fn point_errors(&self, u: &[f64]) -> Vec<nalgebra::Vector3<f64>> {
         let robot = self.robot_at(u);
         let compliance = self.compliance_at(u);
+        let waves = compliance.as_ref().and_then(|c| self.row_waves(c));
         // Every core's share of the rows (each point its own: the same errors on any number).
         (0..self.obs.len())
             .into_par_iter()
             .with_min_len(ROWS_PER_TASK)
-            .map(|i| self.obs.predict(&robot, compliance.as_ref(), i) - self.obs.points[i])
+            .map(|i| self.predict(&robot, compliance.as_ref(), waves, i) - self.obs.points[i])
             .collect()
+    }
+
+    /// The bases of `compliance`'s waves at every row, computed with the problem, where its
+    /// waves are the start's (the same bases: [`JointErrors::same_waves`]); none where it has no
+    /// wave or others.
+    fn row_waves(&self, compliance: &Compliance) -> Option<&RowWaves> {
+        let fit = self.compliance.as_ref()?;
+        (fit.waves.per_row > 0 && fit.start.same_waves(compliance)).then_some(&fit.waves)
+    }
+
+    /// [`Observations::predict`], on the row's wave bases where they are given (the same point
+    /// to the bit).
+    fn predict(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+        waves: Option<&RowWaves>,
+        i: usize,
+    ) -> Vector3<f64> {
+        match (compliance, waves) {
+            (Some(c), Some(waves)) => c.point_on_waves(
+                &robot.for_target(self.obs.target(robot, i)),
+                self.obs.joints(i),
+                self.obs.loads[i],
+                waves.row(i),
+            ),
+            _ => self.obs.predict(robot, compliance, i),
+        }
     }
 
     /// Indices (into `param_ids()`) of the geometric parameters being identified.

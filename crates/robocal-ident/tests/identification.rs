@@ -699,19 +699,22 @@ fn jacobian_with_every_smooth_joint_error_matches_central_differences() {
 
 /// The residuals and the Jacobian are evaluated a block of rows per task on every core: on
 /// more rows than two blocks (and not a whole number of them), with every kind of joint-error
-/// term, each row is that observation's alone — its error from the model's own point, its
-/// Jacobian row from a problem holding only it (column by column in the same units) — and one
-/// core gives the same to the bit.
+/// term, each row is that observation's alone — its error from the model's own point (to the
+/// bit: the problem's wave bases, computed once, are the model's), its Jacobian row from a
+/// problem holding only it (column by column in the same units) — and one core gives the same
+/// to the bit.
 #[test]
 fn rows_evaluated_in_parallel_blocks_are_each_rows_alone() {
     let nominal = nominal();
     let configs = configurations();
     let mut errors = with_injected_weights(injected_compliance())
         .with_harmonics(&[1, 3], 2)
-        .with_backlash(&[0, 3]);
-    for (k, h) in errors.harmonics.iter_mut().enumerate() {
+        .with_backlash(&[0, 3])
+        .with_runouts(&[2], 1);
+    for (k, h) in errors.waves_mut().enumerate() {
         (h.sin, h.cos) = (1e-4 * (k + 1) as f64, -2e-4);
     }
+    errors.harmonics[0].reach = Some([-0.5, 0.5]);
     for b in &mut errors.backlash {
         b.value = 3e-4;
     }
@@ -732,7 +735,7 @@ fn rows_evaluated_in_parallel_blocks_are_each_rows_alone() {
         let e = model.point(&robot, obs.joints(i), obs.loads[i]) - obs.points[i];
         for a in 0..3 {
             assert!((r[3 * i + a] - e[a]).abs() < 1e-9, "row {i}");
-            assert!((residuals[3 * i + a] - e[a]).abs() < 1e-9, "row {i}");
+            assert_eq!(residuals[3 * i + a].to_bits(), e[a].to_bits(), "row {i}");
         }
     }
     for i in [0, 1, 63, 64, 65, 127, 128, 149] {

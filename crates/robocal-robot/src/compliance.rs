@@ -302,8 +302,19 @@ impl Harmonic {
 
     /// Its joint error at joint angle `q`, rad.
     pub fn value(&self, q: f64) -> f64 {
-        let (s, c) = self.basis(q);
+        self.value_on(self.basis(q))
+    }
+
+    /// Its joint error on its basis `(sin, cos)` at some joint angle ([`Self::basis`]), rad.
+    pub fn value_on(&self, (s, c): (f64, f64)) -> f64 {
         self.sin * s + self.cos * c
+    }
+
+    /// Whether `other` is evaluated at the same angles with the same basis — same joint, order
+    /// and reach —, whatever its coefficients: whether its [`Self::basis`] is this one's at every
+    /// joint angle.
+    pub fn same_basis(&self, other: &Harmonic) -> bool {
+        (self.joint, self.order, self.reach) == (other.joint, other.order, other.reach)
     }
 
     /// What holding the harmonic beyond its reach may miss at joint angle `q`, as a variance
@@ -491,12 +502,15 @@ impl LinkUnits {
 
 /// The arm's joint axes and link frames at command `q`, computed on first use and once: the
 /// payload's torques, the links' weights, the self-weight terms, the torque flanks and the
-/// centre of mass's columns of one row share them.
+/// centre of mass's columns of one row share them. With them the bases of the model's waves at
+/// `q` ([`JointErrors::wave_bases`]): the caller's, or computed on first use.
 struct PoseCache<'a> {
     robot: &'a Robot,
     q: &'a [f64],
     g: Vector3<f64>,
     pose: OnceCell<(Vec<Axis>, Vec<Frame>)>,
+    given_waves: Option<&'a [(f64, f64)]>,
+    waves: OnceCell<Vec<(f64, f64)>>,
 }
 
 impl PoseCache<'_> {
@@ -506,6 +520,14 @@ impl PoseCache<'_> {
             axes,
             frames,
             g: &self.g,
+        }
+    }
+
+    /// The bases of `model`'s waves at the command ([`JointErrors::wave_bases`]).
+    fn waves(&self, model: &JointErrors) -> &[(f64, f64)] {
+        match self.given_waves {
+            Some(waves) => waves,
+            None => self.waves.get_or_init(|| model.wave_bases(self.q)),
         }
     }
 }
@@ -1025,6 +1047,31 @@ impl JointErrors {
         (self.harmonics.iter_mut()).chain(self.runouts.iter_mut().map(|r| &mut r.wave))
     }
 
+    /// Every harmonic of the model, in [`Self::waves_mut`]'s order.
+    fn waves(&self) -> impl Iterator<Item = &Harmonic> {
+        (self.harmonics.iter()).chain(self.runouts.iter().map(|r| &r.wave))
+    }
+
+    /// The basis `(sin, cos)` of every wave of the model ([`Self::waves_mut`]'s order: the
+    /// harmonics', then the runouts') at command `q` (rad), [`Harmonic::basis`]: all the model
+    /// reads of the readings beside the arm's frames and the flanks. It stays the same while only
+    /// coefficients change, so that a fit computes it once per row and hands it to
+    /// [`Self::point_on_waves`] and [`Self::row_terms_on_waves`] (the same values to the bit).
+    pub fn wave_bases(&self, q: &[f64]) -> Vec<(f64, f64)> {
+        self.waves().map(|h| h.basis(q[h.joint])).collect()
+    }
+
+    /// Whether `other`'s [`Self::wave_bases`] are this model's at every command: the same waves
+    /// (joints, orders, reaches; [`Harmonic::same_basis`]) in the same order, whatever their
+    /// coefficients.
+    pub fn same_waves(&self, other: &JointErrors) -> bool {
+        (self.harmonics.len(), self.runouts.len()) == (other.harmonics.len(), other.runouts.len())
+            && self
+                .waves()
+                .zip(other.waves())
+                .all(|(a, b)| a.same_basis(b))
+    }
+
     /// Adds runouts of orders `1..=orders` about both axes across (coefficients 0) for `joints`.
     pub fn with_runouts(mut self, joints: &[usize], orders: u32) -> Self {
         for &joint in joints {
@@ -1079,9 +1126,10 @@ impl JointErrors {
             .collect();
         if !self.runouts.is_empty() {
             let Pose { axes, frames, .. } = pose.get();
-            out.extend(self.runouts.iter().map(|r| {
+            let bases = &pose.waves(self)[self.harmonics.len()..];
+            out.extend(self.runouts.iter().zip(bases).map(|(r, &basis)| {
                 let j = r.wave.joint;
-                (r.axis(frames) * r.wave.value(pose.q[j]), axes[j].1)
+                (r.axis(frames) * r.wave.value_on(basis), axes[j].1)
             }));
         }
         out
@@ -1152,7 +1200,7 @@ impl JointErrors {
                 ErrorParam::RunoutSin(i) | ErrorParam::RunoutCos(i) => {
                     let r = &self.runouts[i];
                     let j = r.wave.joint;
-                    let (sin, cos) = r.wave.basis(pose.q[j]);
+                    let (sin, cos) = pose.waves(self)[self.harmonics.len() + i];
                     let b = if matches!(p, ErrorParam::RunoutCos(_)) {
                         cos
                     } else {
@@ -1403,7 +1451,6 @@ impl JointErrors {
         params: &[ErrorParam],
         shared: &RowShared,
     ) -> Vec<(usize, usize, f64)> {
-        let q = pose.q;
         let RowShared {
             torques,
             links,
@@ -1434,12 +1481,10 @@ impl JointErrors {
             match p {
                 ErrorParam::Compliance(j) => out.push((k, j, torques[j])),
                 ErrorParam::HarmonicSin(i) => {
-                    let h = &self.harmonics[i];
-                    out.push((k, h.joint, h.basis(q[h.joint]).0));
+                    out.push((k, self.harmonics[i].joint, pose.waves(self)[i].0));
                 }
                 ErrorParam::HarmonicCos(i) => {
-                    let h = &self.harmonics[i];
-                    out.push((k, h.joint, h.basis(q[h.joint]).1));
+                    out.push((k, self.harmonics[i].joint, pose.waves(self)[i].1));
                 }
                 ErrorParam::SelfWeight(i) => out.push((k, self.self_weight[i].joint, sw[i])),
                 ErrorParam::Backlash(i) => out.push((k, self.backlash[i].joint, flanks[i])),
@@ -1490,11 +1535,28 @@ impl JointErrors {
 
     /// A lazily computed [`Pose`] of `robot` at command `q` (rad), for this model's gravity.
     fn pose<'a>(&self, robot: &'a Robot, q: &'a [f64]) -> PoseCache<'a> {
+        self.pose_on(robot, q, None)
+    }
+
+    /// [`Self::pose`] with the bases of the model's waves at `q` given ([`Self::wave_bases`]),
+    /// or computed on first use.
+    fn pose_on<'a>(
+        &self,
+        robot: &'a Robot,
+        q: &'a [f64],
+        waves: Option<&'a [(f64, f64)]>,
+    ) -> PoseCache<'a> {
+        debug_assert!(
+            waves.is_none_or(|w| w.len() == self.harmonics.len() + self.runouts.len()),
+            "one basis per wave"
+        );
         PoseCache {
             robot,
             q,
             g: self.gravity_world(robot),
             pose: OnceCell::new(),
+            given_waves: waves,
+            waves: OnceCell::new(),
         }
     }
 
@@ -1508,22 +1570,30 @@ impl JointErrors {
     /// [`Self::deflection`] at the command `pose` holds.
     fn deflection_at(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
         self.deflection_of(
-            pose.q,
+            pose,
             &self.load_torques_at(pose, load),
             &self.self_weight_basis(pose),
             &self.flanks(pose, load),
         )
     }
 
-    /// How far each joint turns from command `q` (rad): compliance × the gravity `torques`,
-    /// plus the harmonics, the self-weight terms on their basis `sw` and the backlash on its
-    /// `flanks`.
-    fn deflection_of(&self, q: &[f64], torques: &[f64], sw: &[f64], flanks: &[f64]) -> Vec<f64> {
+    /// How far each joint turns from the command `pose` holds (rad): compliance × the gravity
+    /// `torques`, plus the harmonics, the self-weight terms on their basis `sw` and the backlash
+    /// on its `flanks`.
+    fn deflection_of(
+        &self,
+        pose: &PoseCache,
+        torques: &[f64],
+        sw: &[f64],
+        flanks: &[f64],
+    ) -> Vec<f64> {
         let mut d: Vec<f64> = (self.values.iter().zip(torques))
             .map(|(c, t)| c * t)
             .collect();
-        for h in &self.harmonics {
-            d[h.joint] += h.value(q[h.joint]);
+        if !self.harmonics.is_empty() {
+            for (h, &basis) in self.harmonics.iter().zip(pose.waves(self)) {
+                d[h.joint] += h.value_on(basis);
+            }
         }
         for (t, phi) in self.self_weight.iter().zip(sw) {
             d[t.joint] += t.value * phi;
@@ -1563,8 +1633,26 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> RowTerms {
-        let pose = self.pose(robot, q);
-        let shared = self.shared_at(&pose, load, params);
+        self.row_terms_at(&self.pose(robot, q), load, params)
+    }
+
+    /// [`Self::row_terms`] with the bases of the model's waves at `q` given, as
+    /// [`Self::wave_bases`] computes them (the same terms to the bit; none computed again).
+    pub fn row_terms_on_waves(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        params: &[ErrorParam],
+        waves: &[(f64, f64)],
+    ) -> RowTerms {
+        self.row_terms_at(&self.pose_on(robot, q, Some(waves)), load, params)
+    }
+
+    /// [`Self::row_terms`] at the command `pose` holds.
+    fn row_terms_at(&self, pose: &PoseCache, load: f64, params: &[ErrorParam]) -> RowTerms {
+        let q = pose.q;
+        let shared = self.shared_at(pose, load, params);
         let deflected = if self.holds_still(load) {
             q.to_vec()
         } else {
@@ -1574,13 +1662,13 @@ impl JointErrors {
                 flanks,
                 ..
             } = &shared;
-            deflected_by(q, self.deflection_of(q, torques, self_weight, flanks))
+            deflected_by(q, self.deflection_of(pose, torques, self_weight, flanks))
         };
         RowTerms {
             deflected,
-            basis: self.basis_from(&pose, load, params, &shared),
-            turns: self.turns_at(&pose, load),
-            turn_basis: self.turn_basis_at(&pose, load, params),
+            basis: self.basis_from(pose, load, params, &shared),
+            turns: self.turns_at(pose, load),
+            turn_basis: self.turn_basis_at(pose, load, params),
         }
     }
 
@@ -1712,12 +1800,28 @@ impl JointErrors {
 
     /// The model's target point for command `q` (rad) under `load` kg, mm, world frame.
     pub fn point(&self, robot: &Robot, q: &[f64], load: f64) -> Vector3<f64> {
-        let pose = self.pose(robot, q);
-        let p = robot.point(&self.deflected_at(&pose, load));
+        self.point_at(&self.pose(robot, q), load)
+    }
+
+    /// [`Self::point`] with the bases of the model's waves at `q` given, as [`Self::wave_bases`]
+    /// computes them (the same point to the bit; none computed again).
+    pub fn point_on_waves(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        waves: &[(f64, f64)],
+    ) -> Vector3<f64> {
+        self.point_at(&self.pose_on(robot, q, Some(waves)), load)
+    }
+
+    /// [`Self::point`] at the command `pose` holds.
+    fn point_at(&self, pose: &PoseCache, load: f64) -> Vector3<f64> {
+        let p = pose.robot.point(&self.deflected_at(pose, load));
         if !self.has_turns() {
             return p;
         }
-        turned(&self.turns_at(&pose, load), p)
+        turned(&self.turns_at(pose, load), p)
     }
 
     /// Jacobian of the point with respect to each joint's compliance (mm per rad/(N·m)), and

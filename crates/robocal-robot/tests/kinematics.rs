@@ -1150,6 +1150,105 @@ fn a_link_weight_at_zero_adds_nothing_and_keeps_its_basis() {
     }
 }
 
+/// The bases of a model's waves at a command, computed once ([`JointErrors::wave_bases`]: each
+/// harmonic's and each runout's `(sin k q', cos k q')` at the held angle, checked here against
+/// the sines computed directly) and handed back: the same point and the same row terms to the
+/// bit as the model computing them itself; another command's bases move the point (they are
+/// read, not recomputed). The same waves with other coefficients share the bases; another
+/// reach, order or wave does not.
+#[test]
+fn wave_bases_handed_back_give_the_same_rows_to_the_bit() {
+    use robocal_robot::{ErrorParam, Harmonic, JointErrors};
+    let robot = pmc6();
+    let gravity = Vector3::new(0.0, 0.0, -9.80665);
+    let compliances = [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
+        .map(|c| c * 1e-5)
+        .to_vec();
+    let mut e = JointErrors::new(compliances, gravity, Vector3::new(100.0, 0.0, 60.0))
+        .with_harmonics(&[0, 1, 4], 2)
+        .with_runouts(&[1, 2], 2)
+        .with_link_weights(&[1, 2]);
+    let mut next = 0.0f64;
+    for h in e.waves_mut() {
+        next += 1.0;
+        h.sin = (0.01 * next).to_radians();
+        h.cos = (-0.007 * next).to_radians();
+    }
+    // Joint 2's harmonics held beyond −60°..−20°.
+    e.harmonics[2].reach = Some([(-60.0f64).to_radians(), (-20.0f64).to_radians()]);
+    e.harmonics[3].reach = e.harmonics[2].reach;
+    e.link_weights[1].value = 6.8;
+    let params = e.params();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let other = [0.3, -0.4, 0.2, 0.0, 1.0, -0.5];
+    for k in 0..30 {
+        let q: Vec<f64> = (0..6)
+            .map(|j| ((k * 7 + j * 13) % 23) as f64 / 23.0 * 3.0 - 1.5)
+            .collect();
+        let waves = e.wave_bases(&q);
+        assert_eq!(waves.len(), e.harmonics.len() + e.runouts.len());
+        let every = (e.harmonics.iter()).chain(e.runouts.iter().map(|r| &r.wave));
+        for (h, &(s, c)) in every.zip(&waves) {
+            let held = h
+                .reach
+                .map_or(q[h.joint], |[lo, hi]| q[h.joint].clamp(lo, hi));
+            let angle = f64::from(h.order) * held;
+            assert_eq!((s, c), (angle.sin(), angle.cos()), "{q:?}");
+        }
+        for load in [0.0, 12.0] {
+            let p = e.point(&robot, &q, load);
+            let given = e.point_on_waves(&robot, &q, load, &waves);
+            assert_eq!(bits(p.as_slice()), bits(given.as_slice()), "{q:?} {load}");
+            let moved = e.point_on_waves(&robot, &q, load, &e.wave_bases(&other));
+            assert!((moved - p).norm() > 1e-4, "{q:?} {load}");
+            let row = e.row_terms(&robot, &q, load, &params);
+            let row_given = e.row_terms_on_waves(&robot, &q, load, &params, &waves);
+            assert_eq!(bits(&row.deflected), bits(&row_given.deflected));
+            let flat = |b: &[(usize, usize, f64)]| {
+                (b.iter())
+                    .map(|&(k, j, v)| (k, j, v.to_bits()))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(flat(&row.basis), flat(&row_given.basis));
+            assert!(
+                (row.basis.iter()).any(|&(k, _, v)| {
+                    matches!(params[k], ErrorParam::HarmonicCos(_)) && v != 0.0
+                })
+            );
+            let turn_bits = |t: &[(Vector3<f64>, Vector3<f64>)]| {
+                (t.iter())
+                    .flat_map(|(a, b)| bits(a.as_slice()).into_iter().chain(bits(b.as_slice())))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(turn_bits(&row.turns), turn_bits(&row_given.turns));
+            assert_eq!(
+                row.turn_basis.len(),
+                2 * 2 * 2 * 2,
+                "two joints, orders, axes, sin/cos"
+            );
+            for (a, b) in row.turn_basis.iter().zip(&row_given.turn_basis) {
+                assert_eq!(a.0, b.0);
+                assert_eq!(turn_bits(&[(a.1, a.2)]), turn_bits(&[(b.1, b.2)]));
+            }
+        }
+    }
+    // Other coefficients: the same bases; another reach, order or wave: not.
+    let mut scaled = e.clone();
+    scaled.waves_mut().for_each(|h| h.sin *= 3.0);
+    assert!(e.same_waves(&scaled) && scaled.same_waves(&e));
+    let mut reach = e.clone();
+    reach.runouts[1].wave.reach = Some([-1.0, 1.0]);
+    assert!(!e.same_waves(&reach));
+    let mut order = e.clone();
+    order.harmonics[0].order = 3;
+    assert!(!e.same_waves(&order));
+    assert!(!e.same_waves(&e.clone().with_harmonics(&[5], 1)));
+    let mut free = e.harmonics[3];
+    assert!(!Harmonic::zero(1, 2).same_basis(&free));
+    free.reach = None;
+    assert!(Harmonic::zero(1, 2).same_basis(&free));
+}
+
 /// A harmonic's reach: inside it the joint error is the Fourier term of the joint angle itself,
 /// beyond it the term's value at the nearer end (computed here from the coefficients); the
 /// deflected angles and the coefficient Jacobian follow it; the file round trip keeps it; a
