@@ -625,9 +625,12 @@ fn visit_torque_features(
     visit(1.0);
 }
 
-/// `q` (rad) turned by the deflection `d` (rad).
-fn deflected_by(q: &[f64], d: Vec<f64>) -> Vec<f64> {
-    (q.iter().zip(d)).map(|(q, d)| q + d).collect()
+/// `q` (rad) turned by the deflection `d` (rad), in `d`'s buffer.
+fn deflected_by(q: &[f64], mut d: Vec<f64>) -> Vec<f64> {
+    for (d, q) in d.iter_mut().zip(q) {
+        *d = q + *d;
+    }
+    d
 }
 
 /// `+1` for the positive flank, `−1` for the other.
