@@ -67,10 +67,35 @@ pub fn rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
     rpy_with(rpy, f64::sin_cos)
 }
 
+/// [`table_rpy_to_matrix`]'s memo holds `2^RPY_BITS` rotations.
+const RPY_BITS: u32 = 2;
+
+thread_local! {
+    /// [`table_rpy_to_matrix`]'s memo: per slot, the angles' bits and their rotation (none in
+    /// an empty slot).
+    static RPY: [Cell<Option<([u64; 3], Matrix3<f64>)>>; 1 << RPY_BITS] =
+        const { [const { Cell::new(None) }; 1 << RPY_BITS] };
+}
+
 /// [`rpy_to_matrix`] of the table's own angles (the base's, the tool's), their sines
-/// remembered ([`table_sin_cos`]; a measured orientation's vary and are not).
+/// remembered ([`table_sin_cos`]; a measured orientation's vary and are not), and the rotation
+/// too, per thread by the angles' bits: every row of an evaluation builds the base's rotation
+/// for its chain, its gravity and its point, from the same angles (a hit returns what the same
+/// bits gave).
 fn table_rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
-    rpy_with(rpy, table_sin_cos)
+    let bits = [rpy.x.to_bits(), rpy.y.to_bits(), rpy.z.to_bits()];
+    let mixed = bits[0] ^ bits[1].rotate_left(21) ^ bits[2].rotate_left(42);
+    let slot = (mixed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - RPY_BITS)) as usize;
+    RPY.with(|memo| {
+        if let Some((b, r)) = memo[slot].get()
+            && b == bits
+        {
+            return r;
+        }
+        let r = rpy_with(rpy, table_sin_cos);
+        memo[slot].set(Some((bits, r)));
+        r
+    })
 }
 
 /// [`rpy_to_matrix`] with the sines and cosines from `sin_cos`.
@@ -564,7 +589,8 @@ mod tests {
 
     /// The memo gives `sin_cos`'s own bits: for many more angles than it has slots (so that
     /// slots are shared and overwritten), each asked several times in turns, for zeros of both
-    /// signs, infinities and NaNs (the all-ones NaN an empty slot holds among them).
+    /// signs, infinities and NaNs (the all-ones NaN an empty slot holds among them). The
+    /// rotations' memo gives the rotation of the angles' own sines, likewise.
     #[test]
     fn table_sin_cos_is_sin_cos_to_the_bit() {
         let mut angles: Vec<f64> = (0..500)
@@ -586,6 +612,17 @@ mod tests {
         };
         for round in 0..3 {
             for (k, &angle) in angles.iter().enumerate() {
+                // The rotation of three of them, its memo shared and overwritten the same way.
+                let rpy = Vector3::new(angle, angles[(k * 7) % angles.len()], -angle);
+                for _ in 0..1 + (k + round) % 2 {
+                    let r = table_rpy_to_matrix(&rpy);
+                    let direct = rpy_with(&rpy, f64::sin_cos);
+                    assert!(
+                        (r.iter().zip(direct.iter()))
+                            .all(|(a, b)| a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan()),
+                        "{rpy:?}"
+                    );
+                }
                 // Every other angle twice in a row: a hit straight after its miss.
                 for _ in 0..1 + (k + round) % 2 {
                     let (s, c) = table_sin_cos(angle);
