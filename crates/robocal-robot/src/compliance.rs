@@ -625,10 +625,10 @@ fn visit_torque_features(
     visit(1.0);
 }
 
-/// `q` (rad) turned by the deflection `d` (rad), in `d`'s buffer.
+/// `q` (rad) turned by the deflection `d` (rad), in `d`'s buffer (`d + q` is `q + d` to the bit).
 fn deflected_by(q: &[f64], mut d: Vec<f64>) -> Vec<f64> {
     for (d, q) in d.iter_mut().zip(q) {
-        *d = q + *d;
+        *d += q;
     }
     d
 }

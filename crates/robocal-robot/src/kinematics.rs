@@ -70,10 +70,13 @@ pub fn rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
 /// [`table_rpy_to_matrix`]'s memo holds `2^RPY_BITS` rotations.
 const RPY_BITS: u32 = 2;
 
+/// A slot of [`table_rpy_to_matrix`]'s memo: three angles' bits and their rotation (none in an
+/// empty slot).
+type RpySlot = Cell<Option<([u64; 3], Matrix3<f64>)>>;
+
 thread_local! {
-    /// [`table_rpy_to_matrix`]'s memo: per slot, the angles' bits and their rotation (none in
-    /// an empty slot).
-    static RPY: [Cell<Option<([u64; 3], Matrix3<f64>)>>; 1 << RPY_BITS] =
+    /// [`table_rpy_to_matrix`]'s memo.
+    static RPY: [RpySlot; 1 << RPY_BITS] =
         const { [const { Cell::new(None) }; 1 << RPY_BITS] };
 }
 
