@@ -1085,21 +1085,29 @@ fn backlash_rests_on_the_flank_the_torque_presses() {
     }
 }
 
+/// Joint errors of the paper's arm with compliances alone (joints 2–6, 8e-7 to 5.7e-6 rad/N·m),
+/// standard gravity, the payload's centre of mass 100 mm along the flange's x and 60 along z.
+fn compliant_pmc6() -> robocal_robot::JointErrors {
+    let compliances = [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
+        .map(|c| c * 1e-5)
+        .to_vec();
+    robocal_robot::JointErrors::new(
+        compliances,
+        Vector3::new(0.0, 0.0, -9.80665),
+        Vector3::new(100.0, 0.0, 60.0),
+    )
+}
+
 /// A link weight held at zero adds nothing to the deflection (its unit torques are not
 /// computed): the same points, deflections and rows as without it, bit for bit. Where it is
 /// identified, its basis is there all the same: the same as with any value, since a link
 /// weight's basis is each joint's compliance times its unit torque.
 #[test]
 fn a_link_weight_at_zero_adds_nothing_and_keeps_its_basis() {
-    use robocal_robot::{ErrorParam, JointErrors};
+    use robocal_robot::ErrorParam;
     let robot = pmc6();
-    let gravity = Vector3::new(0.0, 0.0, -9.80665);
-    let compliances = [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
-        .map(|c| c * 1e-5)
-        .to_vec();
-    let com = Vector3::new(100.0, 0.0, 60.0);
     // Every link's mass and moments; a few of them loaded, the rest at zero.
-    let mut all = JointErrors::new(compliances.clone(), gravity, com)
+    let mut all = compliant_pmc6()
         .with_link_weights(&[0, 1, 2, 3, 4, 5])
         .with_backlash(&[2]);
     let loaded = [(9, 6.8), (10, 11.75), (13, -0.27), (17, 0.21), (22, -0.03)];
@@ -1158,13 +1166,9 @@ fn a_link_weight_at_zero_adds_nothing_and_keeps_its_basis() {
 /// reach, order or wave does not.
 #[test]
 fn wave_bases_handed_back_give_the_same_rows_to_the_bit() {
-    use robocal_robot::{ErrorParam, Harmonic, JointErrors};
+    use robocal_robot::{ErrorParam, Harmonic};
     let robot = pmc6();
-    let gravity = Vector3::new(0.0, 0.0, -9.80665);
-    let compliances = [0.0, 0.08, 0.14, 0.38, 0.48, 0.57]
-        .map(|c| c * 1e-5)
-        .to_vec();
-    let mut e = JointErrors::new(compliances, gravity, Vector3::new(100.0, 0.0, 60.0))
+    let mut e = compliant_pmc6()
         .with_harmonics(&[0, 1, 4], 2)
         .with_runouts(&[1, 2], 2)
         .with_link_weights(&[1, 2]);
