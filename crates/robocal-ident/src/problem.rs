@@ -201,11 +201,24 @@ impl Observations {
         compliance: Option<&Compliance>,
         i: usize,
     ) -> Vector3<f64> {
-        robot.for_target(self.target(robot, i)).point_under_load(
-            compliance,
-            self.joints(i),
-            self.loads[i],
-        )
+        self.predict_on_waves(robot, compliance, None, i)
+    }
+
+    /// [`Self::predict`], on the bases of `compliance`'s waves at the observation's readings
+    /// where they are given ([`JointErrors::wave_bases`]; the same point to the bit).
+    pub(crate) fn predict_on_waves(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+        waves: Option<&[(f64, f64)]>,
+        i: usize,
+    ) -> Vector3<f64> {
+        let robot = robot.for_target(self.target(robot, i));
+        let (q, load) = (self.joints(i), self.loads[i]);
+        match (compliance, waves) {
+            (Some(c), Some(waves)) => c.point_on_waves(&robot, q, load, waves),
+            _ => robot.point_under_load(compliance, q, load),
+        }
     }
 
     /// Euclidean errors of `robot`'s predictions (rigid), mm.
@@ -658,7 +671,12 @@ impl<'a> CalibrationProblem<'a> {
         (0..self.obs.len())
             .into_par_iter()
             .with_min_len(ROWS_PER_TASK)
-            .map(|i| self.predict(&robot, compliance.as_ref(), waves, i) - self.obs.points[i])
+            .map(|i| {
+                let waves = waves.map(|w| w.row(i));
+                self.obs
+                    .predict_on_waves(&robot, compliance.as_ref(), waves, i)
+                    - self.obs.points[i]
+            })
             .collect()
     }
 
@@ -668,26 +686,6 @@ impl<'a> CalibrationProblem<'a> {
     fn row_waves(&self, compliance: &Compliance) -> Option<&RowWaves> {
         let fit = self.compliance.as_ref()?;
         (fit.waves.per_row > 0 && fit.start.same_waves(compliance)).then_some(&fit.waves)
-    }
-
-    /// [`Observations::predict`], on the row's wave bases where they are given (the same point
-    /// to the bit).
-    fn predict(
-        &self,
-        robot: &Robot,
-        compliance: Option<&Compliance>,
-        waves: Option<&RowWaves>,
-        i: usize,
-    ) -> Vector3<f64> {
-        match (compliance, waves) {
-            (Some(c), Some(waves)) => c.point_on_waves(
-                &robot.for_target(self.obs.target(robot, i)),
-                self.obs.joints(i),
-                self.obs.loads[i],
-                waves.row(i),
-            ),
-            _ => self.obs.predict(robot, compliance, i),
-        }
     }
 
     /// Indices (into `param_ids()`) of the geometric parameters being identified.

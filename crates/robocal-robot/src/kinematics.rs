@@ -35,10 +35,35 @@ fn rot_z(c: f64, s: f64) -> Matrix3<f64> {
 /// [`table_sin_cos`]'s memo holds `2^SIN_COS_BITS` angles.
 const SIN_COS_BITS: u32 = 6;
 
+/// A slot of a memo: a key (bits of angles) and the value computed for it; none in an empty slot.
+type MemoSlot<K, V> = Cell<Option<(K, V)>>;
+
 thread_local! {
-    /// [`table_sin_cos`]'s memo: per slot, an angle's bits and its sine and cosine.
-    static SIN_COS: [Cell<(u64, f64, f64)>; 1 << SIN_COS_BITS] =
-        const { [const { Cell::new((u64::MAX, f64::NAN, f64::NAN)) }; 1 << SIN_COS_BITS] };
+    /// [`table_sin_cos`]'s memo: an angle's bits and its sine and cosine.
+    static SIN_COS: [MemoSlot<u64, (f64, f64)>; 1 << SIN_COS_BITS] =
+        const { [const { Cell::new(None) }; 1 << SIN_COS_BITS] };
+}
+
+/// What `memo` holds for `key` in the slot `hash` falls to (Fibonacci hashing; the memo's length
+/// a power of two), or `compute()`, then held there: a hit returns what `compute` gave for the
+/// same key.
+#[inline]
+fn recall<K: Copy + PartialEq, V: Copy>(
+    memo: &[MemoSlot<K, V>],
+    key: K,
+    hash: u64,
+    compute: impl FnOnce() -> V,
+) -> V {
+    let slot =
+        (hash.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - memo.len().trailing_zeros())) as usize;
+    if let Some((k, v)) = memo[slot].get()
+        && k == key
+    {
+        return v;
+    }
+    let v = compute();
+    memo[slot].set(Some((key, v)));
+    v
 }
 
 /// `angle.sin_cos()` for an angle of the table (α, β, the base's and the tool's angles), which
@@ -48,18 +73,7 @@ thread_local! {
 #[inline]
 fn table_sin_cos(angle: f64) -> (f64, f64) {
     let bits = angle.to_bits();
-    // Fibonacci hashing of the bits to a slot. An empty slot holds a NaN's bits with NaN for
-    // its sine and cosine: what that NaN's `sin_cos` gives.
-    let slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - SIN_COS_BITS)) as usize;
-    SIN_COS.with(|memo| {
-        let (b, s, c) = memo[slot].get();
-        if b == bits {
-            return (s, c);
-        }
-        let (s, c) = angle.sin_cos();
-        memo[slot].set((bits, s, c));
-        (s, c)
-    })
+    SIN_COS.with(|memo| recall(memo, bits, bits, || angle.sin_cos()))
 }
 
 /// `R = RotZ(yaw) * RotY(pitch) * RotX(roll)` from `rpy = [roll, pitch, yaw]`, rad.
@@ -70,13 +84,9 @@ pub fn rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
 /// [`table_rpy_to_matrix`]'s memo holds `2^RPY_BITS` rotations.
 const RPY_BITS: u32 = 2;
 
-/// A slot of [`table_rpy_to_matrix`]'s memo: three angles' bits and their rotation (none in an
-/// empty slot).
-type RpySlot = Cell<Option<([u64; 3], Matrix3<f64>)>>;
-
 thread_local! {
-    /// [`table_rpy_to_matrix`]'s memo.
-    static RPY: [RpySlot; 1 << RPY_BITS] =
+    /// [`table_rpy_to_matrix`]'s memo: three angles' bits and their rotation.
+    static RPY: [MemoSlot<[u64; 3], Matrix3<f64>>; 1 << RPY_BITS] =
         const { [const { Cell::new(None) }; 1 << RPY_BITS] };
 }
 
@@ -87,18 +97,8 @@ thread_local! {
 /// bits gave).
 fn table_rpy_to_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
     let bits = [rpy.x.to_bits(), rpy.y.to_bits(), rpy.z.to_bits()];
-    let mixed = bits[0] ^ bits[1].rotate_left(21) ^ bits[2].rotate_left(42);
-    let slot = (mixed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - RPY_BITS)) as usize;
-    RPY.with(|memo| {
-        if let Some((b, r)) = memo[slot].get()
-            && b == bits
-        {
-            return r;
-        }
-        let r = rpy_with(rpy, table_sin_cos);
-        memo[slot].set(Some((bits, r)));
-        r
-    })
+    let hash = bits[0] ^ bits[1].rotate_left(21) ^ bits[2].rotate_left(42);
+    RPY.with(|memo| recall(memo, bits, hash, || rpy_with(rpy, table_sin_cos)))
 }
 
 /// [`rpy_to_matrix`] with the sines and cosines from `sin_cos`.
@@ -592,8 +592,9 @@ mod tests {
 
     /// The memo gives `sin_cos`'s own bits: for many more angles than it has slots (so that
     /// slots are shared and overwritten), each asked several times in turns, for zeros of both
-    /// signs, infinities and NaNs (the all-ones NaN an empty slot holds among them). The
-    /// rotations' memo gives the rotation of the angles' own sines, likewise.
+    /// signs, infinities and NaNs (among them the all-ones NaN, an empty slot's key before the
+    /// slots held options). The rotations' memo gives the rotation of the angles' own sines,
+    /// likewise.
     #[test]
     fn table_sin_cos_is_sin_cos_to_the_bit() {
         let mut angles: Vec<f64> = (0..500)
