@@ -17,7 +17,7 @@ use robocal_ident::{
     LeastSquares, Observations, SolverKind, align, analyse, calibrate_kinematics,
     calibrate_kinematics_with, run_lm,
 };
-use robocal_robot::{DEG_PER_KNM, JointErrors, Robot};
+use robocal_robot::{DEG_PER_KNM, JointErrors, Robot, RowTerms};
 
 fn main() {
     divan::main();
@@ -205,7 +205,8 @@ fn fitted() -> &'static (Robot, JointErrors, Observations) {
 enum Waves {
     /// Computed by the model at every row (`point`, `row_terms`).
     Computed,
-    /// Computed once before, as a fit's problem does (`point_on_waves`, `row_terms_on_waves`).
+    /// Computed once before, as a fit's problem does (`point_on_waves`; `write_row_terms` with
+    /// them, the rows' terms in one buffer in turn, as a fit's Jacobian writes them).
     Given,
 }
 
@@ -250,14 +251,18 @@ fn row_terms_3528_rows(b: Bencher, waves: Waves) {
         .filter(|p| errors.param(*p) != 0.0)
         .collect();
     b.bench_local(|| {
+        let mut row = RowTerms::default();
         (0..obs.len())
             .map(|i| {
                 let (q, load) = (obs.joints(i), obs.loads[i]);
-                let row = match waves {
-                    Waves::Computed => errors.row_terms(robot, q, load, &params),
-                    Waves::Given => errors.row_terms_on_waves(robot, q, load, &params, &bases[i]),
-                };
-                row.basis.len()
+                match waves {
+                    Waves::Computed => errors.row_terms(robot, q, load, &params).basis.len(),
+                    Waves::Given => {
+                        let waves = Some(bases[i].as_slice());
+                        errors.write_row_terms(robot, q, load, &params, waves, &mut row);
+                        row.basis.len()
+                    }
+                }
             })
             .sum::<usize>()
     });

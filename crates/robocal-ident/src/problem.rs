@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use robocal_data::MeasurementSet;
 use robocal_robot::{
     Compliance, DeflectionRates, ErrorParam, JointErrors, JointField, ParamId, ParamTwist, Robot,
-    Turns, left_jacobian_inverse, rotation_vector, rpy_to_matrix, turn_rotation, turned,
+    RowTerms, Turns, left_jacobian_inverse, rotation_vector, rpy_to_matrix, turn_rotation, turned,
 };
 
 use crate::identifiability::posterior_covariance;
@@ -403,20 +403,18 @@ impl<'a> CalibrationProblem<'a> {
                 let mut full = DMatrix::zeros(3 * block.len(), robot.param_count());
                 let mut cjac = DMatrix::zeros(3 * block.len(), params.len());
                 let mut r = Vec::with_capacity(3 * block.len());
+                // One row's terms after the other in the same buffers.
+                let mut row = RowTerms::default();
                 for (l, &t) in block.iter().enumerate() {
                     let i = first + l;
                     let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
                     let p = match compliance {
                         Some(c) => {
-                            let row = match waves {
-                                Some(waves) => {
-                                    c.row_terms_on_waves(robot, q, load, params, waves.row(i))
-                                }
-                                None => c.row_terms(robot, q, load, params),
-                            };
+                            let waves = waves.map(|w| w.row(i));
+                            c.write_row_terms(robot, q, load, params, waves, &mut row);
                             let p =
                                 robot.write_param_jacobian_at(&row.deflected, t, &mut full, 3 * l);
-                            for (k, j, phi) in row.basis {
+                            for &(k, j, phi) in &row.basis {
                                 for a in 0..3 {
                                     cjac[(3 * l + a, k)] += full[(3 * l + a, theta[j])] * phi;
                                 }
@@ -437,7 +435,7 @@ impl<'a> CalibrationProblem<'a> {
                             // A tilt turns the parts beyond its joint about the joint's origin
                             // (the geometry's columns leave out the micro-radians it turns them
                             // by).
-                            for (k, origin, turn) in row.turn_basis {
+                            for &(k, origin, turn) in &row.turn_basis {
                                 let column = turn.cross(&(p - origin));
                                 for a in 0..3 {
                                     cjac[(3 * l + a, k)] += column[a];

@@ -169,7 +169,7 @@ pub type Turns = Vec<(Vector3<f64>, Vector3<f64>)>;
 
 /// What one row of an identification needs at one command and load
 /// ([`JointErrors::row_terms`]).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct RowTerms {
     /// The joint angles the arm really takes, rad.
     pub deflected: Vec<f64>,
@@ -627,10 +627,15 @@ fn visit_torque_features(
 
 /// `q` (rad) turned by the deflection `d` (rad), in `d`'s buffer (`d + q` is `q + d` to the bit).
 fn deflected_by(q: &[f64], mut d: Vec<f64>) -> Vec<f64> {
+    deflect(q, &mut d);
+    d
+}
+
+/// The deflection `d` (rad) turned into the angles the arm takes from `q` (rad), in place.
+fn deflect(q: &[f64], d: &mut [f64]) {
     for (d, q) in d.iter_mut().zip(q) {
         *d += q;
     }
-    d
 }
 
 /// `+1` for the positive flank, `−1` for the other.
@@ -1167,15 +1172,18 @@ impl JointErrors {
     /// a coordinate of the payload's centre of mass, for every tilting joint they load, the
     /// joint's compliance times the moment across its axis of the unit quantity; a runout's
     /// coefficient its axis across times its basis value.
-    fn turn_basis_at(
+    ///
+    /// Written into `out` (emptied first, its capacity kept).
+    fn turn_basis_into(
         &self,
         pose: &PoseCache,
         load: f64,
         params: &[ErrorParam],
-    ) -> Vec<(usize, Vector3<f64>, Vector3<f64>)> {
-        let mut out = Vec::new();
+        out: &mut Vec<(usize, Vector3<f64>, Vector3<f64>)>,
+    ) {
+        out.clear();
         if !self.has_turns() {
-            return out;
+            return;
         }
         let Pose { axes, frames, g } = pose.get();
         for (k, &p) in params.iter().enumerate() {
@@ -1214,7 +1222,6 @@ impl JointErrors {
                 _ => {}
             }
         }
-        out
     }
 
     /// Adds the shared weights (0) of links `bodies` (0-based): each one's mass and its three
@@ -1238,12 +1245,11 @@ impl JointErrors {
     /// none for the others (held at zero and not identified: most of a fit's, whose poses tell
     /// few of the links' masses from the geometry); empty without any link weight.
     fn link_weight_basis(&self, pose: &PoseCache, params: &[ErrorParam]) -> LinkUnits {
-        let mut units = LinkUnits {
-            values: Vec::new(),
-            ends: Vec::with_capacity(self.link_weights.len()),
-        };
         if self.link_weights.is_empty() {
-            return units;
+            return LinkUnits {
+                values: Vec::new(),
+                ends: Vec::new(),
+            };
         }
         let mut wanted: Vec<bool> = (self.link_weights.iter()).map(|w| w.value != 0.0).collect();
         for p in params {
@@ -1251,6 +1257,15 @@ impl JointErrors {
                 wanted[*i] = true;
             }
         }
+        // Sized once: each wanted weight's torques on the joints up to its link's.
+        let size = (self.link_weights.iter().zip(&wanted))
+            .filter(|(_, wanted)| **wanted)
+            .map(|(w, _)| w.body + 1)
+            .sum();
+        let mut units = LinkUnits {
+            values: Vec::with_capacity(size),
+            ends: Vec::with_capacity(self.link_weights.len()),
+        };
         let Pose { axes, frames, g } = pose.get();
         for (w, wanted) in self.link_weights.iter().zip(wanted) {
             if wanted {
@@ -1429,7 +1444,10 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> Vec<(usize, usize, f64)> {
-        self.basis_from(pose, load, params, &self.shared_at(pose, load, params))
+        let mut out = Vec::new();
+        let shared = self.shared_at(pose, load, params);
+        self.basis_into(pose, load, params, &shared, &mut out);
+        out
     }
 
     /// What the deflection and the basis at the command `pose` holds under `load` kg share,
@@ -1446,40 +1464,24 @@ impl JointErrors {
         }
     }
 
-    /// [`Self::basis`] at the command `pose` holds, from its `shared` terms.
-    fn basis_from(
+    /// [`Self::basis`] at the command `pose` holds, from its `shared` terms, written into `out`
+    /// (emptied first, its capacity kept: a fit's rows fill one buffer in turn).
+    fn basis_into(
         &self,
         pose: &PoseCache,
         load: f64,
         params: &[ErrorParam],
         shared: &RowShared,
-    ) -> Vec<(usize, usize, f64)> {
+        out: &mut Vec<(usize, usize, f64)>,
+    ) {
         let RowShared {
             torques,
             links,
             self_weight: sw,
             flanks,
         } = shared;
-        // The payload's torque per mm of its centre of mass along each flange axis, on every
-        // joint (none without a load).
-        let com = if load != 0.0
-            && params
-                .iter()
-                .any(|p| matches!(p, ErrorParam::PayloadCom(_)))
-        {
-            let Pose { axes, frames, g } = pose.get();
-            let flange = frames.last().expect("an arm has a joint");
-            [MomentPart::X, MomentPart::Y, MomentPart::Z]
-                .map(|part| {
-                    (axes.iter())
-                        .map(|axis| load * 1e-3 * unit_torque(axis, flange, g, part))
-                        .collect::<Vec<_>>()
-                })
-                .to_vec()
-        } else {
-            Vec::new()
-        };
-        let mut out = Vec::with_capacity(params.len());
+        out.clear();
+        out.reserve(params.len());
         for (k, &p) in params.iter().enumerate() {
             match p {
                 ErrorParam::Compliance(j) => out.push((k, j, torques[j])),
@@ -1498,17 +1500,25 @@ impl JointErrors {
                         }
                     }
                 }
-                ErrorParam::PayloadCom(axis) => {
-                    for (j, phi) in com.get(axis).into_iter().flatten().enumerate() {
+                // The payload's torque per mm of its centre of mass along the flange's axis,
+                // on every joint (none without a load).
+                ErrorParam::PayloadCom(axis) if load != 0.0 => {
+                    let Pose { axes, frames, g } = pose.get();
+                    let flange = frames.last().expect("an arm has a joint");
+                    let part = [MomentPart::X, MomentPart::Y, MomentPart::Z][axis];
+                    for (j, axis) in axes.iter().enumerate() {
                         if self.values[j] != 0.0 {
+                            let phi = load * 1e-3 * unit_torque(axis, flange, g, part);
                             out.push((k, j, self.values[j] * phi));
                         }
                     }
-                } // A tilt or a runout turns no joint: [`Self::turn_basis_at`].
+                }
+                // A tilt or a runout turns no joint ([`Self::turn_basis_into`]), nor a coordinate
+                // of the payload's centre of mass without a load.
+                ErrorParam::PayloadCom(_) => {}
                 ErrorParam::Tilt(_) | ErrorParam::RunoutSin(_) | ErrorParam::RunoutCos(_) => {}
             }
         }
-        out
     }
 
     /// Gravity in the world frame of `robot`, m/s².
@@ -1593,6 +1603,26 @@ impl JointErrors {
         let mut d: Vec<f64> = (self.values.iter().zip(torques))
             .map(|(c, t)| c * t)
             .collect();
+        self.add_joint_terms(pose, sw, flanks, &mut d);
+        d
+    }
+
+    /// [`Self::deflection_of`] written into `d` (emptied first, its capacity kept), from the
+    /// row's gravity torques, self-weight basis and flanks.
+    fn deflection_into(
+        &self,
+        pose: &PoseCache,
+        (torques, sw, flanks): (&[f64], &[f64], &[f64]),
+        d: &mut Vec<f64>,
+    ) {
+        d.clear();
+        d.extend((self.values.iter().zip(torques)).map(|(c, t)| c * t));
+        self.add_joint_terms(pose, sw, flanks, d);
+    }
+
+    /// Adds to the compliances' deflection `d` (rad) the harmonics at the command `pose` holds,
+    /// the self-weight terms on their basis `sw` and the backlash on its `flanks`.
+    fn add_joint_terms(&self, pose: &PoseCache, sw: &[f64], flanks: &[f64], d: &mut [f64]) {
         if !self.harmonics.is_empty() {
             for (h, &basis) in self.harmonics.iter().zip(pose.waves(self)) {
                 d[h.joint] += h.value_on(basis);
@@ -1604,7 +1634,6 @@ impl JointErrors {
         for (b, s) in self.backlash.iter().zip(flanks) {
             d[b.joint] += b.value * s;
         }
-        d
     }
 
     /// The joint angles the arm really takes for command `q` (rad) under `load` kg, rad.
@@ -1636,7 +1665,9 @@ impl JointErrors {
         load: f64,
         params: &[ErrorParam],
     ) -> RowTerms {
-        self.row_terms_at(&self.pose(robot, q), load, params)
+        let mut out = RowTerms::default();
+        self.row_terms_into(&self.pose(robot, q), load, params, &mut out);
+        out
     }
 
     /// [`Self::row_terms`] with the bases of the model's waves at `q` given, as
@@ -1649,15 +1680,40 @@ impl JointErrors {
         params: &[ErrorParam],
         waves: &[(f64, f64)],
     ) -> RowTerms {
-        self.row_terms_at(&self.pose_on(robot, q, Some(waves)), load, params)
+        let mut out = RowTerms::default();
+        self.write_row_terms(robot, q, load, params, Some(waves), &mut out);
+        out
     }
 
-    /// [`Self::row_terms`] at the command `pose` holds.
-    fn row_terms_at(&self, pose: &PoseCache, load: f64, params: &[ErrorParam]) -> RowTerms {
+    /// [`Self::row_terms`] (with the bases of the model's waves at `q` given, as
+    /// [`Self::row_terms_on_waves`], or computed) written into `out`, whose vectors are emptied
+    /// and filled again, their capacity kept: a fit's rows, one after the other, allocate none
+    /// of them again. The same terms to the bit.
+    pub fn write_row_terms(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        load: f64,
+        params: &[ErrorParam],
+        waves: Option<&[(f64, f64)]>,
+        out: &mut RowTerms,
+    ) {
+        self.row_terms_into(&self.pose_on(robot, q, waves), load, params, out);
+    }
+
+    /// [`Self::row_terms`] at the command `pose` holds, written into `out`.
+    fn row_terms_into(
+        &self,
+        pose: &PoseCache,
+        load: f64,
+        params: &[ErrorParam],
+        out: &mut RowTerms,
+    ) {
         let q = pose.q;
         let shared = self.shared_at(pose, load, params);
-        let deflected = if self.holds_still(load) {
-            q.to_vec()
+        if self.holds_still(load) {
+            out.deflected.clear();
+            out.deflected.extend_from_slice(q);
         } else {
             let RowShared {
                 torques,
@@ -1665,14 +1721,12 @@ impl JointErrors {
                 flanks,
                 ..
             } = &shared;
-            deflected_by(q, self.deflection_of(pose, torques, self_weight, flanks))
-        };
-        RowTerms {
-            deflected,
-            basis: self.basis_from(pose, load, params, &shared),
-            turns: self.turns_at(pose, load),
-            turn_basis: self.turn_basis_at(pose, load, params),
+            self.deflection_into(pose, (torques, self_weight, flanks), &mut out.deflected);
+            deflect(q, &mut out.deflected);
         }
+        self.basis_into(pose, load, params, &shared, &mut out.basis);
+        out.turns = self.turns_at(pose, load);
+        self.turn_basis_into(pose, load, params, &mut out.turn_basis);
     }
 
     /// How each joint's deflection at command `q` (rad) under `load` kg changes with the

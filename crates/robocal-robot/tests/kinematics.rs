@@ -1163,10 +1163,12 @@ fn a_link_weight_at_zero_adds_nothing_and_keeps_its_basis() {
 /// the sines computed directly) and handed back: the same point and the same row terms to the
 /// bit as the model computing them itself; another command's bases move the point (they are
 /// read, not recomputed). The same waves with other coefficients share the bases; another
-/// reach, order or wave does not.
+/// reach, order or wave does not. Row terms written into one buffer row after row
+/// ([`JointErrors::write_row_terms`], as a fit's Jacobian writes them, the bases given or not)
+/// are each row's alone, to the bit.
 #[test]
 fn wave_bases_handed_back_give_the_same_rows_to_the_bit() {
-    use robocal_robot::{ErrorParam, Harmonic};
+    use robocal_robot::{ErrorParam, Harmonic, RowTerms};
     let robot = pmc6();
     let mut e = compliant_pmc6()
         .with_harmonics(&[0, 1, 4], 2)
@@ -1185,6 +1187,7 @@ fn wave_bases_handed_back_give_the_same_rows_to_the_bit() {
     let params = e.params();
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let other = [0.3, -0.4, 0.2, 0.0, 1.0, -0.5];
+    let mut reused = RowTerms::default();
     for k in 0..30 {
         let q: Vec<f64> = (0..6)
             .map(|j| ((k * 7 + j * 13) % 23) as f64 / 23.0 * 3.0 - 1.5)
@@ -1234,6 +1237,18 @@ fn wave_bases_handed_back_give_the_same_rows_to_the_bit() {
                 assert_eq!(a.0, b.0);
                 assert_eq!(turn_bits(&[(a.1, a.2)]), turn_bits(&[(b.1, b.2)]));
             }
+            // The buffer holds the row before this one (the other load, or the last command).
+            let given = (k % 2 == 0).then_some(waves.as_slice());
+            e.write_row_terms(&robot, &q, load, &params, given, &mut reused);
+            assert_eq!(bits(&row.deflected), bits(&reused.deflected), "{q:?} {load}");
+            assert_eq!(flat(&row.basis), flat(&reused.basis), "{q:?} {load}");
+            assert_eq!(turn_bits(&row.turns), turn_bits(&reused.turns));
+            let basis_bits = |b: &[(usize, Vector3<f64>, Vector3<f64>)]| {
+                (b.iter())
+                    .map(|&(k, o, t)| (k, turn_bits(&[(o, t)])))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(basis_bits(&row.turn_basis), basis_bits(&reused.turn_basis));
         }
     }
     // Other coefficients: the same bases; another reach, order or wave: not.
