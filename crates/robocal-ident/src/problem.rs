@@ -805,23 +805,55 @@ impl<'a> CalibrationProblem<'a> {
 
     /// [`Self::residuals_and_jacobian`], the table's columns `exact` or to first order.
     fn residuals_and_columns(&self, u: &[f64], exact: bool) -> (Vec<f64>, Mat<f64>) {
+        self.residuals_and_columns_with(u, exact, 0)
+    }
+
+    /// [`Self::residuals_and_columns`] with `extra` rows of zeros below the residuals' (for the
+    /// priors' rows, which the caller writes: the Jacobian is not copied to make room for them).
+    fn residuals_and_columns_with(
+        &self,
+        u: &[f64],
+        exact: bool,
+        extra: usize,
+    ) -> (Vec<f64>, Mat<f64>) {
         let robot = self.robot_at(u);
         let compliance = self.compliance_at(u);
         let ng = self.selected.len();
+        let rows = self.rows();
         let (mut r, full, cjac) = self.full_jacobian(&robot, compliance.as_ref(), exact);
-        if self.root_weights.is_some() {
-            for (row, v) in r.iter_mut().enumerate() {
-                *v *= self.row_weight(row);
+        let weights: Option<Vec<f64>> = (self.root_weights.as_ref())
+            .map(|_| (0..rows).map(|row| self.row_weight(row)).collect());
+        if let Some(weights) = &weights {
+            for (v, w) in r.iter_mut().zip(weights) {
+                *v *= w;
             }
         }
-        let jac = Mat::from_fn(self.rows(), self.unknowns(), |row, col| {
-            let v = if col < ng {
-                full[(row, self.selected[col])]
+        // Column by column (both matrices hold their columns whole): each entry its column's
+        // scale times its row's weight root, in that order (without weights, times nothing:
+        // a product with 1 is the same number).
+        let mut jac = Mat::zeros(rows + extra, self.unknowns());
+        for (col, &scale) in self.scale.iter().enumerate() {
+            let source = if col < ng {
+                let j = self.selected[col];
+                &full.as_slice()[j * rows..(j + 1) * rows]
             } else {
-                cjac[(row, col - ng)]
+                let j = col - ng;
+                &cjac.as_slice()[j * rows..(j + 1) * rows]
             };
-            v * self.scale[col] * self.row_weight(row)
-        });
+            let out = &mut jac.col_as_slice_mut(col)[..rows];
+            match &weights {
+                Some(weights) => {
+                    for ((o, v), w) in out.iter_mut().zip(source).zip(weights) {
+                        *o = v * scale * w;
+                    }
+                }
+                None => {
+                    for (o, v) in out.iter_mut().zip(source) {
+                        *o = v * scale;
+                    }
+                }
+            }
+        }
         (r, jac)
     }
 
@@ -1028,20 +1060,15 @@ impl Jacobian for LeastSquares<'_, '_> {
     type Param = Vec<f64>;
     type Jacobian = Mat<f64>;
     fn jacobian(&self, u: &Vec<f64>) -> Result<Mat<f64>, ArgminError> {
-        let jac = self.0.residuals_and_jacobian(u).1;
+        // The residuals' columns to first order, as `residuals_and_jacobian` gives them, then
+        // one row per prior: its weight on its unknown.
         let rows = self.0.prior_rows(u);
-        if rows.is_empty() {
-            return Ok(jac);
+        let (_, mut jac) = self.0.residuals_and_columns_with(u, false, rows.len());
+        let n = self.0.rows();
+        for (i, &(_, k, d)) in rows.iter().enumerate() {
+            jac[(n + i, k)] = d;
         }
-        let n = jac.nrows();
-        Ok(Mat::from_fn(n + rows.len(), jac.ncols(), |i, j| {
-            if i < n {
-                jac[(i, j)]
-            } else {
-                let (_, k, d) = rows[i - n];
-                if j == k { d } else { 0.0 }
-            }
-        }))
+        Ok(jac)
     }
 }
 

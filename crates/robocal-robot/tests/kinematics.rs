@@ -1240,7 +1240,11 @@ fn wave_bases_handed_back_give_the_same_rows_to_the_bit() {
             // The buffer holds the row before this one (the other load, or the last command).
             let given = (k % 2 == 0).then_some(waves.as_slice());
             e.write_row_terms(&robot, &q, load, &params, given, &mut reused);
-            assert_eq!(bits(&row.deflected), bits(&reused.deflected), "{q:?} {load}");
+            assert_eq!(
+                bits(&row.deflected),
+                bits(&reused.deflected),
+                "{q:?} {load}"
+            );
             assert_eq!(flat(&row.basis), flat(&reused.basis), "{q:?} {load}");
             assert_eq!(turn_bits(&row.turns), turn_bits(&reused.turns));
             let basis_bits = |b: &[(usize, Vector3<f64>, Vector3<f64>)]| {
