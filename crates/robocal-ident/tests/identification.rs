@@ -608,26 +608,53 @@ fn central_column(problem: &CalibrationProblem, u: &[f64], col: usize) -> Vec<f6
 /// (first-order: [`CalibrationProblem::residuals_and_jacobian`]), and
 /// every column of [`CalibrationProblem::exact_jacobian`] at every point, loaded or not (it
 /// holds the torques' dependence on the table; without it the loaded rows' columns are off:
-/// checked).
+/// checked). Without weights, and with each point weighted (as the bad shots' rounds weight
+/// them: the residuals and the Jacobian's rows times the weights' roots).
 #[test]
 fn elastic_jacobian_matches_central_differences() {
     let nominal = nominal();
     let configs = configurations();
     let compliance = injected_compliance();
     let obs = observe_loaded(&nominal, &compliance, &configs[..20], &[0.0, 15.0]);
-    let problem = CalibrationProblem::new(&nominal, (0..nominal.param_count()).collect(), &obs)
+    let plain = CalibrationProblem::new(&nominal, (0..nominal.param_count()).collect(), &obs)
         .with_compliance(compliance.clone(), vec![1, 2, 3, 4, 5]);
+    let mut weighted = plain.clone();
+    let weights: Vec<f64> = (0..obs.len())
+        .map(|i| 0.1 + 0.9 * (i % 7) as f64 / 6.0)
+        .collect();
+    weighted.set_point_weights(&weights);
+    for problem in [&plain, &weighted] {
+        elastic_columns_match_central_differences(problem, &obs, nominal.param_count());
+    }
+    // The weights reach the Jacobian: its rows are the plain ones times the weights' roots.
+    let u = vec![0.1; plain.unknowns()];
+    let jac = plain.residuals_and_jacobian(&u).1;
+    let jac_w = weighted.residuals_and_jacobian(&u).1;
+    for row in 0..jac.nrows() {
+        for col in 0..jac.ncols() {
+            let expected = jac[(row, col)] * weights[row / 3].sqrt();
+            assert!((jac_w[(row, col)] - expected).abs() <= 1e-12 * expected.abs().max(1.0));
+        }
+    }
+}
+
+/// [`elastic_jacobian_matches_central_differences`]'s checks on one problem (`ng` table
+/// columns first).
+fn elastic_columns_match_central_differences(
+    problem: &CalibrationProblem,
+    obs: &Observations,
+    ng: usize,
+) {
     let k = problem.unknowns();
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let u: Vec<f64> = (0..k).map(|_| rng.random_range(-0.5..0.5)).collect();
     let (_, jac) = problem.residuals_and_jacobian(&u);
     let (_, exact) = problem.exact_jacobian(&u);
-    let ng = nominal.param_count();
     for col in 0..k {
         let mut worst: f64 = 0.0;
         let mut first_worst: f64 = 0.0;
         let mut size: f64 = 0.0;
-        for (row, fd) in central_column(&problem, &u, col).into_iter().enumerate() {
+        for (row, fd) in central_column(problem, &u, col).into_iter().enumerate() {
             worst = worst.max((fd - exact[(row, col)]).abs());
             size = size.max(fd.abs());
             // Geometric columns at loaded points, to first order, leave out the torques' own
