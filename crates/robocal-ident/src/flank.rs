@@ -477,18 +477,36 @@ fn logistic(features: &[Vec<f64>], y: &[f64]) -> Option<Vec<f64>> {
     });
     let label: Vec<f64> = y.iter().map(|v| f64::from(u8::from(*v >= 0.0))).collect();
     let mut beta = DVector::zeros(m);
+    let mut roots = vec![0.0; n];
+    let mut scaled = x.clone();
     for _ in 0..NEWTON_STEPS {
         let eta = &x * &beta;
         let mut residual = DVector::zeros(n);
-        let mut scaled = x.clone();
         for i in 0..n {
             let mu = 1.0 / (1.0 + (-eta[i]).exp());
             residual[i] = weight[i] * (label[i] - mu);
-            let root = (weight[i] * mu * (1.0 - mu)).max(1e-12).sqrt();
-            scaled.row_mut(i).scale_mut(root);
+            roots[i] = (weight[i] * mu * (1.0 - mu)).max(1e-12).sqrt();
+        }
+        // Each row times its root, a column at a time (the columns are whole in memory).
+        for (out, column) in
+            (scaled.as_mut_slice().chunks_exact_mut(n)).zip(x.as_slice().chunks_exact(n))
+        {
+            for ((o, v), root) in out.iter_mut().zip(column).zip(&roots) {
+                *o = v * root;
+            }
+        }
+        // `scaledᵀ scaled`, one triangle: each entry the dot product of two columns, as
+        // `tr_mul` computes it, whose products commute (the same sum either way round).
+        let mut gram = DMatrix::zeros(m, m);
+        for i in 0..m {
+            for j in i..m {
+                let v = scaled.column(i).dot(&scaled.column(j));
+                gram[(i, j)] = v;
+                gram[(j, i)] = v;
+            }
         }
         let grad = x.tr_mul(&residual) - &beta * RIDGE;
-        let hess = scaled.tr_mul(&scaled) + DMatrix::identity(m, m) * RIDGE;
+        let hess = gram + DMatrix::identity(m, m) * RIDGE;
         let step = hess.cholesky()?.solve(&grad);
         beta += &step;
         if step.norm() < 1e-8 * (1.0 + beta.norm()) {
