@@ -778,7 +778,7 @@ impl<'a> CalibrationProblem<'a> {
     /// it converges no faster (compliance and self-weight on the paper's arm: 33 iterations and
     /// 2.0 s against 26 and 1.2 s, the same cost to four digits).
     pub fn residuals_and_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
-        self.residuals_and_columns(u, false)
+        self.residuals_and_columns(u, false, 0)
     }
 
     /// Residuals and the Jacobian with the table's columns exact for every smooth term
@@ -789,7 +789,7 @@ impl<'a> CalibrationProblem<'a> {
     /// runouts' axes and origins. Left out: the tilts' moments' dependence on the table; a
     /// backlash flank's switch (not differentiable).
     pub fn exact_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
-        self.residuals_and_columns(u, true)
+        self.residuals_and_columns(u, true, 0)
     }
 
     /// The Jacobian at `u` with the table's columns to first order: the geometry's at the
@@ -800,22 +800,13 @@ impl<'a> CalibrationProblem<'a> {
     /// mass, say) look barely determined, through the compliances alone, and be identified,
     /// ill-conditioned.
     pub fn first_order_jacobian(&self, u: &[f64]) -> Mat<f64> {
-        self.residuals_and_columns(u, false).1
+        self.residuals_and_columns(u, false, 0).1
     }
 
-    /// [`Self::residuals_and_jacobian`], the table's columns `exact` or to first order.
-    fn residuals_and_columns(&self, u: &[f64], exact: bool) -> (Vec<f64>, Mat<f64>) {
-        self.residuals_and_columns_with(u, exact, 0)
-    }
-
-    /// [`Self::residuals_and_columns`] with `extra` rows of zeros below the residuals' (for the
-    /// priors' rows, which the caller writes: the Jacobian is not copied to make room for them).
-    fn residuals_and_columns_with(
-        &self,
-        u: &[f64],
-        exact: bool,
-        extra: usize,
-    ) -> (Vec<f64>, Mat<f64>) {
+    /// [`Self::residuals_and_jacobian`], the table's columns `exact` or to first order, with
+    /// `extra` rows of zeros below the residuals' (for the priors' rows, which the caller
+    /// writes: the Jacobian is not copied to make room for them).
+    fn residuals_and_columns(&self, u: &[f64], exact: bool, extra: usize) -> (Vec<f64>, Mat<f64>) {
         let robot = self.robot_at(u);
         let compliance = self.compliance_at(u);
         let ng = self.selected.len();
@@ -1063,7 +1054,7 @@ impl Jacobian for LeastSquares<'_, '_> {
         // The residuals' columns to first order, as `residuals_and_jacobian` gives them, then
         // one row per prior: its weight on its unknown.
         let rows = self.0.prior_rows(u);
-        let (_, mut jac) = self.0.residuals_and_columns_with(u, false, rows.len());
+        let (_, mut jac) = self.0.residuals_and_columns(u, false, rows.len());
         let n = self.0.rows();
         for (i, &(_, k, d)) in rows.iter().enumerate() {
             jac[(n + i, k)] = d;

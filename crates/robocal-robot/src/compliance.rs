@@ -1515,8 +1515,10 @@ impl JointErrors {
                 }
                 // A tilt or a runout turns no joint ([`Self::turn_basis_into`]), nor a coordinate
                 // of the payload's centre of mass without a load.
-                ErrorParam::PayloadCom(_) => {}
-                ErrorParam::Tilt(_) | ErrorParam::RunoutSin(_) | ErrorParam::RunoutCos(_) => {}
+                ErrorParam::PayloadCom(_)
+                | ErrorParam::Tilt(_)
+                | ErrorParam::RunoutSin(_)
+                | ErrorParam::RunoutCos(_) => {}
             }
         }
     }
