@@ -24,6 +24,19 @@ use crate::identifiability::posterior_covariance;
 /// its scheduling, few enough that the rows of one fit spread over the cores.
 const ROWS_PER_TASK: usize = 64;
 
+/// Consecutive rows of the residuals and of their Jacobian
+/// ([`CalibrationProblem::jacobian_blocks`]).
+struct RowBlock {
+    /// The first row's index in the whole residual vector.
+    first: usize,
+    /// The rows' residuals.
+    r: Vec<f64>,
+    /// The rows' entries of every table parameter's column.
+    full: DMatrix<f64>,
+    /// The rows' entries of every joint-error coefficient's column.
+    cjac: DMatrix<f64>,
+}
+
 /// Measured points with their joint readings and loads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observations {
@@ -375,12 +388,31 @@ impl<'a> CalibrationProblem<'a> {
         compliance: Option<&Compliance>,
         exact: bool,
     ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>) {
-        let m = self.obs.len();
-        let params = self.error_params();
         let rows = self.rows();
         let mut full = DMatrix::zeros(rows, robot.param_count());
-        let mut cjac = DMatrix::zeros(rows, params.len());
+        let mut cjac = DMatrix::zeros(rows, self.error_params().len());
         let mut r = Vec::with_capacity(rows);
+        for block in self.jacobian_blocks(robot, compliance, exact) {
+            let first = block.first;
+            (full.view_mut((first, 0), block.full.shape())).copy_from(&block.full);
+            (cjac.view_mut((first, 0), block.cjac.shape())).copy_from(&block.cjac);
+            r.extend(block.r);
+        }
+        (r, full, cjac)
+    }
+
+    /// [`Self::full_jacobian`]'s rows as the tasks that computed them hold them: blocks of
+    /// consecutive rows in order (the points' in blocks of [`ROWS_PER_TASK`], then the measured
+    /// orientations' in one), each entry the same number the whole matrices hold, which a
+    /// caller that copies every row into a matrix of its own needs not assemble first.
+    fn jacobian_blocks(
+        &self,
+        robot: &Robot,
+        compliance: Option<&Compliance>,
+        exact: bool,
+    ) -> Vec<RowBlock> {
+        let m = self.obs.len();
+        let params = self.error_params();
         let targets = self.obs.target_indices(robot);
         let waves = compliance.and_then(|c| self.row_waves(c));
         // Each joint's `theta` column: the joint Jacobian's column (every joint is revolute), of
@@ -397,7 +429,7 @@ impl<'a> CalibrationProblem<'a> {
             .collect();
         // The points' rows, a block of them per task on every core (each row's entries are its
         // own: the same matrices on any number of cores), copied into place in order.
-        let blocks: Vec<_> = (targets.par_chunks(ROWS_PER_TASK).enumerate())
+        let mut blocks: Vec<RowBlock> = (targets.par_chunks(ROWS_PER_TASK).enumerate())
             .map(|(b, block)| {
                 let first = b * ROWS_PER_TASK;
                 let mut full = DMatrix::zeros(3 * block.len(), robot.param_count());
@@ -447,19 +479,26 @@ impl<'a> CalibrationProblem<'a> {
                     };
                     r.extend_from_slice((p - self.obs.points[i]).as_slice());
                 }
-                (r, full, cjac)
+                RowBlock {
+                    first: 3 * first,
+                    r,
+                    full,
+                    cjac,
+                }
             })
             .collect();
-        for (b, (block_r, block_full, block_cjac)) in blocks.into_iter().enumerate() {
-            let first = 3 * b * ROWS_PER_TASK;
-            (full.view_mut((first, 0), block_full.shape())).copy_from(&block_full);
-            (cjac.view_mut((first, 0), block_cjac.shape())).copy_from(&block_cjac);
-            r.extend(block_r);
+        if self.oriented.is_empty() {
+            return blocks;
         }
+        // The measured orientations' rows, one block after the points'.
+        let n = 3 * self.oriented.len();
+        let mut full = DMatrix::zeros(n, robot.param_count());
+        let mut cjac = DMatrix::zeros(n, params.len());
+        let mut r = Vec::with_capacity(n);
         let w = self.obs.angle_weight;
         for (k, &i) in self.oriented.iter().enumerate() {
             let (q, load) = (self.obs.joints(i), self.obs.loads[i]);
-            let row = 3 * m + 3 * k;
+            let row = 3 * k;
             let rot = match compliance {
                 Some(c) => {
                     let (_, jac) = c.orientation_param_jacobian(robot, q, load, params);
@@ -493,7 +532,13 @@ impl<'a> CalibrationProblem<'a> {
             cjac.view_mut((row, 0), (3, cjac.ncols())).copy_from(&block);
             r.extend_from_slice((phi * w).as_slice());
         }
-        (r, full, cjac)
+        blocks.push(RowBlock {
+            first: 3 * m,
+            r,
+            full,
+            cjac,
+        });
+        blocks
     }
 
     /// The rotation residual of observation `i` for a predicted tool frame: the rotation vector
@@ -811,7 +856,11 @@ impl<'a> CalibrationProblem<'a> {
         let compliance = self.compliance_at(u);
         let ng = self.selected.len();
         let rows = self.rows();
-        let (mut r, full, cjac) = self.full_jacobian(&robot, compliance.as_ref(), exact);
+        let blocks = self.jacobian_blocks(&robot, compliance.as_ref(), exact);
+        let mut r = Vec::with_capacity(rows);
+        for block in &blocks {
+            r.extend_from_slice(&block.r);
+        }
         let weights: Option<Vec<f64>> = (self.root_weights.as_ref())
             .map(|_| (0..rows).map(|row| self.row_weight(row)).collect());
         if let Some(weights) = &weights {
@@ -819,28 +868,32 @@ impl<'a> CalibrationProblem<'a> {
                 *v *= w;
             }
         }
-        // Column by column (both matrices hold their columns whole): each entry its column's
-        // scale times its row's weight root, in that order (without weights, times nothing:
-        // a product with 1 is the same number).
+        // Column by column, each block's part of it (the blocks hold their columns whole):
+        // each entry its column's scale times its row's weight root, in that order (without
+        // weights, times nothing: a product with 1 is the same number).
         let mut jac = Mat::zeros(rows + extra, self.unknowns());
         for (col, &scale) in self.scale.iter().enumerate() {
-            let source = if col < ng {
-                let j = self.selected[col];
-                &full.as_slice()[j * rows..(j + 1) * rows]
-            } else {
-                let j = col - ng;
-                &cjac.as_slice()[j * rows..(j + 1) * rows]
-            };
-            let out = &mut jac.col_as_slice_mut(col)[..rows];
-            match &weights {
-                Some(weights) => {
-                    for ((o, v), w) in out.iter_mut().zip(source).zip(weights) {
-                        *o = v * scale * w;
+            let column = jac.col_as_slice_mut(col);
+            for block in &blocks {
+                let (matrix, j) = if col < ng {
+                    (&block.full, self.selected[col])
+                } else {
+                    (&block.cjac, col - ng)
+                };
+                let n = matrix.nrows();
+                let source = &matrix.as_slice()[j * n..(j + 1) * n];
+                let out = &mut column[block.first..block.first + n];
+                match &weights {
+                    Some(weights) => {
+                        let weights = &weights[block.first..block.first + n];
+                        for ((o, v), w) in out.iter_mut().zip(source).zip(weights) {
+                            *o = v * scale * w;
+                        }
                     }
-                }
-                None => {
-                    for (o, v) in out.iter_mut().zip(source) {
-                        *o = v * scale;
+                    None => {
+                        for (o, v) in out.iter_mut().zip(source) {
+                            *o = v * scale;
+                        }
                     }
                 }
             }
