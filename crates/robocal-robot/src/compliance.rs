@@ -1123,24 +1123,39 @@ impl JointErrors {
     /// The turns of the tilting joints and of the runouts at the command `pose` holds under
     /// `load` kg.
     fn turns_at(&self, pose: &PoseCache, load: f64) -> Turns {
-        if !self.has_turns() {
-            return Vec::new();
+        let mut out = Vec::new();
+        self.turns_into(pose, load, &mut out);
+        out
+    }
+
+    /// [`Self::turns_at`] written into `out` (emptied first, its capacity kept: a fit's rows
+    /// fill one buffer in turn).
+    fn turns_into(&self, pose: &PoseCache, load: f64, out: &mut Turns) {
+        out.clear();
+        out.reserve(self.tilts.len() + self.runouts.len());
+        self.for_each_turn(pose, load, |turn, origin| out.push((turn, origin)));
+    }
+
+    /// Each turn of [`Self::turns_at`] handed to `f` in their order (the tilting joints', then
+    /// the runouts'), with the origin it turns about, none collected.
+    fn for_each_turn(
+        &self,
+        pose: &PoseCache,
+        load: f64,
+        mut f: impl FnMut(Vector3<f64>, Vector3<f64>),
+    ) {
+        for t in &self.tilts {
+            let origin = pose.get().axes[t.joint].1;
+            f(t.value * self.moment_across(pose, load, t.joint), origin);
         }
-        let mut out: Turns = (self.tilts.iter())
-            .map(|t| {
-                let origin = pose.get().axes[t.joint].1;
-                (t.value * self.moment_across(pose, load, t.joint), origin)
-            })
-            .collect();
         if !self.runouts.is_empty() {
             let Pose { axes, frames, .. } = pose.get();
             let bases = &pose.waves(self)[self.harmonics.len()..];
-            out.extend(self.runouts.iter().zip(bases).map(|(r, &basis)| {
+            for (r, &basis) in self.runouts.iter().zip(bases) {
                 let j = r.wave.joint;
-                (r.axis(frames) * r.wave.value_on(basis), axes[j].1)
-            }));
+                f(r.axis(frames) * r.wave.value_on(basis), axes[j].1);
+            }
         }
-        out
     }
 
     /// The turns of the tilting joints and of the runouts (rad, world frame, each with the
@@ -1727,7 +1742,7 @@ impl JointErrors {
             deflect(q, &mut out.deflected);
         }
         self.basis_into(pose, load, params, &shared, &mut out.basis);
-        out.turns = self.turns_at(pose, load);
+        self.turns_into(pose, load, &mut out.turns);
         self.turn_basis_into(pose, load, params, &mut out.turn_basis);
     }
 
@@ -1880,7 +1895,12 @@ impl JointErrors {
         if !self.has_turns() {
             return p;
         }
-        turned(&self.turns_at(pose, load), p)
+        // [`turned`] by the turns as they come, none collected: the same sum in the same order.
+        let mut moved = p;
+        self.for_each_turn(pose, load, |turn, origin| {
+            moved += turn.cross(&(p - origin))
+        });
+        moved
     }
 
     /// Jacobian of the point with respect to each joint's compliance (mm per rad/(N·m)), and
