@@ -79,9 +79,20 @@ impl LevenbergMarquardt {
 /// normal equations reads ([`Side::Lower`]), at half the full product's cost. Each entry is the
 /// full product's to the bit: faer hands both to the same kernels (the same blocks of the
 /// depth, the same sums), the triangular one storing only the entries on or below the diagonal
-/// (tested).
+/// (tested) — except where the full product takes kernels of its own, for one column or a
+/// product of at most [`SMALL_PRODUCT`] multiplications (faer's dot products and small
+/// kernels, whose sums come out otherwise): there it is the full product's lower triangle.
 fn gram_lower(jac: &Mat<f64>) -> Mat<f64> {
-    let k = jac.ncols();
+    let (rows, k) = jac.shape();
+    if k < 2 || k * k * rows <= SMALL_PRODUCT {
+        let mut a: Mat<f64> = jac.transpose() * jac;
+        for j in 1..k {
+            for i in 0..j {
+                a[(i, j)] = 0.0;
+            }
+        }
+        return a;
+    }
     let mut a = Mat::zeros(k, k);
     triangular::matmul(
         &mut a,
@@ -96,6 +107,10 @@ fn gram_lower(jac: &Mat<f64>) -> Mat<f64> {
     );
     a
 }
+
+/// The largest product (rows times columns times depth) faer multiplies with its small kernels
+/// rather than its general one (its `NANO_GEMM_THRESHOLD`, 16³).
+const SMALL_PRODUCT: usize = 16 * 16 * 16;
 
 type LmState = IterState<Vec<f64>, (), Mat<f64>, (), Vec<f64>, f64>;
 
@@ -312,19 +327,19 @@ mod tests {
     /// LM solved before it are the ones it solves), its upper triangle zero: on tall matrices
     /// of normal entries the shapes of fits (thousands of rows, tens to over a hundred
     /// columns: the depth in several of the kernels' blocks, columns that split their tiles
-    /// unevenly), and on short ones.
+    /// unevenly), and on every shape of up to 12 columns around the full product's switches of
+    /// kernel (one column; 16³ multiplications), where the triangular product alone differed
+    /// in the last bits (on a rigid fit's small solves: the five-axis twin's default
+    /// calibration, before the switch).
     #[test]
     fn the_gram_triangle_is_the_full_products_to_the_bit() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let normal = Normal::new(0.0, 1.0).unwrap();
-        for (rows, cols) in [
-            (7932, 115),
-            (2614, 37),
-            (1500, 61),
-            (40, 13),
-            (5, 3),
-            (1, 1),
-        ] {
+        let fits = [(7932, 115), (2614, 37), (1500, 61), (40, 13)];
+        let small = [1, 5, 30, 200, 511, 512, 513, 1000, 2000, 4096, 4097]
+            .into_iter()
+            .flat_map(|rows| (1..=12).map(move |cols| (rows, cols)));
+        for (rows, cols) in fits.into_iter().chain(small) {
             let jac = Mat::from_fn(rows, cols, |_, _| normal.sample(&mut rng));
             let full: Mat<f64> = jac.transpose() * &jac;
             let lower = gram_lower(&jac);
