@@ -428,7 +428,7 @@ impl<'a> CalibrationProblem<'a> {
             })
             .collect();
         // The points' rows, a block of them per task on every core (each row's entries are its
-        // own: the same matrices on any number of cores), copied into place in order.
+        // own: the same matrices on any number of cores), the blocks in order.
         let mut blocks: Vec<RowBlock> = (targets.par_chunks(ROWS_PER_TASK).enumerate())
             .map(|(b, block)| {
                 let first = b * ROWS_PER_TASK;
