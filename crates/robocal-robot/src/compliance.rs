@@ -231,9 +231,15 @@ impl Quantity {
 
 /// `p` (mm) moved by `turns`, to first order (the turns are micro-radians): `p + Σ t × (p − a)`.
 pub fn turned(turns: &[(Vector3<f64>, Vector3<f64>)], p: Vector3<f64>) -> Vector3<f64> {
-    turns
-        .iter()
-        .fold(p, |moved, (t, a)| moved + t.cross(&(p - a)))
+    turned_by(turns.iter().copied(), p)
+}
+
+/// [`turned`] by turns as they come, none collected.
+fn turned_by(
+    turns: impl IntoIterator<Item = (Vector3<f64>, Vector3<f64>)>,
+    p: Vector3<f64>,
+) -> Vector3<f64> {
+    (turns.into_iter()).fold(p, |moved, (t, a)| moved + t.cross(&(p - a)))
 }
 
 /// The rotation of every turn of `turns` together (the identity without any).
@@ -1132,30 +1138,29 @@ impl JointErrors {
     /// fill one buffer in turn).
     fn turns_into(&self, pose: &PoseCache, load: f64, out: &mut Turns) {
         out.clear();
-        out.reserve(self.tilts.len() + self.runouts.len());
-        self.for_each_turn(pose, load, |turn, origin| out.push((turn, origin)));
+        out.extend(self.each_turn(pose, load));
     }
 
-    /// Each turn of [`Self::turns_at`] handed to `f` in their order (the tilting joints', then
-    /// the runouts'), with the origin it turns about, none collected.
-    fn for_each_turn(
-        &self,
-        pose: &PoseCache,
+    /// The turns of [`Self::turns_at`] as they come, in their order (the tilting joints', then
+    /// the runouts'), each with the origin it turns about.
+    fn each_turn<'s>(
+        &'s self,
+        pose: &'s PoseCache,
         load: f64,
-        mut f: impl FnMut(Vector3<f64>, Vector3<f64>),
-    ) {
-        for t in &self.tilts {
+    ) -> impl Iterator<Item = (Vector3<f64>, Vector3<f64>)> + 's {
+        let tilts = self.tilts.iter().map(move |t| {
             let origin = pose.get().axes[t.joint].1;
-            f(t.value * self.moment_across(pose, load, t.joint), origin);
-        }
-        if !self.runouts.is_empty() {
+            (t.value * self.moment_across(pose, load, t.joint), origin)
+        });
+        let runouts = self.runouts.iter().enumerate().map(move |(n, r)| {
             let Pose { axes, frames, .. } = pose.get();
-            let bases = &pose.waves(self)[self.harmonics.len()..];
-            for (r, &basis) in self.runouts.iter().zip(bases) {
-                let j = r.wave.joint;
-                f(r.axis(frames) * r.wave.value_on(basis), axes[j].1);
-            }
-        }
+            let basis = pose.waves(self)[self.harmonics.len() + n];
+            (
+                r.axis(frames) * r.wave.value_on(basis),
+                axes[r.wave.joint].1,
+            )
+        });
+        tilts.chain(runouts)
     }
 
     /// The turns of the tilting joints and of the runouts (rad, world frame, each with the
@@ -1895,12 +1900,7 @@ impl JointErrors {
         if !self.has_turns() {
             return p;
         }
-        // [`turned`] by the turns as they come, none collected: the same sum in the same order.
-        let mut moved = p;
-        self.for_each_turn(pose, load, |turn, origin| {
-            moved += turn.cross(&(p - origin))
-        });
-        moved
+        turned_by(self.each_turn(pose, load), p)
     }
 
     /// Jacobian of the point with respect to each joint's compliance (mm per rad/(N·m)), and
