@@ -1106,6 +1106,54 @@ fn moderate_bad_shots_on_the_papers_arm_are_found_by_the_refined_search() {
     );
 }
 
+/// A stage config whose physics the search for bad shots fits takes the search's last fit (the
+/// rows it keeps, the flagged set repeated) from the memo they share instead of identifying
+/// again, and calibrates to the bit what it calibrates without the memo; on rows the search
+/// never fitted it identifies, into the memo. On the five-axis twin with a 2 mm shot: the
+/// search fits every row, then the rows without the shot.
+#[test]
+fn a_stage_after_the_search_for_bad_shots_takes_its_last_fit() {
+    use robocal_data::Silent;
+    use robocal_ident::{ComplianceSettings, FitMemo};
+    use robocal_pipeline::calibration::{configured_with, find_outliers_with};
+    use robocal_pipeline::configured;
+    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    twin.poses.count = 24;
+    let mut data = twin.generate().unwrap().measurements.rows;
+    data[17].position.x += 2.0;
+    let rows: Vec<&Measurement> = data.iter().collect();
+    let stages = Stages {
+        kinematic: KinematicSettings {
+            compliance: Some(ComplianceSettings::default()),
+            ..KinematicSettings::default()
+        },
+        residual: None,
+    };
+    let memo = FitMemo::default();
+    let search = OutlierSettings::default();
+    let (found, kept) =
+        find_outliers_with(&twin.nominal, &rows, &stages.kinematic, &search, &memo).unwrap();
+    assert_eq!(found.rows.len(), 1, "{found:?}");
+    assert_eq!(found.rows[0].line, data[17].sample.line);
+    let searched = memo.fits();
+    assert!(searched >= 2, "{searched}");
+    let shared = configured_with(&stages, &twin.nominal, &kept, None, &Silent, &memo).unwrap();
+    assert_eq!(memo.fits(), searched, "the stage identified anew");
+    let alone = configured(&stages, &twin.nominal, &kept, None, &Silent).unwrap();
+    assert_eq!(shared.kinematic.robot, alone.kinematic.robot);
+    assert_eq!(
+        format!("{:?}", shared.kinematic.compliance),
+        format!("{:?}", alone.kinematic.compliance)
+    );
+    assert_eq!(
+        shared.kinematic.report.after.rms.to_bits(),
+        alone.kinematic.report.after.rms.to_bits()
+    );
+    // Rows the search never fitted: identified, and remembered.
+    configured_with(&stages, &twin.nominal, &kept[1..], None, &Silent, &memo).unwrap();
+    assert!(memo.fits() > searched, "the stage does not keep its fits");
+}
+
 /// A residual model in the frame turning with joint 1 carries an error that turns with the arm
 /// to joint-1 angles it never saw; in the world frame the same model cannot. The error is made
 /// independently of robocal's frame code: a smooth function of joints 2–5 in the base frame

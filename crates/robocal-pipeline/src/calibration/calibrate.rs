@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, check_targets};
-use robocal_ident::KinematicReport;
+use robocal_ident::{FitMemo, KinematicReport};
 use robocal_model::CalibratedModel;
 use robocal_residual::Frame;
 use robocal_robot::{JointErrors, Robot};
@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::{
     AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, Repeats,
-    ResidualReport, Selection, check_plausible, configured, find_outliers,
+    ResidualReport, Selection, check_plausible, configured_with, find_outliers_with,
     readings::{rounded_joints, rounding_warning},
     repeats::repeats,
     select::automatic,
@@ -208,10 +208,14 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             if input.angle_weight.is_some() {
                 stages.kinematic.angle_weight = input.angle_weight;
             }
-            let (report, kept) = find_outliers(input.nominal, &rows, &stages.kinematic, &outliers)
+            // The search's last round fits the stage's physics on the rows kept: the stage
+            // takes that fit.
+            let memo = FitMemo::default();
+            let (report, kept) =
+                find_outliers_with(input.nominal, &rows, &stages.kinematic, &outliers, &memo)
+                    .map_err(failed)?;
+            let mut built = configured_with(&stages, input.nominal, &kept, val, observer, &memo)
                 .map_err(failed)?;
-            let mut built =
-                configured(&stages, input.nominal, &kept, val, observer).map_err(failed)?;
             built.outliers = Some(report);
             built
         }

@@ -49,7 +49,7 @@ pub use calibrate::{
     Calibration, CalibrationInput, CalibrationReport, Checks, Validation, calibrate,
 };
 pub use folds::{SIGNIFICANCE, blocks, folds, improves};
-pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers};
+pub use outliers::{Outlier, OutlierReport, OutlierSettings, find_outliers, find_outliers_with};
 pub use plausibility::{Implausible, check_plausible};
 pub use repeats::{Repeats, repeats};
 pub use select::{
@@ -571,7 +571,28 @@ pub fn configured(
     validation: Option<(&[&Measurement], String)>,
     observer: &dyn Observer,
 ) -> Result<Built> {
-    let kinematic = fit_kinematic(nominal, rows, &stages.kinematic)?;
+    configured_with(
+        stages,
+        nominal,
+        rows,
+        validation,
+        observer,
+        &FitMemo::default(),
+    )
+}
+
+/// [`configured`], its kinematic stage sharing with the fits `memo` remembers
+/// ([`fit_kinematic_with`]): the search for bad shots fits the same physics on the same rows in
+/// its last round, and the calibration after it takes that fit (the same results, bit for bit).
+pub fn configured_with(
+    stages: &Stages,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    validation: Option<(&[&Measurement], String)>,
+    observer: &dyn Observer,
+    memo: &FitMemo,
+) -> Result<Built> {
+    let kinematic = fit_kinematic_with(nominal, rows, &stages.kinematic, memo)?;
     let base = physical_model(&kinematic);
     let residual = stages
         .residual

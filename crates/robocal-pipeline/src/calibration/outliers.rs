@@ -8,13 +8,13 @@ use std::collections::BTreeSet;
 use nalgebra::Vector3;
 use robocal_data::{Measurement, robust_std};
 use robocal_ident::{
-    ComplianceSettings, JointErrorSettings, KinematicCalibration, KinematicSettings,
+    ComplianceSettings, FitMemo, JointErrorSettings, KinematicCalibration, KinematicSettings,
 };
 use robocal_robot::Robot;
 use serde::Serialize;
 
 use super::folds::configuration_groups;
-use super::{coordinates_and_parameters, fit_kinematic, loads, physical_model, readings_key};
+use super::{coordinates_and_parameters, fit_kinematic_with, loads, physical_model, readings_key};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -172,6 +172,21 @@ pub fn find_outliers<'a>(
     settings: &KinematicSettings,
     outliers: &OutlierSettings,
 ) -> Result<(OutlierReport, Vec<&'a Measurement>)> {
+    find_outliers_with(nominal, rows, settings, outliers, &FitMemo::default())
+}
+
+/// [`find_outliers`], remembering its fits in `memo` ([`fit_kinematic_with`]): the last round
+/// fits the search's physics on the rows it returns (the flagged set repeated), and a
+/// calibration of that physics on them after it, given the same `memo`, takes that fit instead
+/// of making it again (a stage config whose physics the search fits: one identification of
+/// its fullest model in four on the paper's arm). The same results, bit for bit.
+pub fn find_outliers_with<'a>(
+    nominal: &Robot,
+    rows: &[&'a Measurement],
+    settings: &KinematicSettings,
+    outliers: &OutlierSettings,
+    memo: &FitMemo,
+) -> Result<(OutlierReport, Vec<&'a Measurement>)> {
     let physics = search_physics(settings, rows);
     let mut flagged: BTreeSet<usize> = BTreeSet::new();
     let mut errors = Vec::new();
@@ -185,7 +200,7 @@ pub fn find_outliers<'a>(
                 .map(|(_, r)| *r)
                 .collect()
         };
-        let fit = fit_kinematic(nominal, &inliers(&|_| true), &physics)?;
+        let fit = fit_kinematic_with(nominal, &inliers(&|_| true), &physics, memo)?;
         if round == 0 && too_few_configurations(&fit, rows) {
             folds = Some(configuration_groups(rows));
         }
@@ -209,7 +224,8 @@ pub fn find_outliers<'a>(
                     continue;
                 }
                 // A fold whose others cannot be fitted leaves nothing to tell a bad shot by.
-                let Ok(without) = fit_kinematic(nominal, &inliers(&|i| fold[i] != k), &physics)
+                let Ok(without) =
+                    fit_kinematic_with(nominal, &inliers(&|i| fold[i] != k), &physics, memo)
                 else {
                     return Ok(none_found(rows, outliers, sigma));
                 };
@@ -232,7 +248,10 @@ pub fn find_outliers<'a>(
         flagged = next;
     }
     let refined = match (&folds, refined_physics(&physics)) {
-        (None, Some(rich)) => refine(nominal, rows, &rich, outliers, &errors, sigma, &flagged),
+        (None, Some(rich)) => {
+            let candidates = refined_candidates(&errors, sigma, &flagged, outliers);
+            refine(nominal, rows, &rich, outliers, &candidates, &flagged, memo)
+        }
         _ => None,
     };
     if let Some(r) = &refined {
@@ -280,27 +299,36 @@ struct Refined {
     flagged: BTreeSet<usize>,
 }
 
-/// The refined search ([`find_outliers`]): the rows not `flagged` whose `errors` under the
-/// search's physics lie beyond [`REFINED_SHARE`] of the threshold of `sigma`, flagged where the
-/// refined physics `rich`, fitted without the flagged rows, leaves them beyond the threshold of
-/// its own robust standard deviation, unless its error there lies along one joint's motion
-/// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it (`past_a_flip`); fitted
-/// again without those until the set repeats (at most `rounds` fits). None where no row lies
-/// that far out (nothing to fit for), or where a refined fit fails (the first search's finding
-/// stands).
+/// The rows the refined search looks at ([`refine`]): those not `flagged` whose `errors` under
+/// the search's physics lie beyond [`REFINED_SHARE`] of the threshold of `sigma`.
+fn refined_candidates(
+    errors: &[f64],
+    sigma: f64,
+    flagged: &BTreeSet<usize>,
+    outliers: &OutlierSettings,
+) -> BTreeSet<usize> {
+    (0..errors.len())
+        .filter(|i| !flagged.contains(i))
+        .filter(|&i| sigma > 0.0 && errors[i] > REFINED_SHARE * outliers.threshold * sigma)
+        .collect()
+}
+
+/// The refined search ([`find_outliers`]): the `candidates` ([`refined_candidates`]), flagged
+/// where the refined physics `rich`, fitted without the `flagged` rows, leaves them beyond the
+/// threshold of its own robust standard deviation, unless its error there lies along one
+/// joint's motion ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it
+/// (`past_a_flip`); fitted again without those until the set repeats (at most `rounds` fits,
+/// remembered in `memo`). None where there is no candidate (nothing to fit for), or where a
+/// refined fit fails (the first search's finding stands).
 fn refine(
     nominal: &Robot,
     rows: &[&Measurement],
     rich: &KinematicSettings,
     outliers: &OutlierSettings,
-    errors: &[f64],
-    sigma: f64,
+    candidates: &BTreeSet<usize>,
     flagged: &BTreeSet<usize>,
+    memo: &FitMemo,
 ) -> Option<Refined> {
-    let candidates: BTreeSet<usize> = (0..rows.len())
-        .filter(|i| !flagged.contains(i))
-        .filter(|&i| sigma > 0.0 && errors[i] > REFINED_SHARE * outliers.threshold * sigma)
-        .collect();
     if candidates.is_empty() {
         return None;
     }
@@ -316,7 +344,7 @@ fn refine(
             .map(|(_, r)| *r)
             .collect();
         // A refined fit that fails leaves the first search's finding as it was.
-        let Ok(fit) = fit_kinematic(nominal, &inliers, rich) else {
+        let Ok(fit) = fit_kinematic_with(nominal, &inliers, rich, memo) else {
             return None;
         };
         let residuals = physical_model(&fit).residuals(rows.iter().copied());
