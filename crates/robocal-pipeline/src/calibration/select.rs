@@ -18,11 +18,10 @@ use robocal_robot::Robot;
 use serde::Serialize;
 
 use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
-use super::outliers::{OutlierSettings, find_outliers_with};
+use super::outliers::{OutlierSettings, find_outliers};
 use super::spread::{self, SpreadCalibration};
 use super::{
-    Built, configurations, configured, configured_with, fit_kinematic_with, loads, physical_model,
-    train_residual,
+    Built, configurations, configured, fit_kinematic_with, loads, physical_model, train_residual,
 };
 use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
@@ -1463,14 +1462,9 @@ pub fn automatic(
     observer: &dyn Observer,
 ) -> Result<Built> {
     let start = Instant::now();
-    // The fits of every row kept: the search for bad shots makes some, and the final fit of
-    // the chosen model takes any of them it repeats (its whole fit where it is the search's
-    // physics, its first fit where it starts from it).
-    let whole = FitMemo::default();
     let (outliers, kept) = match &settings.outliers {
         Some(o) if configurations(rows).len() >= 4 => {
-            let (report, kept) =
-                find_outliers_with(nominal, rows, &KinematicSettings::default(), o, &whole)?;
+            let (report, kept) = find_outliers(nominal, rows, &KinematicSettings::default(), o)?;
             (Some(report), kept)
         }
         _ => (None, rows.to_vec()),
@@ -1578,7 +1572,7 @@ pub fn automatic(
     if plan.refit {
         observer.message("fitting the chosen model again on every row");
     }
-    let mut built = configured_with(&stages, nominal, rows, validation.clone(), &Silent, &whole)?;
+    let mut built = configured(&stages, nominal, rows, validation.clone(), &Silent)?;
     observer.advance(1);
     // The chosen residual model's deviations, scaled as its folds found.
     if let (Some((r, _)), Some((model, report))) = (residual_wins, built.residual.as_mut()) {
