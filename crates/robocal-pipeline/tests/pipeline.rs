@@ -1154,6 +1154,39 @@ fn a_stage_after_the_search_for_bad_shots_takes_its_last_fit() {
     assert!(memo.fits() > searched, "the stage does not keep its fits");
 }
 
+/// The search for bad shots fits least squares whatever loss the stage asks for (its threshold
+/// is in robust standard deviations of a least-squares fit's errors): a Huber stage's search
+/// finds what a least-squares stage's does, with the same spread to the bit (until session 57
+/// it fitted the stage's Huber loss, and its spread came out otherwise).
+#[test]
+fn the_search_for_bad_shots_is_least_squares_under_a_huber_stage() {
+    use robocal_ident::{ComplianceSettings, Loss};
+    let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
+    twin.poses.count = 24;
+    let mut data = twin.generate().unwrap().measurements.rows;
+    data[5].position.y -= 2.0;
+    let rows: Vec<&Measurement> = data.iter().collect();
+    let squared = KinematicSettings {
+        compliance: Some(ComplianceSettings::default()),
+        ..KinematicSettings::default()
+    };
+    let huber = KinematicSettings {
+        loss: Loss::Huber,
+        ..squared.clone()
+    };
+    let search = OutlierSettings::default();
+    let (a, kept_a) = find_outliers(&twin.nominal, &rows, &squared, &search).unwrap();
+    let (b, kept_b) = find_outliers(&twin.nominal, &rows, &huber, &search).unwrap();
+    assert_eq!(a.rows.len(), 1, "{a:?}");
+    assert_eq!(
+        a.robust_std.to_bits(),
+        b.robust_std.to_bits(),
+        "{a:?} {b:?}"
+    );
+    assert_eq!(a, b);
+    assert_eq!(kept_a.len(), kept_b.len());
+}
+
 /// A residual model in the frame turning with joint 1 carries an error that turns with the arm
 /// to joint-1 angles it never saw; in the world frame the same model cannot. The error is made
 /// independently of robocal's frame code: a smooth function of joints 2–5 in the base frame

@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use nalgebra::Vector3;
 use robocal_data::{Measurement, robust_std};
 use robocal_ident::{
-    ComplianceSettings, FitMemo, JointErrorSettings, KinematicCalibration, KinematicSettings,
+    ComplianceSettings, FitMemo, JointErrorSettings, KinematicCalibration, KinematicSettings, Loss,
 };
 use robocal_robot::Robot;
 use serde::Serialize;
@@ -131,11 +131,15 @@ pub struct OutlierReport {
 
 /// The physics the search fits: `settings`, with joint compliances when the data hold two or
 /// more loads and `settings` have none (a rigid table cannot tell a heavy load's deflection
-/// from a bad shot). Least squares, on purpose: the threshold is in robust standard deviations
-/// of a least-squares fit's errors (a Huber fit hugs the bulk closer, and the same rows then
-/// sit further out); the refits without the flagged rows keep the shots from pulling it.
+/// from a bad shot). Least squares, on purpose, whatever loss `settings` ask for: the threshold
+/// is in robust standard deviations of a least-squares fit's errors (a Huber fit hugs the bulk
+/// closer, and the same rows then sit further out); the refits without the flagged rows keep
+/// the shots from pulling it. (Until session 57 a stage config's Huber loss was kept here.)
 fn search_physics(settings: &KinematicSettings, rows: &[&Measurement]) -> KinematicSettings {
-    let mut s = settings.clone();
+    let mut s = KinematicSettings {
+        loss: Loss::Squared,
+        ..settings.clone()
+    };
     if loads(rows).len() >= 2 && s.compliance.is_none() {
         s.compliance = Some(ComplianceSettings::default());
     }
