@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::bfgs::run_bfgs;
 use crate::error::{IdentError, Result};
 use crate::identifiability::{
-    Column, Identifiability, analyse, deviations_of, ridged_standard_deviations,
+    Column, Identifiability, analyse, deviations_of, null_ridged_standard_deviations,
     standard_deviations,
 };
 use crate::lm::{run_lm, run_lm_until};
@@ -991,14 +991,15 @@ fn solve_gated(
         // The fit's residuals and standard deviations, once, for the gate and the prior. Where
         // the data's covariance is singular (at the fit, a backlash whose rows all rest on one
         // flank is its joint's offset), the prior's spread comes from the deviations under a
-        // vanishing ridge ([`ridged_standard_deviations`]): until session 48 such a fit kept no
-        // prior at all, and the flank rounds then compared it with fits under the prior.
+        // vanishing ridge ([`null_ridged_standard_deviations`]): until session 48 such a fit
+        // kept no prior at all, and the flank rounds then compared it with fits under the
+        // prior.
         let has_backlash = kept.iter().any(|c| matches!(c, Column::Backlash(_)));
         let fitted = (gate || prior_wanted || has_backlash).then(|| {
             let (r, jac) = problem.residuals_and_jacobian(&solved.0);
             let std = standard_deviations(&jac, &r);
             let for_prior = if prior_wanted && std.is_none() {
-                ridged_standard_deviations(&jac, &r)
+                null_ridged_standard_deviations(&jac, &r)
             } else {
                 std.clone()
             };

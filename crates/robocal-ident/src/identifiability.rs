@@ -292,9 +292,14 @@ pub const NULL_RIDGE: f64 = 1e-12;
 /// that it tells a prior's spread next to nothing, where the data's covariance says nothing at
 /// all; the determined directions keep the data's. `None` with no degrees of freedom left.
 pub fn ridged_standard_deviations(jac: &Mat<f64>, residuals: &[f64]) -> Option<Vec<f64>> {
-    if let Some(std) = standard_deviations(jac, residuals) {
-        return Some(std);
-    }
+    standard_deviations(jac, residuals).or_else(|| null_ridged_standard_deviations(jac, residuals))
+}
+
+/// The deviations under the vanishing ridge alone ([`ridged_standard_deviations`]' second
+/// step), for a caller that already found the data's own covariance singular
+/// ([`standard_deviations`] `None`): the same numbers without forming `JᵀJ` and failing its
+/// factorisation again. `None` with no degrees of freedom left.
+pub fn null_ridged_standard_deviations(jac: &Mat<f64>, residuals: &[f64]) -> Option<Vec<f64>> {
     let largest = (0..jac.ncols())
         .map(|j| (0..jac.nrows()).map(|i| jac[(i, j)].powi(2)).sum::<f64>())
         .fold(0.0, f64::max);

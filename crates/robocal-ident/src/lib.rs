@@ -33,8 +33,9 @@ pub use calibrate::{
 };
 pub use error::{IdentError, Result};
 pub use identifiability::{
-    Column, Identifiability, NULL_RIDGE, analyse, posterior_covariance,
-    posterior_standard_deviations, ridged_standard_deviations, standard_deviations,
+    Column, Identifiability, NULL_RIDGE, analyse, null_ridged_standard_deviations,
+    posterior_covariance, posterior_standard_deviations, ridged_standard_deviations,
+    standard_deviations,
 };
 pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm, run_lm_until};
 pub use problem::{

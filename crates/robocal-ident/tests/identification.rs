@@ -2538,11 +2538,14 @@ fn posterior_standard_deviations_match_the_closed_form_of_orthogonal_columns() {
 /// of `σ² (JᵀJ + d² I)⁻¹`, `d² = ε max_j |Jⱼ|²`: the pair, each of squared norm `n`, has the
 /// variance `σ² (n + d²) / (d² (2n + d²))` — some 10⁶ times the deviation of a determined
 /// unknown —, an unknown of its own `σ² / (|Jⱼ|² + d²)`. Where the data's covariance exists it
-/// is returned unchanged.
+/// is returned unchanged; the ridge alone gives the singular case's numbers.
 #[test]
 fn ridged_standard_deviations_match_the_closed_form_where_the_data_leave_a_direction_free() {
     use faer::Mat;
-    use robocal_ident::{NULL_RIDGE, ridged_standard_deviations, standard_deviations};
+    use robocal_ident::{
+        NULL_RIDGE, null_ridged_standard_deviations, ridged_standard_deviations,
+        standard_deviations,
+    };
     // Unknowns 0 and 1 seen only together (the same column, rows 0–3), 2 by rows 4–11.
     let column = |i: usize, j: usize| match (i, j) {
         (0..4, 0 | 1) => 0.5,
@@ -2576,6 +2579,8 @@ fn ridged_standard_deviations_match_the_closed_form_where_the_data_leave_a_direc
         ridged_standard_deviations(&apart, &r),
         standard_deviations(&apart, &r)
     );
+    // The ridge alone, for a caller that found the covariance singular: the same numbers.
+    assert_eq!(null_ridged_standard_deviations(&jac, &r), Some(std));
 }
 
 /// The prior's rows (`weight × coefficient`, appended by the least-squares view) and their
