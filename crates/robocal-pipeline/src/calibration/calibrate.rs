@@ -208,8 +208,9 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             if input.angle_weight.is_some() {
                 stages.kinematic.angle_weight = input.angle_weight;
             }
-            // The search's last round fits the stage's physics on the rows kept: the stage
-            // takes that fit.
+            // Where the search fits the stage's physics (least squares, compliances where the
+            // rows hold several loads), its last round is the stage's fit of the rows kept:
+            // the stage takes it.
             let memo = FitMemo::default();
             let (report, kept) =
                 find_outliers_with(input.nominal, &rows, &stages.kinematic, &outliers, &memo)

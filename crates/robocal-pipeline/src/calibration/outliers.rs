@@ -14,7 +14,10 @@ use robocal_robot::Robot;
 use serde::Serialize;
 
 use super::folds::configuration_groups;
-use super::{coordinates_and_parameters, fit_kinematic_with, loads, physical_model, readings_key};
+use super::{
+    coordinates_and_parameters, fit_kinematic, fit_kinematic_with, loads, physical_model,
+    readings_key,
+};
 use crate::error::Result;
 
 /// How bad shots are found.
@@ -179,11 +182,13 @@ pub fn find_outliers<'a>(
     find_outliers_with(nominal, rows, settings, outliers, &FitMemo::default())
 }
 
-/// [`find_outliers`], remembering its fits in `memo` ([`fit_kinematic_with`]): the last round
-/// fits the search's physics on the rows it returns (the flagged set repeated), and a
-/// calibration of that physics on them after it, given the same `memo`, takes that fit instead
-/// of making it again (a stage config whose physics the search fits: one identification of
-/// its fullest model in four on the paper's arm). The same results, bit for bit.
+/// [`find_outliers`], remembering its fits of every row not flagged in `memo`
+/// ([`fit_kinematic_with`]): the last round fits the search's physics on the rows it returns
+/// (the flagged set repeated), and a calibration of that physics on them after it, given the
+/// same `memo`, takes that fit instead of making it again (a stage config whose physics the
+/// search fits: one identification of its fullest model in four on the paper's arm). The fits
+/// without a configuration and the refined search's, which no stage repeats, are not kept. The
+/// same results, bit for bit.
 pub fn find_outliers_with<'a>(
     nominal: &Robot,
     rows: &[&'a Measurement],
@@ -228,8 +233,7 @@ pub fn find_outliers_with<'a>(
                     continue;
                 }
                 // A fold whose others cannot be fitted leaves nothing to tell a bad shot by.
-                let Ok(without) =
-                    fit_kinematic_with(nominal, &inliers(&|i| fold[i] != k), &physics, memo)
+                let Ok(without) = fit_kinematic(nominal, &inliers(&|i| fold[i] != k), &physics)
                 else {
                     return Ok(none_found(rows, outliers, sigma));
                 };
@@ -252,10 +256,7 @@ pub fn find_outliers_with<'a>(
         flagged = next;
     }
     let refined = match (&folds, refined_physics(&physics)) {
-        (None, Some(rich)) => {
-            let candidates = refined_candidates(&errors, sigma, &flagged, outliers);
-            refine(nominal, rows, &rich, outliers, &candidates, &flagged, memo)
-        }
+        (None, Some(rich)) => refine(nominal, rows, &rich, outliers, &errors, sigma, &flagged),
         _ => None,
     };
     if let Some(r) = &refined {
@@ -303,36 +304,27 @@ struct Refined {
     flagged: BTreeSet<usize>,
 }
 
-/// The rows the refined search looks at ([`refine`]): those not `flagged` whose `errors` under
-/// the search's physics lie beyond [`REFINED_SHARE`] of the threshold of `sigma`.
-fn refined_candidates(
-    errors: &[f64],
-    sigma: f64,
-    flagged: &BTreeSet<usize>,
-    outliers: &OutlierSettings,
-) -> BTreeSet<usize> {
-    (0..errors.len())
-        .filter(|i| !flagged.contains(i))
-        .filter(|&i| sigma > 0.0 && errors[i] > REFINED_SHARE * outliers.threshold * sigma)
-        .collect()
-}
-
-/// The refined search ([`find_outliers`]): the `candidates` ([`refined_candidates`]), flagged
-/// where the refined physics `rich`, fitted without the `flagged` rows, leaves them beyond the
-/// threshold of its own robust standard deviation, unless its error there lies along one
-/// joint's motion ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it
-/// (`past_a_flip`); fitted again without those until the set repeats (at most `rounds` fits,
-/// remembered in `memo`). None where there is no candidate (nothing to fit for), or where a
-/// refined fit fails (the first search's finding stands).
+/// The refined search ([`find_outliers`]): the rows not `flagged` whose `errors` under the
+/// search's physics lie beyond [`REFINED_SHARE`] of the threshold of `sigma`, flagged where the
+/// refined physics `rich`, fitted without the flagged rows, leaves them beyond the threshold of
+/// its own robust standard deviation, unless its error there lies along one joint's motion
+/// ([`SINGLE_JOINT_SHARE`]) where a flank's flip may have put it (`past_a_flip`); fitted
+/// again without those until the set repeats (at most `rounds` fits). None where no row lies
+/// that far out (nothing to fit for), or where a refined fit fails (the first search's finding
+/// stands).
 fn refine(
     nominal: &Robot,
     rows: &[&Measurement],
     rich: &KinematicSettings,
     outliers: &OutlierSettings,
-    candidates: &BTreeSet<usize>,
+    errors: &[f64],
+    sigma: f64,
     flagged: &BTreeSet<usize>,
-    memo: &FitMemo,
 ) -> Option<Refined> {
+    let candidates: BTreeSet<usize> = (0..rows.len())
+        .filter(|i| !flagged.contains(i))
+        .filter(|&i| sigma > 0.0 && errors[i] > REFINED_SHARE * outliers.threshold * sigma)
+        .collect();
     if candidates.is_empty() {
         return None;
     }
@@ -348,7 +340,7 @@ fn refine(
             .map(|(_, r)| *r)
             .collect();
         // A refined fit that fails leaves the first search's finding as it was.
-        let Ok(fit) = fit_kinematic_with(nominal, &inliers, rich, memo) else {
+        let Ok(fit) = fit_kinematic(nominal, &inliers, rich) else {
             return None;
         };
         let residuals = physical_model(&fit).residuals(rows.iter().copied());
