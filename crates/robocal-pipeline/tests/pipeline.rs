@@ -1154,13 +1154,15 @@ fn a_stage_after_the_search_for_bad_shots_takes_its_last_fit() {
     assert!(memo.fits() > searched, "the stage does not keep its fits");
 }
 
-/// The search for bad shots fits least squares whatever loss the stage asks for (its threshold
-/// is in robust standard deviations of a least-squares fit's errors): a Huber stage's search
-/// finds what a least-squares stage's does, with the same spread to the bit (until session 57
-/// it fitted the stage's Huber loss, and its spread came out otherwise).
+/// The search for bad shots fits least squares by Levenberg–Marquardt whatever loss and solver
+/// the stage asks for (its threshold is in robust standard deviations of a least-squares fit's
+/// errors): a Huber stage's search, and a BFGS stage's (the paper's, on the mean distance), find
+/// what a least-squares stage's does, with the same spread to the bit (until session 57 the
+/// search fitted a stage's Huber loss, until session 58 its BFGS, and the spread came out
+/// otherwise).
 #[test]
-fn the_search_for_bad_shots_is_least_squares_under_a_huber_stage() {
-    use robocal_ident::{ComplianceSettings, Loss};
+fn the_search_for_bad_shots_is_least_squares_under_a_huber_or_bfgs_stage() {
+    use robocal_ident::{ComplianceSettings, Loss, SolverKind};
     let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     twin.poses.count = 24;
     let mut data = twin.generate().unwrap().measurements.rows;
@@ -1174,17 +1176,27 @@ fn the_search_for_bad_shots_is_least_squares_under_a_huber_stage() {
         loss: Loss::Huber,
         ..squared.clone()
     };
+    let bfgs = KinematicSettings {
+        solver: SolverKind::Bfgs,
+        ..squared.clone()
+    };
     let search = OutlierSettings::default();
     let (a, kept_a) = find_outliers(&twin.nominal, &rows, &squared, &search).unwrap();
-    let (b, kept_b) = find_outliers(&twin.nominal, &rows, &huber, &search).unwrap();
     assert_eq!(a.rows.len(), 1, "{a:?}");
-    assert_eq!(
-        a.robust_std.to_bits(),
-        b.robust_std.to_bits(),
-        "{a:?} {b:?}"
-    );
-    assert_eq!(a, b);
-    assert_eq!(kept_a.len(), kept_b.len());
+    assert_eq!(a.rows[0].line, 0);
+    assert_eq!(a.rows[0].pose, data[5].sample.pose);
+    for stage in [huber, bfgs] {
+        let (b, kept_b) = find_outliers(&twin.nominal, &rows, &stage, &search).unwrap();
+        assert_eq!(
+            a.robust_std.to_bits(),
+            b.robust_std.to_bits(),
+            "{:?} {:?}: {a:?} {b:?}",
+            stage.solver,
+            stage.loss
+        );
+        assert_eq!(a, b);
+        assert_eq!(kept_a.len(), kept_b.len());
+    }
 }
 
 /// A residual model in the frame turning with joint 1 carries an error that turns with the arm
