@@ -1210,7 +1210,7 @@ fn a_residual_in_the_frame_turning_with_joint_1_carries_an_error_that_turns_with
     use rand::{RngExt, SeedableRng};
     use robocal_data::{Sample, Silent};
     use robocal_pipeline::CalibratedModel;
-    use robocal_pipeline::calibration::train_residual;
+    use robocal_pipeline::calibration::{train_residual, train_residual_model};
     use robocal_residual::{Frame, GpSettings, ResidualSettings, ResidualStage};
 
     let robot = Robot::load(root().join("configs/robots/arm5.toml")).unwrap();
@@ -1272,11 +1272,19 @@ fn a_residual_in_the_frame_turning_with_joint_1_carries_an_error_that_turns_with
         };
         let (residual, _) = train_residual(&stage, &model, &train, None, &Silent).unwrap();
         assert_eq!(residual.frame, frame);
+        // The folds' training, without the report: the same model to the bit.
+        let alone = train_residual_model(&stage, &model, &train, &Silent).unwrap();
         let fitted = CalibratedModel {
             residual: Some(residual),
             ..model.clone()
         };
         let errors = fitted.errors(&test);
+        let alone = CalibratedModel {
+            residual: Some(alone),
+            ..model.clone()
+        };
+        let bits = |e: &[f64]| e.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&alone.errors(&test)), bits(&errors));
         (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt()
     };
     let (turning, world) = (left(Frame::Joint1), left(Frame::World));

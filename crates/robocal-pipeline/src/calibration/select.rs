@@ -21,7 +21,8 @@ use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
 use super::outliers::{OutlierSettings, find_outliers};
 use super::spread::{self, SpreadCalibration};
 use super::{
-    Built, configurations, configured, fit_kinematic_with, loads, physical_model, train_residual,
+    Built, configurations, configured, fit_kinematic_with, loads, physical_model,
+    train_residual_model,
 };
 use crate::error::{PipelineError, Result};
 use crate::stages::Stages;
@@ -1076,7 +1077,7 @@ fn residual_candidates(
                     .zip(chunk.clone())
                     .map(|((fold, &base), k)| {
                         observer.advance(1);
-                        train_residual(stage, base, &fold.train, None, &Silent).map(|(model, _)| {
+                        train_residual_model(stage, base, &fold.train, &Silent).map(|model| {
                             let model = CalibratedModel {
                                 residual: Some(model),
                                 ..base.clone()
