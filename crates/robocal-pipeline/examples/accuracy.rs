@@ -42,7 +42,7 @@ use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
 use robocal_pipeline::CalibratedModel;
 use robocal_pipeline::calibration::DEFAULT_BUDGET_SECONDS;
 use robocal_pipeline::calibration::{
-    configured, fit_kinematic, hold_out, physical_model, train_residual,
+    configured, fit_kinematic, hold_out, physical_model, train_residual_model,
 };
 use robocal_pipeline::{AutoSettings, Stages, automatic};
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
@@ -335,7 +335,7 @@ fn previous_default(
             settings: ResidualSettings::paper(ResidualKind::Somm, 2020),
             holdout: 0.2,
         };
-        let (model, _) = train_residual(&stage, &best, &fit, None, &Silent)?;
+        let model = train_residual_model(&stage, &best, &fit, &Silent)?;
         let with = CalibratedModel {
             residual: Some(model),
             ..best.clone()
