@@ -1430,15 +1430,31 @@ impl JointErrors {
         self
     }
 
-    /// The basis value `φ` of every self-weight term at command `q` (rad).
-    fn self_weight_basis(&self, pose: &PoseCache) -> Vec<f64> {
+    /// The basis value `φ` of the self-weight terms at the command `pose` holds, one entry per
+    /// term: computed for each term whose coefficient is not zero or that is among `params`,
+    /// 0 for the others (held at zero and not identified: most of a fit's, whose poses tell few
+    /// of the links' masses and moments from the geometry), which nothing reads —
+    /// [`Self::add_joint_terms`] passes over a term at zero, and [`Self::basis_into`] reads
+    /// `params`' alone.
+    fn self_weight_basis(&self, pose: &PoseCache, params: &[ErrorParam]) -> Vec<f64> {
         if self.self_weight.is_empty() {
             return Vec::new();
         }
+        let mut wanted: Vec<bool> = (self.self_weight.iter()).map(|t| t.value != 0.0).collect();
+        for p in params {
+            if let ErrorParam::SelfWeight(i) = p {
+                wanted[*i] = true;
+            }
+        }
         let Pose { axes, frames, g } = pose.get();
-        self.self_weight
-            .iter()
-            .map(|t| unit_torque(&axes[t.joint], &frames[t.body], g, t.part))
+        (self.self_weight.iter().zip(wanted))
+            .map(|(t, wanted)| {
+                if wanted {
+                    unit_torque(&axes[t.joint], &frames[t.body], g, t.part)
+                } else {
+                    0.0
+                }
+            })
             .collect()
     }
 
@@ -1479,7 +1495,7 @@ impl JointErrors {
         RowShared {
             torques,
             links,
-            self_weight: self.self_weight_basis(pose),
+            self_weight: self.self_weight_basis(pose, params),
             flanks: self.flanks(pose, load),
         }
     }
@@ -1607,7 +1623,7 @@ impl JointErrors {
         self.deflection_of(
             pose,
             &self.load_torques_at(pose, load),
-            &self.self_weight_basis(pose),
+            &self.self_weight_basis(pose, &[]),
             &self.flanks(pose, load),
         )
     }
@@ -1651,7 +1667,14 @@ impl JointErrors {
             }
         }
         for (t, phi) in self.self_weight.iter().zip(sw) {
-            d[t.joint] += t.value * phi;
+            if t.value != 0.0 {
+                d[t.joint] += t.value * phi;
+            } else if d[t.joint] == 0.0 && d[t.joint].is_sign_negative() {
+                // A term at zero adds ±0: that leaves every sum as it is but −0, which +0 turns
+                // +0 — the one case its basis (not computed: `sw` holds 0 for it) decides.
+                let Pose { axes, frames, g } = pose.get();
+                d[t.joint] += t.value * unit_torque(&axes[t.joint], &frames[t.body], g, t.part);
+            }
         }
         for (b, s) in self.backlash.iter().zip(flanks) {
             d[b.joint] += b.value * s;

@@ -1158,6 +1158,75 @@ fn a_link_weight_at_zero_adds_nothing_and_keeps_its_basis() {
     }
 }
 
+/// A self-weight term at zero adds nothing to the deflection (its basis is not computed: most
+/// of a fit's terms are held there): the deflection is the sum over every term in order,
+/// `compliance × torque + Σ value × φ`, to the bit — the sign of a zero too (a joint whose
+/// compliance is negative deflects by −0 without a load, and a term at zero with `φ > 0` turns
+/// that +0) — with `φ` read from the joint's torque features. A term at zero that is
+/// identified keeps its basis.
+#[test]
+fn a_self_weight_term_at_zero_adds_nothing_and_keeps_its_basis() {
+    use robocal_robot::{ErrorParam, MomentPart};
+    let robot = pmc6();
+    let mut errors = compliant_pmc6().with_self_weight(&[0, 1, 2, 3, 4, 5], 6);
+    // Joint 4's compliance negative: under no load it deflects by −0 before its terms.
+    errors.values[3] = -0.2e-5;
+    let loaded = [
+        (5, 1.2e-4),
+        (9, -3.1e-5),
+        (30, 2.2e-5),
+        (41, -7.0e-6),
+        (75, 4.0e-6),
+    ];
+    for (i, v) in loaded {
+        errors.self_weight[i].value = v;
+    }
+    // A term at −0 beside the +0 ones.
+    errors.self_weight[60].value = -0.0;
+    let sw = errors.self_weight.clone();
+    assert!(sw.iter().filter(|t| t.joint == 3).all(|t| t.value == 0.0));
+    let zero = (sw.iter()).position(|t| t.value == 0.0 && t.joint == 1 && t.body == 4);
+    let zero = zero.expect("a term at zero");
+    let params = [ErrorParam::SelfWeight(zero), ErrorParam::SelfWeight(5)];
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut signs = 0;
+    for k in 0..40 {
+        let q: Vec<f64> = (0..6)
+            .map(|j| ((k * 7 + j * 13) % 23) as f64 / 23.0 * 3.0 - 1.5)
+            .collect();
+        for load in [0.0, 8.0] {
+            let phi = |t: &robocal_robot::SelfWeight| {
+                let part = (MomentPart::ALL.iter()).position(|p| *p == t.part).unwrap();
+                errors.torque_features(&robot, &q, load, t.joint)[4 * (t.body - t.joint) + part]
+            };
+            let torques = errors.load_torques(&robot, &q, load);
+            let mut expected: Vec<f64> = (errors.values.iter().zip(&torques))
+                .map(|(c, t)| c * t)
+                .collect();
+            let before = expected.clone();
+            for t in &sw {
+                expected[t.joint] += t.value * phi(t);
+            }
+            signs += (0..6)
+                .filter(|&j| before[j].to_bits() != expected[j].to_bits() && before[j] == 0.0)
+                .count();
+            let deflection = errors.deflection(&robot, &q, load);
+            assert_eq!(bits(&deflection), bits(&expected), "{q:?} {load}");
+            let basis = errors.basis(&robot, &q, load, &params);
+            let got: Vec<(usize, usize, u64)> = (basis.iter())
+                .map(|&(k, j, v)| (k, j, v.to_bits()))
+                .collect();
+            let want = vec![
+                (0, 1, phi(&sw[zero]).to_bits()),
+                (1, sw[5].joint, phi(&sw[5]).to_bits()),
+            ];
+            assert_eq!(got, want);
+        }
+    }
+    // The sign of a zero was decided by a term at zero (−0 turned +0) on some of the rows.
+    assert!(signs > 0);
+}
+
 /// The bases of a model's waves at a command, computed once ([`JointErrors::wave_bases`]: each
 /// harmonic's and each runout's `(sin k q', cos k q')` at the held angle, checked here against
 /// the sines computed directly) and handed back: the same point and the same row terms to the
