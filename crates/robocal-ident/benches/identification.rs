@@ -8,7 +8,8 @@
 //! Jacobian of those rows with compliances, harmonics, the links' weights and axis runouts, the
 //! solvers' first-order columns against the exact ones the covariance takes; and, on one core,
 //! what a residual evaluation and a Jacobian compute per row of those rows with the fullest
-//! candidate as fitted (its torque flanks, its links' weights, most held at zero).
+//! candidate as fitted (its torque flanks, its links' weights, most held at zero), and with
+//! the candidate with the self-weight terms (most of them held at zero too).
 
 use divan::{Bencher, black_box};
 use robocal_data::MeasurementSet;
@@ -265,5 +266,71 @@ fn row_terms_3528_rows(b: Bencher, waves: Waves) {
                 }
             })
             .sum::<usize>()
+    });
+}
+
+/// Compliances, harmonics to order 2 and the self-weight terms fitted on every row of the
+/// bundled twin, once for [`self_weight_rows_3528`]: the default's candidate with the
+/// self-weight, whose fit holds most of its 84 terms at zero (the poses tell few of the links'
+/// masses and moments from the geometry).
+fn fitted_self_weight() -> &'static (Robot, JointErrors, Observations) {
+    static FITTED: std::sync::OnceLock<(Robot, JointErrors, Observations)> =
+        std::sync::OnceLock::new();
+    FITTED.get_or_init(|| {
+        let (robot, set) = bundled();
+        let obs = Observations::from_rows(6, set.rows.iter());
+        let settings = KinematicSettings {
+            compliance: Some(ComplianceSettings::default()),
+            joint_errors: Some(JointErrorSettings {
+                harmonics: 2,
+                self_weight: true,
+                ..JointErrorSettings::default()
+            }),
+            ..KinematicSettings::default()
+        };
+        let fit = calibrate_kinematics(&robot, &obs, &settings).expect("fit");
+        let errors = fit.compliance.expect("joint errors");
+        (fit.robot, errors, obs)
+    })
+}
+
+/// What a row computes per evaluation, on one core.
+#[derive(Debug, Clone, Copy)]
+enum PerRow {
+    /// A residual evaluation's: the point (torques, deflection, chain).
+    Point,
+    /// A Jacobian's before the chain's columns: the deflection and the basis of the
+    /// coefficients the fit identified (those not held at zero).
+    Terms,
+}
+
+/// [`point_3528_rows`] and [`row_terms_3528_rows`] (waves computed) with the self-weight model
+/// of [`fitted_self_weight`]: a term held at zero costs nothing (session 59).
+#[divan::bench(args = [PerRow::Point, PerRow::Terms], sample_count = 30)]
+fn self_weight_rows_3528(b: Bencher, per_row: PerRow) {
+    let (robot, errors, obs) = fitted_self_weight();
+    let params: Vec<_> = (errors.params().into_iter())
+        .filter(|p| errors.param(*p) != 0.0)
+        .collect();
+    let zero = (errors.self_weight.iter())
+        .filter(|t| t.value == 0.0)
+        .count();
+    assert!(
+        2 * zero > errors.self_weight.len(),
+        "most terms held at zero"
+    );
+    b.bench_local(|| {
+        (0..obs.len())
+            .map(|i| {
+                let (q, load) = (obs.joints(i), obs.loads[i]);
+                match per_row {
+                    PerRow::Point => errors.point(robot, q, load).x,
+                    PerRow::Terms => {
+                        let row = errors.row_terms(robot, q, load, &params);
+                        row.deflected[0] + row.basis.len() as f64
+                    }
+                }
+            })
+            .sum::<f64>()
     });
 }

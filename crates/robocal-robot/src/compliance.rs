@@ -1435,7 +1435,8 @@ impl JointErrors {
     /// 0 for the others (held at zero and not identified: most of a fit's, whose poses tell few
     /// of the links' masses and moments from the geometry), which nothing reads —
     /// [`Self::add_joint_terms`] passes over a term at zero, and [`Self::basis_into`] reads
-    /// `params`' alone.
+    /// `params`' alone. (A deflection alone needs none of it: [`Self::add_joint_terms`] computes
+    /// the terms not at zero as it sums them.)
     fn self_weight_basis(&self, pose: &PoseCache, params: &[ErrorParam]) -> Vec<f64> {
         if self.self_weight.is_empty() {
             return Vec::new();
@@ -1623,25 +1624,17 @@ impl JointErrors {
         self.deflection_of(
             pose,
             &self.load_torques_at(pose, load),
-            &self.self_weight_basis(pose, &[]),
             &self.flanks(pose, load),
         )
     }
 
     /// How far each joint turns from the command `pose` holds (rad): compliance × the gravity
-    /// `torques`, plus the harmonics, the self-weight terms on their basis `sw` and the backlash
-    /// on its `flanks`.
-    fn deflection_of(
-        &self,
-        pose: &PoseCache,
-        torques: &[f64],
-        sw: &[f64],
-        flanks: &[f64],
-    ) -> Vec<f64> {
+    /// `torques`, plus the harmonics, the self-weight terms and the backlash on its `flanks`.
+    fn deflection_of(&self, pose: &PoseCache, torques: &[f64], flanks: &[f64]) -> Vec<f64> {
         let mut d: Vec<f64> = (self.values.iter().zip(torques))
             .map(|(c, t)| c * t)
             .collect();
-        self.add_joint_terms(pose, sw, flanks, &mut d);
+        self.add_joint_terms(pose, None, flanks, &mut d);
         d
     }
 
@@ -1655,25 +1648,29 @@ impl JointErrors {
     ) {
         d.clear();
         d.extend((self.values.iter().zip(torques)).map(|(c, t)| c * t));
-        self.add_joint_terms(pose, sw, flanks, d);
+        self.add_joint_terms(pose, Some(sw), flanks, d);
     }
 
     /// Adds to the compliances' deflection `d` (rad) the harmonics at the command `pose` holds,
-    /// the self-weight terms on their basis `sw` and the backlash on its `flanks`.
-    fn add_joint_terms(&self, pose: &PoseCache, sw: &[f64], flanks: &[f64], d: &mut [f64]) {
+    /// the self-weight terms on their basis (`sw`, [`Self::self_weight_basis`]; computed here
+    /// without it) and the backlash on its `flanks`.
+    fn add_joint_terms(&self, pose: &PoseCache, sw: Option<&[f64]>, flanks: &[f64], d: &mut [f64]) {
         if !self.harmonics.is_empty() {
             for (h, &basis) in self.harmonics.iter().zip(pose.waves(self)) {
                 d[h.joint] += h.value_on(basis);
             }
         }
-        for (t, phi) in self.self_weight.iter().zip(sw) {
+        let phi = |t: &SelfWeight| {
+            let Pose { axes, frames, g } = pose.get();
+            unit_torque(&axes[t.joint], &frames[t.body], g, t.part)
+        };
+        for (i, t) in self.self_weight.iter().enumerate() {
             if t.value != 0.0 {
-                d[t.joint] += t.value * phi;
+                d[t.joint] += t.value * sw.map_or_else(|| phi(t), |sw| sw[i]);
             } else if d[t.joint] == 0.0 && d[t.joint].is_sign_negative() {
                 // A term at zero adds ±0: that leaves every sum as it is but −0, which +0 turns
                 // +0 — the one case its basis (not computed: `sw` holds 0 for it) decides.
-                let Pose { axes, frames, g } = pose.get();
-                d[t.joint] += t.value * unit_torque(&axes[t.joint], &frames[t.body], g, t.part);
+                d[t.joint] += t.value * phi(t);
             }
         }
         for (b, s) in self.backlash.iter().zip(flanks) {
