@@ -192,13 +192,17 @@ fn jacobian_3528_rows(b: Bencher, columns: Columns) {
 fn fitted() -> &'static (Robot, JointErrors, Observations) {
     static FITTED: std::sync::OnceLock<(Robot, JointErrors, Observations)> =
         std::sync::OnceLock::new();
-    FITTED.get_or_init(|| {
-        let (robot, set) = bundled();
-        let obs = Observations::from_rows(6, set.rows.iter());
-        let fit = calibrate_kinematics(&robot, &obs, &full_physics_settings()).expect("fit");
-        let errors = fit.compliance.expect("joint errors");
-        (fit.robot, errors, obs)
-    })
+    FITTED.get_or_init(|| fitted_on_every_row(&full_physics_settings()))
+}
+
+/// The fit with `settings` on every row of the bundled twin: its table, its joint errors and
+/// the rows.
+fn fitted_on_every_row(settings: &KinematicSettings) -> (Robot, JointErrors, Observations) {
+    let (robot, set) = bundled();
+    let obs = Observations::from_rows(6, set.rows.iter());
+    let fit = calibrate_kinematics(&robot, &obs, settings).expect("fit");
+    let errors = fit.compliance.expect("joint errors");
+    (fit.robot, errors, obs)
 }
 
 /// Where a per-row bench's wave bases (the harmonics' sines and cosines) come from.
@@ -277,9 +281,7 @@ fn fitted_self_weight() -> &'static (Robot, JointErrors, Observations) {
     static FITTED: std::sync::OnceLock<(Robot, JointErrors, Observations)> =
         std::sync::OnceLock::new();
     FITTED.get_or_init(|| {
-        let (robot, set) = bundled();
-        let obs = Observations::from_rows(6, set.rows.iter());
-        let settings = KinematicSettings {
+        fitted_on_every_row(&KinematicSettings {
             compliance: Some(ComplianceSettings::default()),
             joint_errors: Some(JointErrorSettings {
                 harmonics: 2,
@@ -287,10 +289,7 @@ fn fitted_self_weight() -> &'static (Robot, JointErrors, Observations) {
                 ..JointErrorSettings::default()
             }),
             ..KinematicSettings::default()
-        };
-        let fit = calibrate_kinematics(&robot, &obs, &settings).expect("fit");
-        let errors = fit.compliance.expect("joint errors");
-        (fit.robot, errors, obs)
+        })
     })
 }
 
