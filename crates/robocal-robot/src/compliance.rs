@@ -454,6 +454,15 @@ pub struct SelfWeight {
     pub value: f64,
 }
 
+impl SelfWeight {
+    /// Its basis value `φ` at the command `pose` holds: the gravity torque about its joint's axis
+    /// of its link's unit quantity.
+    fn basis_at(&self, pose: &PoseCache) -> f64 {
+        let Pose { axes, frames, g } = pose.get();
+        unit_torque(&axes[self.joint], &frames[self.body], g, self.part)
+    }
+}
+
 /// One quantity of one link's weight, in the shared model of the links' weights: every joint
 /// at or before the link feels its gravity torque and deflects by that torque times its own
 /// compliance (`JointErrors::values`), as under the payload. The per-joint self-weight terms
@@ -558,6 +567,20 @@ fn unit_moment(
 /// `m` less its component along the unit vector `w`.
 fn across(w: &Vector3<f64>, m: Vector3<f64>) -> Vector3<f64> {
     m - w * w.dot(&m)
+}
+
+/// Which of a block's terms (their `values`, in order) a row computes the basis of: those not at
+/// zero, and those among `params` (`index` picks the block's own parameters out of them).
+fn not_zero_or_identified(
+    values: impl Iterator<Item = f64>,
+    params: &[ErrorParam],
+    index: impl Fn(ErrorParam) -> Option<usize>,
+) -> Vec<bool> {
+    let mut wanted: Vec<bool> = values.map(|v| v != 0.0).collect();
+    for i in params.iter().filter_map(|&p| index(p)) {
+        wanted[i] = true;
+    }
+    wanted
 }
 
 /// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
@@ -1271,12 +1294,14 @@ impl JointErrors {
                 ends: Vec::new(),
             };
         }
-        let mut wanted: Vec<bool> = (self.link_weights.iter()).map(|w| w.value != 0.0).collect();
-        for p in params {
-            if let ErrorParam::LinkWeight(i) = p {
-                wanted[*i] = true;
-            }
-        }
+        let wanted = not_zero_or_identified(
+            self.link_weights.iter().map(|w| w.value),
+            params,
+            |p| match p {
+                ErrorParam::LinkWeight(i) => Some(i),
+                _ => None,
+            },
+        );
         // Sized once: each wanted weight's torques on the joints up to its link's.
         let size = (self.link_weights.iter().zip(&wanted))
             .filter(|(_, wanted)| **wanted)
@@ -1441,21 +1466,16 @@ impl JointErrors {
         if self.self_weight.is_empty() {
             return Vec::new();
         }
-        let mut wanted: Vec<bool> = (self.self_weight.iter()).map(|t| t.value != 0.0).collect();
-        for p in params {
-            if let ErrorParam::SelfWeight(i) = p {
-                wanted[*i] = true;
-            }
-        }
-        let Pose { axes, frames, g } = pose.get();
+        let wanted = not_zero_or_identified(
+            self.self_weight.iter().map(|t| t.value),
+            params,
+            |p| match p {
+                ErrorParam::SelfWeight(i) => Some(i),
+                _ => None,
+            },
+        );
         (self.self_weight.iter().zip(wanted))
-            .map(|(t, wanted)| {
-                if wanted {
-                    unit_torque(&axes[t.joint], &frames[t.body], g, t.part)
-                } else {
-                    0.0
-                }
-            })
+            .map(|(t, wanted)| if wanted { t.basis_at(pose) } else { 0.0 })
             .collect()
     }
 
@@ -1660,17 +1680,13 @@ impl JointErrors {
                 d[h.joint] += h.value_on(basis);
             }
         }
-        let phi = |t: &SelfWeight| {
-            let Pose { axes, frames, g } = pose.get();
-            unit_torque(&axes[t.joint], &frames[t.body], g, t.part)
-        };
         for (i, t) in self.self_weight.iter().enumerate() {
             if t.value != 0.0 {
-                d[t.joint] += t.value * sw.map_or_else(|| phi(t), |sw| sw[i]);
+                d[t.joint] += t.value * sw.map_or_else(|| t.basis_at(pose), |sw| sw[i]);
             } else if d[t.joint] == 0.0 && d[t.joint].is_sign_negative() {
                 // A term at zero adds ±0: that leaves every sum as it is but −0, which +0 turns
                 // +0 — the one case its basis (not computed: `sw` holds 0 for it) decides.
-                d[t.joint] += t.value * phi(t);
+                d[t.joint] += t.value * t.basis_at(pose);
             }
         }
         for (b, s) in self.backlash.iter().zip(flanks) {
