@@ -1000,10 +1000,10 @@ struct ResidualScore {
 /// leaves, scored like the physical candidates; skipped with too few configurations, and
 /// abandoned when its folds would run past the time budget. Then, where the chain's physics
 /// holds more than the identified table, the lowest-scoring of those significantly better than
-/// it again on the identified table alone, in each frame: a large error of no physical form can bend the physics' terms
-/// (a backlash step, a harmonic) into shapes a residual model must then undo, where on the
-/// table alone it learns the error and the physics' effects together (`docs/accuracy.md`,
-/// session 60).
+/// it again on the identified table alone, in each frame: a large error of no physical form can
+/// bend the physics' terms (a backlash step, a harmonic) into shapes a residual model must then
+/// undo, where on the table alone it learns the error and the physics' effects together
+/// (`docs/accuracy.md`, session 60).
 #[allow(clippy::too_many_arguments)]
 fn residual_candidates(
     settings: &AutoSettings,
@@ -1024,11 +1024,10 @@ fn residual_candidates(
     let mut score_each = |jobs: Vec<(ResidualStage, usize, bool)>| -> Result<Vec<_>> {
         (jobs.iter())
             .map(|(stage, base, world)| {
-                let job = (stage, *base, *world);
                 score_residual(
                     settings,
                     chain,
-                    job,
+                    (stage, *base, *world),
                     plan,
                     groups,
                     observer,
