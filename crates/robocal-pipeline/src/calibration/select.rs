@@ -173,6 +173,22 @@ pub const DEFAULT_FOLDS: usize = 5;
 /// when it ran on one core (the share was 0.4 then).
 const FINAL_FIT_SHARE: f64 = 0.2;
 
+/// The share of the time budget the axis runouts' candidate leaves to the residual models: one
+/// GP's folds and final fit on the paper's arm (about 900 rows) take 16–20 s of the 120; the
+/// runouts, started late, took the rest (44 s) and left none (session 61).
+const RESIDUAL_SHARE: f64 = 0.25;
+
+/// The seconds of the budget the axis runouts' candidate leaves to the residual models
+/// ([`RESIDUAL_SHARE`]): none where no residual model will be scored (none given, or fewer than
+/// `min_residual_configurations` configurations, `fewest`, in a fold's training rows).
+fn residual_share(settings: &AutoSettings, fewest: usize) -> f64 {
+    if settings.residuals.is_empty() || fewest < settings.min_residual_configurations {
+        0.0
+    } else {
+        RESIDUAL_SHARE * settings.budget_seconds
+    }
+}
+
 /// The default selection's time budget, s.
 pub const DEFAULT_BUDGET_SECONDS: f64 = 120.0;
 
@@ -800,10 +816,28 @@ fn physics_chain(
     groups: &[usize],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
-    over_budget: &(dyn Fn(f64) -> bool + Sync),
-    left: &(dyn Fn() -> f64 + Sync),
+    (over_budget, left, residual_share): (
+        &(dyn Fn(f64) -> bool + Sync),
+        &(dyn Fn() -> f64 + Sync),
+        f64,
+    ),
 ) -> Chain {
     let mut score = |physics: Physics| {
+        // The axis runouts, the candidate with the most unknowns and the slowest (its pace known
+        // only after a core's worth of folds), leave `residual_share` of the budget to the
+        // residual models ([`RESIDUAL_SHARE`]).
+        let reserve = if physics.runout > 0 {
+            residual_share
+        } else {
+            0.0
+        };
+        let over_budget = |spent: f64| over_budget(spent + reserve);
+        let left = || left() - reserve;
+        let leaving = if reserve > 0.0 {
+            format!(", less the {reserve:.0} s left to the residual models,")
+        } else {
+            String::new()
+        };
         // A joint-error candidate does not start when the budget would be spent before it and the
         // final fit of its physics end (`projection`).
         let (from, seconds, projected) = projection(physics, candidates);
@@ -815,7 +849,7 @@ fn physics_chain(
                 score: None,
                 seconds: 0.0,
                 status: format!(
-                    "skipped: {} would be spent before its folds and the final fit end (projected from {from}, {seconds:.1} s: {projected:.1} s)",
+                    "skipped: {}{leaving} would be spent before its folds and the final fit end (projected from {from}, {seconds:.1} s: {projected:.1} s)",
                     the_budget(settings.budget_seconds)
                 ),
                 budget_cut: true,
@@ -836,8 +870,8 @@ fn physics_chain(
             plan,
             candidates,
             observer,
-            over_budget,
-            left,
+            &over_budget,
+            &left,
         )
     };
     let mut chain = Chain {
@@ -1595,6 +1629,11 @@ pub fn automatic(
     );
     let groups = plan.groups();
     let mut candidates: Vec<Candidate> = Vec::new();
+    let fewest = (plan.splits.iter())
+        .map(|f| configurations(&f.train).len())
+        .min()
+        .unwrap_or(0);
+    let residual_share = residual_share(settings, fewest);
     let chain = physics_chain(
         settings,
         nominal,
@@ -1603,8 +1642,7 @@ pub fn automatic(
         &groups,
         &mut candidates,
         observer,
-        &over_budget,
-        &left,
+        (&over_budget, &left, residual_share),
     );
     // The final fit of the chosen physics on every row, kept out of the residual models'
     // budget: about a fold's fit of the slowest physical candidate (its folds ran two at a time)
@@ -1966,6 +2004,28 @@ mod tests {
         assert_eq!(fold_share(60.0, 5, 1), fold_share(60.0, 10, 2));
         assert_eq!(fold_share(60.0, 5, 0), fold_share(60.0, 5, 1));
         assert_eq!(fold_share(-3.0, 10, 2), 0.0);
+    }
+
+    /// The runouts leave a quarter of the budget to the residual models where any will be
+    /// scored: 30 s of the default 120, 15 of 60; none without residual models or with fewer
+    /// configurations to train them on than they need.
+    #[test]
+    fn the_runouts_leave_a_share_of_the_budget_to_the_residual_models() {
+        let settings = AutoSettings::default();
+        assert!(!settings.residuals.is_empty());
+        let needed = settings.min_residual_configurations;
+        assert_eq!(residual_share(&settings, needed), 30.0);
+        let halved = AutoSettings {
+            budget_seconds: 60.0,
+            ..settings.clone()
+        };
+        assert_eq!(residual_share(&halved, needed + 5), 15.0);
+        assert_eq!(residual_share(&settings, needed - 1), 0.0);
+        let none = AutoSettings {
+            residuals: Vec::new(),
+            ..settings
+        };
+        assert_eq!(residual_share(&none, needed), 0.0);
     }
 
     /// The residual pick: the lowest score among the models that pass the paired test against
