@@ -822,11 +822,13 @@ fn physics_chain(
         f64,
     ),
 ) -> Chain {
+    // The axis runouts' candidate, the one with the most unknowns and the slowest (its pace
+    // known only after a core's worth of folds), leaves `residual_share` of the budget to the
+    // residual models ([`RESIDUAL_SHARE`]); the candidates after it (the flank search, the tilt,
+    // on physics that may hold the runouts) have the whole budget, as before.
+    let runouts_step = std::cell::Cell::new(false);
     let mut score = |physics: Physics| {
-        // The axis runouts, the candidate with the most unknowns and the slowest (its pace known
-        // only after a core's worth of folds), leave `residual_share` of the budget to the
-        // residual models ([`RESIDUAL_SHARE`]).
-        let reserve = if physics.runout > 0 {
+        let reserve = if runouts_step.get() {
             residual_share
         } else {
             0.0
@@ -980,7 +982,10 @@ fn physics_chain(
             runout: settings.runout,
             ..current
         };
-        chain.step("runout", score(wobbling), groups);
+        runouts_step.set(true);
+        let scored = score(wobbling);
+        runouts_step.set(false);
+        chain.step("runout", scored, groups);
     }
     // The backlash flanks searched beyond each joint's own terms, on chosen physics with
     // backlash (or, where asked, with backlash added where the block was not kept): one
