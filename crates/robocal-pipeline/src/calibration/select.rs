@@ -686,6 +686,14 @@ impl<'a> FoldPlan<'a> {
         }
     }
 
+    /// The fewest configurations any fold trains on (what a residual model needs enough of).
+    fn fewest_configurations(&self) -> usize {
+        (self.splits.iter())
+            .map(|f| configurations(&f.train).len())
+            .min()
+            .unwrap_or(0)
+    }
+
     /// One group per configuration and kind of fold, in the order [`Held::all`] keeps the
     /// errors: the units of the paired test (a configuration: a pose id and every id with the
     /// same joint readings, as the folds deal them).
@@ -1139,10 +1147,7 @@ fn score_residual(
     pace: &mut Pace,
 ) -> Result<(Candidate, ResidualScore)> {
     let splits = &plan.splits;
-    let fewest = (splits.iter())
-        .map(|f| configurations(&f.train).len())
-        .min()
-        .unwrap_or(0);
+    let fewest = plan.fewest_configurations();
     let Pace {
         pending_final,
         last_pace,
@@ -1634,11 +1639,7 @@ pub fn automatic(
     );
     let groups = plan.groups();
     let mut candidates: Vec<Candidate> = Vec::new();
-    let fewest = (plan.splits.iter())
-        .map(|f| configurations(&f.train).len())
-        .min()
-        .unwrap_or(0);
-    let residual_share = residual_share(settings, fewest);
+    let residual_share = residual_share(settings, plan.fewest_configurations());
     let chain = physics_chain(
         settings,
         nominal,
