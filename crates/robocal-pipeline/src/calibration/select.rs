@@ -435,7 +435,8 @@ fn fold_share(left: f64, folds: usize, at_once: usize) -> f64 {
 /// candidate is abandoned once its remaining folds, at the pace of those fitted, and the final
 /// fit would run past the time budget (`over_budget`), or once a fold's fit runs past its share
 /// of what the budget has left (`left`, seconds; [`fold_share`]): the folds not yet ended are
-/// not fitted and the candidate has no score. Its start was projected from the candidates
+/// not fitted and the candidate has no score. Both closures already hold back `reserve`, the
+/// seconds kept from this candidate for the residual models, which its status then names. Its start was projected from the candidates
 /// before it ([`physics_chain`]); one that unites more blocks than any before can take twice
 /// that, and one with many more unknowns far more (the axis runouts on the paper's arm: 22–46 s
 /// of folds spent before the pace said so, session 46).
@@ -447,8 +448,11 @@ fn score_physics(
     plan: &FoldPlan<'_>,
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
-    over_budget: &(dyn Fn(f64) -> bool + Sync),
-    left: &(dyn Fn() -> f64 + Sync),
+    (over_budget, left, reserve): (
+        &(dyn Fn(f64) -> bool + Sync),
+        &(dyn Fn() -> f64 + Sync),
+        f64,
+    ),
 ) -> Scored {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     let splits = &plan.splits;
@@ -495,7 +499,7 @@ fn score_physics(
         .collect();
     let mut budget_cut = abandoned.load(Ordering::SeqCst);
     if budget_cut {
-        failure = Some(abandoned_for(auto.budget_seconds));
+        failure = Some(abandoned_for(auto.budget_seconds, reserve));
     }
     for (fold, fit) in splits.iter().zip(fits) {
         // A fold not fitted (the candidate abandoned).
@@ -830,23 +834,17 @@ fn physics_chain(
         f64,
     ),
 ) -> Chain {
-    // The axis runouts' candidate, the one with the most unknowns and the slowest (its pace
-    // known only after a core's worth of folds), leaves `residual_share` of the budget to the
-    // residual models ([`RESIDUAL_SHARE`]); the candidates after it (the flank search, the tilt,
-    // on physics that may hold the runouts) have the whole budget, as before.
-    let runouts_step = std::cell::Cell::new(false);
-    let mut score = |physics: Physics| {
-        let reserve = if runouts_step.get() {
-            residual_share
-        } else {
-            0.0
-        };
+    // A candidate scored with `reserve` seconds of the budget kept from it: the axis runouts'
+    // candidate, the one with the most unknowns and the slowest (its pace known only after a
+    // core's worth of folds), leaves `residual_share` of the budget to the residual models
+    // ([`RESIDUAL_SHARE`]); every other (the flank search and the tilt after it too, on physics
+    // that may hold the runouts) has the whole budget.
+    let mut score = |physics: Physics, reserve: f64| {
         let over_budget = |spent: f64| over_budget(spent + reserve);
         let left = || left() - reserve;
-        let leaving = if reserve > 0.0 {
-            format!(", less the {reserve:.0} s left to the residual models,")
-        } else {
-            String::new()
+        let leaving = match leaving(reserve) {
+            words if words.is_empty() => words,
+            words => words + ",",
         };
         // A joint-error candidate does not start when the budget would be spent before it and the
         // final fit of its physics end (`projection`).
@@ -880,24 +878,23 @@ fn physics_chain(
             plan,
             candidates,
             observer,
-            &over_budget,
-            &left,
+            (&over_budget, &left, reserve),
         )
     };
     let mut chain = Chain {
-        scored: vec![score(Physics::ALIGNED)],
+        scored: vec![score(Physics::ALIGNED, 0.0)],
         steps: Vec::new(),
         current: 0,
         compliance_skip: None,
     };
-    chain.step("kinematic", score(Physics::RIGID), groups);
+    chain.step("kinematic", score(Physics::RIGID, 0.0), groups);
     let loads = loads(rows);
     if loads.len() >= 2 {
         let elastic = Physics {
             compliance: true,
             ..Physics::RIGID
         };
-        chain.step("compliance", score(elastic), groups);
+        chain.step("compliance", score(elastic, 0.0), groups);
     } else {
         chain.compliance_skip = Some(format!(
             "skipped: the data hold one load ({} kg); compliance needs two or more",
@@ -941,7 +938,7 @@ fn physics_chain(
     // indices stay those of the candidates.
     let singles: Vec<usize> = (blocks.iter())
         .map(|&b| {
-            chain.scored.push(score(base.union(b)));
+            chain.scored.push(score(base.union(b), 0.0));
             chain.scored.len() - 1
         })
         .collect();
@@ -971,7 +968,7 @@ fn physics_chain(
     {
         let tried: Vec<usize> = (remaining.iter())
             .map(|&b| {
-                chain.scored.push(score(current.union(blocks[b])));
+                chain.scored.push(score(current.union(blocks[b]), 0.0));
                 chain.scored.len() - 1
             })
             .collect();
@@ -990,9 +987,7 @@ fn physics_chain(
             runout: settings.runout,
             ..current
         };
-        runouts_step.set(true);
-        let scored = score(wobbling);
-        runouts_step.set(false);
+        let scored = score(wobbling, residual_share);
         chain.step("runout", scored, groups);
     }
     // The backlash flanks searched beyond each joint's own terms, on chosen physics with
@@ -1006,7 +1001,7 @@ fn physics_chain(
             flank_search: true,
             ..current
         };
-        chain.step("flank_search", score(searched), groups);
+        chain.step("flank_search", score(searched, 0.0), groups);
     }
     // Last, the bearings' tilt on the chosen physics (with the compliances: the payload's moment
     // and, where the links' weights were kept, theirs): one candidate more, kept only if it
@@ -1017,7 +1012,7 @@ fn physics_chain(
             tilt: true,
             ..current
         };
-        chain.step("tilt", score(tilted), groups);
+        chain.step("tilt", score(tilted, 0.0), groups);
     }
     debug_assert!(
         (chain.scored.iter().zip(candidates.iter())).all(|(s, c)| s.physics.name() == c.name)
@@ -1236,7 +1231,7 @@ fn score_residual(
             slowest = slowest.max(took);
             *last_pace = slowest;
             if done < splits.len() && over_budget(left + *pending_final) {
-                abandoned = Some(abandoned_for(settings.budget_seconds));
+                abandoned = Some(abandoned_for(settings.budget_seconds, 0.0));
                 c.budget_cut = true;
             }
         }
@@ -1800,11 +1795,24 @@ fn the_budget(budget_seconds: f64) -> String {
 }
 
 /// The status of a candidate abandoned during its folds for the budget.
-fn abandoned_for(budget_seconds: f64) -> String {
+/// `reserve`: the seconds of it kept for the residual models from this candidate (the axis
+/// runouts', [`RESIDUAL_SHARE`]), named where there are some.
+fn abandoned_for(budget_seconds: f64, reserve: f64) -> String {
     format!(
-        "abandoned: its folds would run past {}",
-        the_budget(budget_seconds)
+        "abandoned: its folds would run past {}{}",
+        the_budget(budget_seconds),
+        leaving(reserve)
     )
+}
+
+/// The words naming the seconds of the budget a candidate leaves to the residual models:
+/// nothing where it leaves none.
+fn leaving(reserve: f64) -> String {
+    if reserve > 0.0 {
+        format!(", less the {reserve:.0} s left to the residual models")
+    } else {
+        String::new()
+    }
 }
 
 /// Where the time budget ended the search before every candidate was scored (skipped before
@@ -2014,7 +2022,8 @@ mod tests {
 
     /// The runouts leave a quarter of the budget to the residual models where any will be
     /// scored: 30 s of the default 120, 15 of 60; none without residual models or with fewer
-    /// configurations to train them on than they need.
+    /// configurations to train them on than they need; the status of runouts abandoned for the
+    /// share names it.
     #[test]
     fn the_runouts_leave_a_share_of_the_budget_to_the_residual_models() {
         let settings = AutoSettings::default();
@@ -2032,6 +2041,15 @@ mod tests {
             ..settings
         };
         assert_eq!(residual_share(&none, needed), 0.0);
+        // A candidate cut for the share says so; one cut for the whole budget names none.
+        assert_eq!(
+            abandoned_for(120.0, 30.0),
+            "abandoned: its folds would run past the time budget (120 s), less the 30 s left to the residual models"
+        );
+        assert_eq!(
+            abandoned_for(120.0, 0.0),
+            "abandoned: its folds would run past the time budget (120 s)"
+        );
     }
 
     /// The residual pick: the lowest score among the models that pass the paired test against
