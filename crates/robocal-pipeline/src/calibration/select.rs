@@ -436,10 +436,10 @@ fn fold_share(left: f64, folds: usize, at_once: usize) -> f64 {
 /// fit would run past the time budget (`over_budget`), or once a fold's fit runs past its share
 /// of what the budget has left (`left`, seconds; [`fold_share`]): the folds not yet ended are
 /// not fitted and the candidate has no score. Both closures already hold back `reserve`, the
-/// seconds kept from this candidate for the residual models, which its status then names. Its start was projected from the candidates
-/// before it ([`physics_chain`]); one that unites more blocks than any before can take twice
-/// that, and one with many more unknowns far more (the axis runouts on the paper's arm: 22–46 s
-/// of folds spent before the pace said so, session 46).
+/// seconds kept from this candidate for the residual models, which its status then names. Its
+/// start was projected from the candidates before it ([`physics_chain`]); one that unites more
+/// blocks than any before can take twice that, and one with many more unknowns far more (the
+/// axis runouts on the paper's arm: 22–46 s of folds spent before the pace said so, session 46).
 #[allow(clippy::too_many_arguments)]
 fn score_physics(
     physics: Physics,
