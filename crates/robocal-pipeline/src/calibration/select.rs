@@ -987,8 +987,7 @@ fn physics_chain(
             runout: settings.runout,
             ..current
         };
-        let scored = score(wobbling, residual_share);
-        chain.step("runout", scored, groups);
+        chain.step("runout", score(wobbling, residual_share), groups);
     }
     // The backlash flanks searched beyond each joint's own terms, on chosen physics with
     // backlash (or, where asked, with backlash added where the block was not kept): one
