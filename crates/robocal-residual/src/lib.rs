@@ -35,7 +35,7 @@ pub use classifier::{
     PHYSICS_PER_JOINT, PerClass, gate_feature_names, gate_rows, two_means_threshold,
 };
 pub use error::{ResidualError, Result};
-pub use gp::{GpAxis, GpResidual, GpSettings};
+pub use gp::{GpAxis, GpOptimizer, GpResidual, GpSettings};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Schedule, Split, TrainReport, train};
 pub use model::{Fitted, GateDecision, Residual, ResidualModel};
 pub use mosm::Mosm;
