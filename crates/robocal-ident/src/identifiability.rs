@@ -205,8 +205,10 @@ pub fn analyse<C: Copy + Into<Column>>(
     let (rows, k) = (jac.nrows(), jac.ncols());
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_by_key(|&j| priority(ids[j].into()));
-    let column_norm = |j: usize| (0..rows).map(|i| jac[(i, j)].powi(2)).sum::<f64>().sqrt();
-    let largest = (0..k).map(column_norm).fold(0.0, f64::max);
+    let norms: Vec<f64> = (0..k)
+        .map(|j| (0..rows).map(|i| jac[(i, j)].powi(2)).sum::<f64>().sqrt())
+        .collect();
+    let largest = norms.iter().copied().fold(0.0, f64::max);
     // The accepted columns, orthonormal, in the first `accepted` columns.
     let mut basis = Mat::<f64>::zeros(rows, k);
     let mut accepted = 0;
@@ -214,7 +216,7 @@ pub fn analyse<C: Copy + Into<Column>>(
     let mut unidentifiable = Vec::new();
     for &j in &order {
         let mut v = jac.col(j).to_owned();
-        let norm0 = column_norm(j);
+        let norm0 = norms[j];
         for _ in 0..2 {
             if accepted > 0 {
                 let b = basis.as_ref().subcols(0, accepted);

@@ -11,10 +11,9 @@
 //! `−log p(y) = ½ yᵀK⁻¹y + ½ log |K| + (n/2) log 2π`, minimised over `log s², log ℓ_d, log σ²`
 //! by Adam (or L-BFGS, [`GpOptimizer`]) with the analytic gradient `½ tr((K⁻¹ − ααᵀ) ∂K/∂θ)`,
 //! `α = K⁻¹y`, on a seeded subset of at most `hyper_rows` rows (O(n³) per evaluation), the best
-//! point seen kept. The model then
-//! conditions on at most `max_rows` rows (one Cholesky factorisation, faer): the mean is
-//! `k(x*, X) α` and the latent variance `s² − k*ᵀ K⁻¹ k*`, both in standardised units and scaled
-//! back to mm.
+//! point seen kept. The model then conditions on at most `max_rows` rows (one Cholesky
+//! factorisation, faer): the mean is `k(x*, X) α` and the latent variance `s² − k*ᵀ K⁻¹ k*`, both
+//! in standardised units and scaled back to mm.
 //!
 //! ```
 //! use robocal_residual::gp::{GpAxis, GpSettings};
@@ -302,8 +301,8 @@ const LBFGS_RESTARTS: usize = 3;
 struct Likelihood<'a> {
     x: &'a [Vec<f64>],
     y: &'a [f64],
-    lo: Vec<f64>,
-    hi: Vec<f64>,
+    lo: &'a [f64],
+    hi: &'a [f64],
     last: RefCell<Option<Evaluation>>,
     best: Rc<RefCell<Optimum>>,
     evaluations: Rc<Cell<usize>>,
@@ -314,7 +313,7 @@ struct Likelihood<'a> {
 impl Likelihood<'_> {
     fn theta(&self, z: &[f64]) -> Vec<f64> {
         z.iter()
-            .zip(self.lo.iter().zip(&self.hi))
+            .zip(self.lo.iter().zip(self.hi))
             .map(|(z, (lo, hi))| lo + (hi - lo) * logistic(*z))
             .collect()
     }
@@ -342,7 +341,7 @@ impl Likelihood<'_> {
                 let gz = g
                     .iter()
                     .zip(z)
-                    .zip(self.lo.iter().zip(&self.hi))
+                    .zip(self.lo.iter().zip(self.hi))
                     .map(|((g, z), (lo, hi))| {
                         let s = logistic(*z);
                         g * (hi - lo) * s * (1.0 - s)
@@ -404,8 +403,8 @@ fn lbfgs(x: &[Vec<f64>], y: &[f64], theta0: &[f64], evaluations: usize) -> Optim
         let problem = Likelihood {
             x,
             y,
-            lo: lo.clone(),
-            hi: hi.clone(),
+            lo: &lo,
+            hi: &hi,
             last: RefCell::new(None),
             best: Rc::clone(&best),
             evaluations: Rc::clone(&spent),
