@@ -79,6 +79,11 @@ pub struct KinematicSettings {
     /// fold of a candidate): a Levenberg–Marquardt solve still running then stops, and the fit
     /// with [`crate::IdentError::Deadline`]; BFGS (the paper's) runs on. `None`: no limit.
     pub deadline: Option<std::time::Instant>,
+    /// The count of the fit's work (every Levenberg–Marquardt solve's, [`crate::Work`]), with
+    /// its limit: past it the fit stops with [`crate::IdentError::Deadline`] at the same
+    /// evaluation on every machine (the default calibration's deterministic share of its budget
+    /// for a fold). `None`: not counted.
+    pub work: Option<crate::Work>,
 }
 
 impl KinematicSettings {
@@ -212,6 +217,7 @@ impl Default for KinematicSettings {
             noise_mm: DEFAULT_NOISE_MM,
             noise_deg: DEFAULT_NOISE_DEG,
             deadline: None,
+            work: None,
         }
     }
 }
@@ -957,6 +963,7 @@ fn solve_gated(
                     u0,
                     settings.max_iterations,
                     settings.deadline,
+                    settings.work.as_ref(),
                 )?,
                 SolverKind::Bfgs => run_bfgs(problem, u0, settings.max_iterations)?,
             }
@@ -1462,7 +1469,7 @@ impl FitMemo {
     }
 }
 
-/// `settings` as a [`FitMemo`] tells identifications apart: without their deadline (a fit that
+/// `settings` as a [`FitMemo`] tells identifications apart: without their deadline and work count (a fit that
 /// ended is the same whatever time it had to end by, so the candidates' folds, each with its own
 /// deadline, share it), and without the flank search where no flank is chosen (no backlash, the
 /// approach flanks alone, or the flanks given): the search candidate's folds share the fits its
@@ -1471,6 +1478,7 @@ impl FitMemo {
 fn undated(settings: &KinematicSettings) -> KinematicSettings {
     let mut key = KinematicSettings {
         deadline: None,
+        work: None,
         ..settings.clone()
     };
     if let Some(je) = key.joint_errors.as_mut()

@@ -37,7 +37,7 @@ pub use identifiability::{
     posterior_covariance, posterior_standard_deviations, ridged_standard_deviations,
     standard_deviations,
 };
-pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, run_lm, run_lm_until};
+pub use lm::{COST_TOLERANCE, LevenbergMarquardt, STALLED_STEPS, Work, run_lm, run_lm_until};
 pub use problem::{
     BestPoint, CalibrationProblem, DEFAULT_NOISE_DEG, DEFAULT_NOISE_MM, LeastSquares, MeanDistance,
     Observations, PriorSpreads, angle_weight, select,

@@ -217,23 +217,25 @@ where
     O: Operator<Param = Vec<f64>, Output = Vec<f64>>
         + Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>,
 {
-    run_lm_until(op, u0, max_iters, None)
+    run_lm_until(op, u0, max_iters, None, None)
 }
 
 /// [`run_lm`] that stops with [`crate::IdentError::Deadline`] once `deadline` has passed (checked
-/// at every evaluation of the residuals).
+/// at every evaluation of the residuals), or once `work` has counted past its limit (counted at
+/// every evaluation: [`Work`]).
 pub fn run_lm_until<O>(
     op: O,
     u0: Vec<f64>,
     max_iters: u64,
     deadline: Option<Instant>,
+    work: Option<&Work>,
 ) -> crate::Result<(Vec<f64>, u64, String)>
 where
     O: Operator<Param = Vec<f64>, Output = Vec<f64>>
         + Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>,
 {
     let solver = LevenbergMarquardt::default();
-    let op = UntilDeadline { op, deadline };
+    let op = UntilDeadline { op, deadline, work };
     let result = argmin::core::Executor::new(op, solver)
         .configure(|s| s.param(u0).max_iters(max_iters))
         .run()
@@ -256,29 +258,83 @@ where
     Ok((u, iters, reason))
 }
 
-/// An operator whose residuals fail with [`crate::IdentError::Deadline`] once `deadline` has
-/// passed.
-struct UntilDeadline<O> {
-    op: O,
-    deadline: Option<Instant>,
+/// The work of identifications, counted so that it is the same on every machine and any number
+/// of cores: each evaluation of the residuals adds their count, each evaluation of the Jacobian
+/// their count times (the unknowns + 1) — the entries it computes, what an evaluation's time
+/// grows with. Shared by its clones (one count for every solve of a fit); with a limit, a solve
+/// whose evaluation takes the count past it stops with [`crate::IdentError::Deadline`], at the
+/// same evaluation wherever it runs.
+#[derive(Debug, Clone, Default)]
+pub struct Work {
+    count: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    limit: Option<u64>,
 }
 
-impl<O: Operator<Param = Vec<f64>, Output = Vec<f64>>> Operator for UntilDeadline<O> {
+impl Work {
+    /// A count from zero that stops a solve past `limit` (`None`: never).
+    pub fn new(limit: Option<u64>) -> Self {
+        Self {
+            count: Default::default(),
+            limit,
+        }
+    }
+
+    /// What has been counted.
+    pub fn count(&self) -> u64 {
+        self.count.load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    /// Counts `units`; an error once the count is past the limit.
+    fn add(&self, units: usize) -> Result<(), Error> {
+        let units = units as u64;
+        let total = (self.count).fetch_add(units, std::sync::atomic::Ordering::SeqCst) + units;
+        match self.limit {
+            Some(limit) if total > limit => Err(crate::IdentError::Deadline.into()),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Counts alike are the same work: settings holding two counts with the same limit and count
+/// compare equal (a count is not a setting of the fit).
+impl PartialEq for Work {
+    fn eq(&self, other: &Self) -> bool {
+        self.limit == other.limit && self.count() == other.count()
+    }
+}
+
+/// An operator whose residuals fail with [`crate::IdentError::Deadline`] once `deadline` has
+/// passed or `work` has counted past its limit.
+struct UntilDeadline<'a, O> {
+    op: O,
+    deadline: Option<Instant>,
+    work: Option<&'a Work>,
+}
+
+impl<O: Operator<Param = Vec<f64>, Output = Vec<f64>>> Operator for UntilDeadline<'_, O> {
     type Param = Vec<f64>;
     type Output = Vec<f64>;
     fn apply(&self, u: &Vec<f64>) -> Result<Vec<f64>, Error> {
         if self.deadline.is_some_and(|d| Instant::now() >= d) {
             return Err(crate::IdentError::Deadline.into());
         }
-        self.op.apply(u)
+        let r = self.op.apply(u)?;
+        if let Some(work) = self.work {
+            work.add(r.len())?;
+        }
+        Ok(r)
     }
 }
 
-impl<O: Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>> Jacobian for UntilDeadline<O> {
+impl<O: Jacobian<Param = Vec<f64>, Jacobian = Mat<f64>>> Jacobian for UntilDeadline<'_, O> {
     type Param = Vec<f64>;
     type Jacobian = Mat<f64>;
     fn jacobian(&self, u: &Vec<f64>) -> Result<Mat<f64>, Error> {
-        self.op.jacobian(u)
+        let j = self.op.jacobian(u)?;
+        if let Some(work) = self.work {
+            work.add(j.nrows() * (j.ncols() + 1))?;
+        }
+        Ok(j)
     }
 }
 
@@ -415,14 +471,14 @@ mod tests {
     #[test]
     fn a_solve_past_its_deadline_stops_with_the_deadline_error() {
         let past = Instant::now();
-        let stopped = run_lm_until(curve(0.001), START.to_vec(), 500, Some(past));
+        let stopped = run_lm_until(curve(0.001), START.to_vec(), 500, Some(past), None);
         assert!(
             matches!(stopped, Err(crate::IdentError::Deadline)),
             "{stopped:?}"
         );
         let ahead = Instant::now() + std::time::Duration::from_secs(3600);
         let (u, iterations, _) =
-            run_lm_until(curve(0.001), START.to_vec(), 500, Some(ahead)).unwrap();
+            run_lm_until(curve(0.001), START.to_vec(), 500, Some(ahead), None).unwrap();
         let (free, free_iterations, _) = run_lm(curve(0.001), START.to_vec(), 500).unwrap();
         assert_eq!((u, iterations), (free, free_iterations));
     }

@@ -10,7 +10,7 @@ use rand_distr::{Distribution, Normal};
 use robocal_data::MeasurementSet;
 use robocal_ident::{
     CalibrationProblem, ComplianceSettings, IdentError, KinematicSettings, Loss, Observations,
-    SolverKind, analyse, calibrate_kinematics,
+    SolverKind, Work, analyse, calibrate_kinematics,
 };
 use robocal_robot::{Base, Compliance, DEG_PER_KNM, Robot};
 
@@ -145,6 +145,51 @@ fn an_identification_past_its_deadline_stops_with_the_deadline_error() {
     let timed = calibrate_kinematics(&nominal, &obs, &until(ahead)).unwrap();
     let free = calibrate_kinematics(&nominal, &obs, &KinematicSettings::default()).unwrap();
     assert_eq!(timed.robot.params(), free.robot.params());
+}
+
+/// An identification's work ([`Work`]) is counted alike on one core and on every core (the
+/// rows of an evaluation run in parallel; the count is of what is evaluated, not of time), and
+/// with a limit it stops at the same evaluation everywhere: short of its count with the
+/// deadline's error, at its count with the same table, to the bit, as without a limit.
+#[test]
+fn an_identification_counts_its_work_alike_on_any_number_of_cores() {
+    let nominal = nominal();
+    let configs = configurations();
+    let truth = injected(&nominal, &configs, 1);
+    let obs = observe(&truth, &configs[..40], 0.01, 3);
+    let counted = |limit| {
+        let work = Work::new(limit);
+        let settings = KinematicSettings {
+            work: Some(work.clone()),
+            ..KinematicSettings::default()
+        };
+        (
+            calibrate_kinematics(&nominal, &obs, &settings),
+            work.count(),
+        )
+    };
+    let one_core = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let (alone, alone_count) = one_core.install(|| counted(None));
+    let (every, count) = counted(None);
+    let (alone, every) = (alone.unwrap(), every.unwrap());
+    assert!(count > 0);
+    assert_eq!(alone_count, count);
+    assert_eq!(alone.robot.params(), every.robot.params());
+    let (stopped, at) = counted(Some(count / 2));
+    assert!(
+        matches!(stopped, Err(IdentError::Deadline)),
+        "{:?}",
+        stopped.map(|c| c.report.after.mean)
+    );
+    assert!(at > count / 2 && at <= count, "{at} of {count}");
+    let (just, just_count) = counted(Some(count));
+    assert_eq!(just_count, count);
+    let free = calibrate_kinematics(&nominal, &obs, &KinematicSettings::default()).unwrap();
+    assert_eq!(just.unwrap().robot.params(), free.robot.params());
+    assert_eq!(every.robot.params(), free.robot.params());
 }
 
 #[test]
