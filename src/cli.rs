@@ -66,6 +66,12 @@ pub enum Command {
         /// would run past it are skipped or abandoned and named in report.json [default: 120]
         #[arg(long, value_name = "SECONDS")]
         budget: Option<f64>,
+        /// Keep the default calibration's budget (no `--config`) by counted work instead of
+        /// the clock: the same model for the same data and seed on every machine at least as
+        /// fast as the reference (2 cores, this project's), where the budget cuts the search;
+        /// the clock still ends it at the budget
+        #[arg(long)]
+        reproducible: bool,
         /// The default calibration (no `--config`) also tries the bearings' tilt under the
         /// gravity moment (a tilting compliance per joint), last, on the physics it chose;
         /// kept only where it lowers the held-out error

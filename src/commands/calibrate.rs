@@ -16,7 +16,8 @@ use super::terminal::Terminal;
 
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
 /// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
-/// `budget` (s) bounds the default calibration's time; `tilt` has it try the bearings' tilt,
+/// `budget` (s) bounds the default calibration's time (by counted work where `reproducible`);
+/// `tilt` has it try the bearings' tilt,
 /// `flank_search` backlash with its flanks searched where the physics it chose holds none;
 /// `runout` the highest order of the axis runouts it tries (0: none; `None`: its default);
 /// `residual_frame` (`world` or `joint1`) is the frame its residual models learn in.
@@ -31,6 +32,7 @@ pub fn run(
     pictures: Option<&Path>,
     angle_weight: Option<f64>,
     budget: Option<f64>,
+    reproducible: bool,
     tilt: bool,
     flank_search: bool,
     runout: Option<u32>,
@@ -61,6 +63,7 @@ pub fn run(
         checks,
         angle_weight,
         budget_seconds: budget,
+        reproducible,
         tilt,
         flank_search,
         runout,

@@ -955,9 +955,9 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
     let dir = tempfile::tempdir().unwrap();
     let data = simulate("configs/twin/arm5.toml", &dir.path().join("sim"));
     let unloaded = subset(&data, "unloaded.csv", |pose, load| pose < 36 && load == 0.0);
-    // The default calibration of those rows into `out` within `budget` seconds.
-    let calibrate = |out: &Path, budget: &str| {
-        robocal(&[
+    // The default calibration of those rows into `out` within `budget` seconds (and `more`).
+    let calibrate_with = |out: &Path, budget: &str, more: &[&str]| {
+        let mut args = vec![
             "calibrate",
             "--robot",
             "configs/robots/arm5.toml",
@@ -967,16 +967,32 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
             s(out),
             "--budget",
             budget,
-        ])
+        ];
+        args.extend_from_slice(more);
+        robocal(&args)
     };
+    let calibrate = |out: &Path, budget: &str| calibrate_with(out, budget, &[]);
     let model = dir.path().join("model");
     let o = calibrate(&model, "90");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     let r = report(&model);
-    // The budget given, kept with what the selection took.
+    // The budget given, kept with what the selection took, by the clock.
     assert_eq!(r["selection"]["budget_seconds"], 90.0);
     assert!(r["selection"]["seconds"].as_f64().unwrap() <= 90.0);
+    assert_eq!(r["selection"]["reproducible"], false);
+    assert!(r["selection"].get("counted_seconds").is_none());
+    // Kept by counted work instead: the report says so and what the work came to; far under
+    // the budget, the same model as by the clock.
+    let counted = dir.path().join("counted");
+    let o = calibrate_with(&counted, "90", &["--reproducible"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = report(&counted);
+    assert_eq!(c["selection"]["reproducible"], true);
+    let seconds = c["selection"]["counted_seconds"].as_f64().unwrap();
+    assert!(seconds > 0.0 && seconds <= 90.0, "{seconds}");
+    let table = |m: &Path| std::fs::read_to_string(m.join("kinematics.toml")).unwrap();
+    assert_eq!(table(&counted), table(&model));
     assert_eq!(r["selection"]["refitted_on_every_row"], true);
     assert!(
         r["selection"]["held_out"]

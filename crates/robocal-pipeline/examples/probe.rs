@@ -113,6 +113,7 @@ fn run(
                         },
                         angle_weight: None,
                         budget_seconds: None,
+                        reproducible: false,
                         tilt: false,
                         flank_search: false,
                         runout: None,

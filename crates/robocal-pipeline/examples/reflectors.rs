@@ -120,6 +120,7 @@ fn run(
                         },
                         angle_weight: None,
                         budget_seconds: None,
+                        reproducible: false,
                         tilt: false,
                         flank_search: false,
                         runout: None,

@@ -676,7 +676,9 @@ impl PyModel {
 /// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default);
 /// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg),
 /// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
-/// calibration's time (s; default 120); `tilt` has the default also try the bearings' tilt,
+/// calibration's time (s; default 120), by counted work instead of the clock with
+/// `reproducible` (the same model on every machine as fast as the reference or faster); `tilt`
+/// has the default also try the bearings' tilt,
 /// `flank_search` backlash with its flanks searched where the physics it chose holds none;
 /// `runout` the highest order of the axis runouts it tries (default 2; 0: none);
 /// `residual_frame` (`"joint1"` or `"world"`) is the frame its residual models learn in (by
@@ -684,7 +686,7 @@ impl PyModel {
 /// off the line of gravity).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, tilt=false, flank_search=false, runout=None, residual_frame=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, reproducible=false, tilt=false, flank_search=false, runout=None, residual_frame=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -701,6 +703,7 @@ fn calibrate<'py>(
     rpy: Option<Matrix<'py>>,
     angle_weight: Option<f64>,
     budget: Option<f64>,
+    reproducible: bool,
     tilt: bool,
     flank_search: bool,
     runout: Option<u32>,
@@ -763,6 +766,7 @@ fn calibrate<'py>(
                 },
                 angle_weight,
                 budget_seconds: budget,
+                reproducible,
                 tilt,
                 flank_search,
                 runout,

@@ -134,6 +134,21 @@ def test_calibrate_equals_the_cli_on_the_same_rows(tmp_path, config):
     assert report["kinematic"]["after"]["mean"] < report["kinematic"]["before"]["mean"]
 
 
+def test_a_budget_kept_by_counted_work_says_so_and_far_under_it_changes_nothing():
+    q, load, xyz, pose = arrays(TRAIN)
+    robot = robocal.Robot.load(ROBOT)
+    by_clock = robocal.calibrate(robot, q, load, xyz, pose=pose)
+    counted = robocal.calibrate(robot, q, load, xyz, pose=pose, reproducible=True)
+    selection = json.loads(counted.report)["selection"]
+    assert selection["reproducible"] is True
+    assert 0.0 < selection["counted_seconds"] <= selection["budget_seconds"]
+    assert json.loads(by_clock.report)["selection"]["reproducible"] is False
+    tq, tload, _, _ = arrays(TEST)
+    np.testing.assert_allclose(
+        counted.predict(tq, tload), by_clock.predict(tq, tload), atol=0, rtol=0
+    )
+
+
 def test_a_saved_model_reloads_and_the_cli_reads_it(tmp_path):
     q, load, xyz, _ = arrays(TRAIN)
     model = robocal.calibrate(

@@ -94,6 +94,9 @@ pub struct CalibrationInput<'a> {
     /// The default calibration's time budget, s (`None`: [`DEFAULT_BUDGET_SECONDS`]); a stage
     /// config runs what it asks for and takes none.
     pub budget_seconds: Option<f64>,
+    /// Whether the default calibration keeps its budget by counted work instead of the clock
+    /// ([`AutoSettings::reproducible`]).
+    pub reproducible: bool,
     /// Whether the default calibration also tries the bearings' tilt, last, on the physics it
     /// chose ([`AutoSettings::tilt`]); a stage config asks for it in `[joint_errors]`.
     pub tilt: bool,
@@ -225,6 +228,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
                 outliers: Some(outliers),
                 angle_weight: input.angle_weight,
                 budget_seconds: input.budget_seconds.unwrap_or(DEFAULT_BUDGET_SECONDS),
+                reproducible: input.reproducible,
                 tilt: input.tilt,
                 flank_search: input.flank_search,
                 ..AutoSettings::default()

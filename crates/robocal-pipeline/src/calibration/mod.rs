@@ -14,6 +14,7 @@
 //! [`folds`](mod@folds) (random folds, blocks of joint 1, the paired significance test); this
 //! module fits the stages themselves.
 
+pub mod budget;
 pub mod calibrate;
 pub mod folds;
 pub mod outliers;

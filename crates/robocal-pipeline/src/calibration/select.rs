@@ -17,6 +17,7 @@ use robocal_residual::{Frame, ResidualKind, ResidualSettings, ResidualStage};
 use robocal_robot::Robot;
 use serde::Serialize;
 
+use super::budget::{self, Epochs, Meter, REFERENCE_CORES};
 use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
 use super::outliers::{OutlierSettings, find_outliers};
 use super::spread::{self, SpreadCalibration};
@@ -60,6 +61,10 @@ pub struct Candidate {
     pub score: Option<f64>,
     /// Seconds its folds took.
     pub seconds: f64,
+    /// What its folds spent of the budget, by the budget's measure: `seconds` by the clock, the
+    /// reference machine's seconds for its counted work with `reproducible` ([`budget`]).
+    #[serde(skip)]
+    pub(crate) cost: f64,
     /// `chosen`, `evaluated`, or why it was skipped.
     pub status: String,
     /// Whether the time budget cut it: skipped before its folds, or abandoned during them
@@ -92,6 +97,12 @@ pub struct Selection {
     pub budget_seconds: f64,
     /// See `budget_seconds`.
     pub seconds: f64,
+    /// Whether the budget was kept by counted work ([`AutoSettings::reproducible`]).
+    pub reproducible: bool,
+    /// With `reproducible`, the reference machine's seconds the selection's counted work came to
+    /// (what the budget was kept by).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub counted_seconds: Option<f64>,
 }
 
 /// Settings of the default calibration.
@@ -152,6 +163,12 @@ pub struct AutoSettings {
     /// from its first fold) is abandoned, and none starts after it. The only setting that
     /// depends on the clock: far under budget, a seed gives the same model.
     pub budget_seconds: f64,
+    /// The budget kept by counted work instead of the clock ([`budget`]): every decision of the
+    /// budget reads what the fits and trainings counted, in the seconds a reference machine of
+    /// [`REFERENCE_CORES`] cores takes for it, so a seed gives the same model on every machine
+    /// as fast as the reference or faster (the clock stays a guard: never past the budget).
+    /// Off by default.
+    pub reproducible: bool,
     /// The search for bad shots before everything else (none: every row is used).
     pub outliers: Option<OutlierSettings>,
     /// Weight of a 6-DoF probe's orientation residuals, mm per deg (`None`: the kinematic
@@ -223,6 +240,7 @@ impl Default for AutoSettings {
             ],
             both_frames_off_gravity: true,
             budget_seconds: DEFAULT_BUDGET_SECONDS,
+            reproducible: false,
             outliers: Some(OutlierSettings::default()),
             angle_weight: None,
             gravity: None,
@@ -431,6 +449,72 @@ fn fold_share(left: f64, folds: usize, at_once: usize) -> f64 {
     (left / (1.0 + FINAL_FIT_SHARE) / rounds as f64).max(0.0)
 }
 
+/// The fits of `physics` on every fold with the budget kept by counted work ([`budget`]), with
+/// whether the candidate was abandoned and the reference seconds its work came to (charged to
+/// `meter`). Each fold's fit may count up to its share of what the budget has left
+/// ([`fold_share`] among the reference machine's [`REFERENCE_CORES`]), and stops where its count
+/// passes it, at the same evaluation on every machine; the first [`REFERENCE_CORES`] folds are
+/// fitted first, and the rest only if, at those folds' count, they and the final fit would end
+/// within the budget — the decision a 2-core machine's clock makes after its first round, here
+/// from counts. No fit runs past the budget by the clock (the guard).
+#[allow(clippy::type_complexity)]
+fn counted_folds(
+    physics: Physics,
+    kinematic: &KinematicSettings,
+    nominal: &Robot,
+    plan: &FoldPlan<'_>,
+    observer: &dyn Observer,
+    meter: &Meter,
+    (over_budget, left): (&(dyn Fn(f64) -> bool + Sync), &(dyn Fn() -> f64 + Sync)),
+) -> (Vec<Option<Result<KinematicCalibration>>>, bool, f64) {
+    let splits = &plan.splits;
+    let limit = physics.has_joint_errors().then(|| {
+        let share = fold_share(left(), splits.len(), REFERENCE_CORES);
+        (share * budget::FIT_UNITS_PER_SECOND) as u64
+    });
+    let fit_range = |range: std::ops::Range<usize>| -> Vec<(Result<KinematicCalibration>, u64)> {
+        (splits[range.clone()].par_iter())
+            .zip(&plan.memos[range])
+            .map(|(fold, memo)| {
+                let work = robocal_ident::Work::new(limit);
+                let until = KinematicSettings {
+                    deadline: physics.has_joint_errors().then(|| meter.end()),
+                    work: Some(work.clone()),
+                    ..kinematic.clone()
+                };
+                let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
+                observer.advance(1);
+                (fit, work.count())
+            })
+            .collect()
+    };
+    let stopped = |fits: &[(Result<KinematicCalibration>, u64)]| {
+        (fits.iter()).any(|(f, _)| matches!(f, Err(PipelineError::Ident(IdentError::Deadline))))
+    };
+    let first = REFERENCE_CORES.min(splits.len());
+    let mut fits = fit_range(0..first);
+    let mut abandoned = stopped(&fits);
+    if !abandoned && first < splits.len() {
+        let units: u64 = fits.iter().map(|(_, u)| u).sum();
+        let rest = budget::fit_seconds(units) / first as f64 * (splits.len() - first) as f64;
+        if physics.has_joint_errors() && over_budget(rest * (1.0 + FINAL_FIT_SHARE)) {
+            abandoned = true;
+        } else {
+            let more = fit_range(first..splits.len());
+            abandoned = stopped(&more);
+            fits.extend(more);
+        }
+    }
+    let cost = budget::fit_seconds(fits.iter().map(|(_, u)| u).sum());
+    meter.charge(cost);
+    // A fold stopped at its count is one not fitted, as one never started.
+    let mut fits: Vec<_> = (fits.into_iter())
+        .map(|(f, _)| (!matches!(f, Err(PipelineError::Ident(IdentError::Deadline)))).then_some(f))
+        .collect();
+    fits.resize_with(splits.len(), || None);
+    (fits, abandoned, cost)
+}
+
 /// Fits `physics` on every fold and scores it on the fold's held-out rows. A joint-error
 /// candidate is abandoned once its remaining folds, at the pace of those fitted, and the final
 /// fit would run past the time budget (`over_budget`), or once a fold's fit runs past its share
@@ -448,6 +532,7 @@ fn score_physics(
     plan: &FoldPlan<'_>,
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
+    meter: &Meter,
     (over_budget, left, reserve): (
         &(dyn Fn(f64) -> bool + Sync),
         &(dyn Fn() -> f64 + Sync),
@@ -458,46 +543,60 @@ fn score_physics(
     let splits = &plan.splits;
     let t = std::time::Instant::now();
     let kinematic = physics.settings(auto);
-    let at_once = rayon::current_num_threads().max(1);
-    let share = fold_share(left(), splits.len(), at_once);
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
-    let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
-    // The folds' fits are independent: on every core at once, taken in fold order (the same
-    // results on any number of cores), each sharing with the candidates before it the fits of
-    // its rows they made. Before a fold starts, once a core's worth are fitted, the rest are
-    // projected at their pace.
-    let fits: Vec<_> = (splits.par_iter())
-        .zip(&plan.memos)
-        .map(|(fold, memo)| {
-            let n = done.load(Ordering::SeqCst);
-            if physics.has_joint_errors() && n >= at_once {
-                let pace = t.elapsed().as_secs_f64() / n as f64;
-                let left = pace * (splits.len() - n) as f64;
-                if over_budget(left * (1.0 + FINAL_FIT_SHARE)) {
-                    abandoned.store(true, Ordering::SeqCst);
+    let (fits, abandoned, cost) = if meter.counts() {
+        counted_folds(
+            physics,
+            &kinematic,
+            nominal,
+            plan,
+            observer,
+            meter,
+            (over_budget, left),
+        )
+    } else {
+        let at_once = rayon::current_num_threads().max(1);
+        let share = fold_share(left(), splits.len(), at_once);
+        let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
+        // The folds' fits are independent: on every core at once, taken in fold order (the same
+        // results on any number of cores), each sharing with the candidates before it the fits
+        // of its rows they made. Before a fold starts, once a core's worth are fitted, the rest
+        // are projected at their pace.
+        let fits: Vec<_> = (splits.par_iter())
+            .zip(&plan.memos)
+            .map(|(fold, memo)| {
+                let n = done.load(Ordering::SeqCst);
+                if physics.has_joint_errors() && n >= at_once {
+                    let pace = t.elapsed().as_secs_f64() / n as f64;
+                    let left = pace * (splits.len() - n) as f64;
+                    if over_budget(left * (1.0 + FINAL_FIT_SHARE)) {
+                        abandoned.store(true, Ordering::SeqCst);
+                    }
                 }
-            }
-            if abandoned.load(Ordering::SeqCst) {
-                return None;
-            }
-            let until = KinematicSettings {
-                deadline: (physics.has_joint_errors())
-                    .then(|| Instant::now() + Duration::from_secs_f64(share)),
-                ..kinematic.clone()
-            };
-            let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
-            if matches!(fit, Err(PipelineError::Ident(IdentError::Deadline))) {
-                abandoned.store(true, Ordering::SeqCst);
-                return None;
-            }
-            done.fetch_add(1, Ordering::SeqCst);
-            observer.advance(1);
-            Some(fit)
-        })
-        .collect();
-    let mut budget_cut = abandoned.load(Ordering::SeqCst);
+                if abandoned.load(Ordering::SeqCst) {
+                    return None;
+                }
+                let until = KinematicSettings {
+                    deadline: (physics.has_joint_errors())
+                        .then(|| Instant::now() + Duration::from_secs_f64(share)),
+                    ..kinematic.clone()
+                };
+                let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
+                if matches!(fit, Err(PipelineError::Ident(IdentError::Deadline))) {
+                    abandoned.store(true, Ordering::SeqCst);
+                    return None;
+                }
+                done.fetch_add(1, Ordering::SeqCst);
+                observer.advance(1);
+                Some(fit)
+            })
+            .collect();
+        let abandoned = abandoned.load(Ordering::SeqCst);
+        (fits, abandoned, t.elapsed().as_secs_f64())
+    };
+    let mut budget_cut = abandoned;
     if budget_cut {
         failure = Some(abandoned_for(auto.budget_seconds, reserve));
     }
@@ -526,6 +625,7 @@ fn score_physics(
         held_out_blocks: None,
         score: None,
         seconds: t.elapsed().as_secs_f64(),
+        cost,
         status: failure.clone().unwrap_or_else(|| "evaluated".into()),
         budget_cut,
     };
@@ -783,8 +883,8 @@ impl Chain {
     }
 }
 
-/// The seconds a physical candidate's folds and the final fit of its physics are projected to
-/// take from the candidates scored before it, with what the projection is taken from and its
+/// The seconds (by the budget's measure, [`Candidate::cost`]) a physical candidate's folds and
+/// the final fit of its physics are projected to take from the candidates scored before it, with what the projection is taken from and its
 /// seconds: the slowest candidate so far (a new one holds at least as many terms), × (1 +
 /// [`FINAL_FIT_SHARE`]). The flank search fits the physics it extends, choosing the flanks up to
 /// [`SEARCH_FLANK_ROUNDS`] times where that candidate chose them [`FLANK_ROUNDS`] times: projected
@@ -806,10 +906,10 @@ fn projection(physics: Physics, candidates: &[Candidate]) -> (&'static str, f64,
         (candidates.iter().rev()).find(|c| c.name == name && c.score.is_some())
     });
     let (from, seconds) = match extended.flatten() {
-        Some(c) => ("the candidate it extends", c.seconds),
+        Some(c) => ("the candidate it extends", c.cost),
         None => (
             "the slowest candidate",
-            candidates.iter().map(|c| c.seconds).fold(0.0, f64::max),
+            candidates.iter().map(|c| c.cost).fold(0.0, f64::max),
         ),
     };
     (from, seconds, seconds * rounds * (1.0 + FINAL_FIT_SHARE))
@@ -828,6 +928,7 @@ fn physics_chain(
     groups: &[usize],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
+    meter: &Meter,
     (over_budget, left, residual_share): (
         &(dyn Fn(f64) -> bool + Sync),
         &(dyn Fn() -> f64 + Sync),
@@ -856,6 +957,7 @@ fn physics_chain(
                 held_out_blocks: None,
                 score: None,
                 seconds: 0.0,
+                cost: 0.0,
                 status: format!(
                     "skipped: {}{leaving} would be spent before its folds and the final fit end (projected from {from}, {seconds:.1} s: {projected:.1} s)",
                     the_budget(settings.budget_seconds)
@@ -878,6 +980,7 @@ fn physics_chain(
             plan,
             candidates,
             observer,
+            meter,
             (&over_budget, &left, reserve),
         )
     };
@@ -1053,7 +1156,7 @@ fn residual_candidates(
     groups: &[usize],
     candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
-    over_budget: &dyn Fn(f64) -> bool,
+    (meter, over_budget): (&Meter, &dyn Fn(f64) -> bool),
 ) -> Result<Vec<ResidualScore>> {
     let base_physics = chain.identified();
     let mut pace = Pace::default();
@@ -1072,7 +1175,7 @@ fn residual_candidates(
                     plan,
                     groups,
                     observer,
-                    over_budget,
+                    (meter, over_budget),
                     &mut pace,
                 )
             })
@@ -1137,7 +1240,7 @@ fn score_residual(
     plan: &FoldPlan<'_>,
     groups: &[usize],
     observer: &dyn Observer,
-    over_budget: &dyn Fn(f64) -> bool,
+    (meter, over_budget): (&Meter, &dyn Fn(f64) -> bool),
     pace: &mut Pace,
 ) -> Result<(Candidate, ResidualScore)> {
     let splits = &plan.splits;
@@ -1157,6 +1260,7 @@ fn score_residual(
         held_out_blocks: None,
         score: None,
         seconds: 0.0,
+        cost: 0.0,
         status: String::new(),
         budget_cut: false,
     };
@@ -1184,8 +1288,14 @@ fn score_residual(
             Vec::new()
         });
         // The folds' trainings are independent and seeded: as many at once as there are
-        // cores, taken in fold order (the same models on any number of cores).
-        let at_once = rayon::current_num_threads().max(1);
+        // cores, taken in fold order (the same models on any number of cores); with the budget
+        // counted, as many as the reference machine has, so that its decisions after each
+        // chunk are the same everywhere.
+        let at_once = if meter.counts() {
+            REFERENCE_CORES
+        } else {
+            rayon::current_num_threads().max(1)
+        };
         let mut done = 0;
         // This candidate's slowest chunk.
         let mut slowest: f64 = 0.0;
@@ -1197,7 +1307,12 @@ fn score_residual(
                 .zip(chunk.clone())
                 .map(|((fold, &base), k)| {
                     observer.advance(1);
-                    train_residual_model(stage, base, &fold.train, &Silent).map(|model| {
+                    let epochs = Epochs::default();
+                    let trained = train_residual_model(stage, base, &fold.train, &epochs);
+                    let joints = fold.train.first().map_or(0, |m| m.sample.joints.len());
+                    let seconds =
+                        budget::training_seconds(stage, fold.train.len(), joints, epochs.count());
+                    trained.map(|model| {
                         let model = CalibratedModel {
                             residual: Some(model),
                             ..base.clone()
@@ -1212,17 +1327,27 @@ fn score_residual(
                         } else {
                             spread::held_out_pairs_beside(&model, &fold.test, seed)
                         };
-                        (model.errors(&fold.test), pairs)
+                        (model.errors(&fold.test), pairs, seconds)
                     })
                 })
                 .collect();
+            let mut counted = 0.0;
             for (fold, candidate) in splits[chunk.clone()].iter().zip(trained) {
-                let (errors, pairs) = candidate?;
+                let (errors, pairs, seconds) = candidate?;
                 held.add(fold, errors);
                 spread_pairs.extend(pairs);
+                counted += seconds;
             }
-            let took = t.elapsed().as_secs_f64();
-            c.seconds += took;
+            c.seconds += t.elapsed().as_secs_f64();
+            // What the chunk spent by the budget's measure: the clock's seconds, or its counted
+            // trainings on the reference machine's cores.
+            let took = if meter.counts() {
+                counted / REFERENCE_CORES as f64
+            } else {
+                t.elapsed().as_secs_f64()
+            };
+            meter.charge(took);
+            c.cost += took;
             done = chunk.end;
             // The remaining folds at this chunk's pace, and the final fit (one training,
             // as long as one of the chunk's).
@@ -1497,6 +1622,8 @@ fn kinematic_only(
         refitted_on_every_row: false,
         budget_seconds: settings.budget_seconds,
         seconds: start.elapsed().as_secs_f64(),
+        reproducible: settings.reproducible,
+        counted_seconds: None,
     });
     Ok(built)
 }
@@ -1547,10 +1674,12 @@ pub fn residual_stages(
 /// tracker's −z, whichever a fit with the compliances on every row fits better
 /// ([`ComplianceSettings::detect_mounting`]), and the warning that fit gave when it took the
 /// tracker's. `None` for an upright arm (each fit keeps the base's −z) or where no fit can tell.
+/// The fit's work is counted on `work`.
 fn mounting(
     settings: &AutoSettings,
     nominal: &Robot,
     rows: &[&Measurement],
+    work: &robocal_ident::Work,
 ) -> Option<(Vector3<f64>, Option<String>)> {
     if loads(rows).len() < 2 {
         return None;
@@ -1564,7 +1693,11 @@ fn mounting(
         compliance: true,
         ..Physics::RIGID
     };
-    let fit = calibrate_kinematics(nominal, &obs, &physics.settings(settings)).ok()?;
+    let counted = KinematicSettings {
+        work: Some(work.clone()),
+        ..physics.settings(settings)
+    };
+    let fit = calibrate_kinematics(nominal, &obs, &counted).ok()?;
     let warning = (fit.report.warnings.iter())
         .find(|w| w.starts_with("gravity taken along"))
         .cloned();
@@ -1591,10 +1724,30 @@ pub fn automatic(
     validation: Option<(&[&Measurement], String)>,
     observer: &dyn Observer,
 ) -> Result<Built> {
+    let meter = Meter::new(settings.budget_seconds, settings.reproducible);
+    automatic_metered(settings, nominal, rows, validation, observer, &meter)
+}
+
+/// [`automatic`] with its budget kept by `meter`.
+fn automatic_metered(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    validation: Option<(&[&Measurement], String)>,
+    observer: &dyn Observer,
+    meter: &Meter,
+) -> Result<Built> {
     let start = Instant::now();
+    // What the fits before the candidates count (the bad shots' search, the mounting), charged
+    // to a counted budget.
+    let before = robocal_ident::Work::new(None);
     let (outliers, kept) = match &settings.outliers {
         Some(o) if configurations(rows).len() >= 4 => {
-            let (report, kept) = find_outliers(nominal, rows, &KinematicSettings::default(), o)?;
+            let search = KinematicSettings {
+                work: Some(before.clone()),
+                ..KinematicSettings::default()
+            };
+            let (report, kept) = find_outliers(nominal, rows, &search, o)?;
             (Some(report), kept)
         }
         _ => (None, rows.to_vec()),
@@ -1605,7 +1758,7 @@ pub fn automatic(
     let mut settings = settings.clone();
     let mut mounting_warning = None;
     if settings.gravity.is_none()
-        && let Some((gravity, warning)) = mounting(&settings, nominal, rows)
+        && let Some((gravity, warning)) = mounting(&settings, nominal, rows, &before)
     {
         settings.gravity = Some(gravity);
         mounting_warning = warning;
@@ -1618,8 +1771,9 @@ pub fn automatic(
         built.outliers = outliers;
         return Ok(built);
     };
-    let over_budget = |spent: f64| start.elapsed().as_secs_f64() + spent > settings.budget_seconds;
-    let left = || settings.budget_seconds - start.elapsed().as_secs_f64();
+    meter.charge(budget::fit_seconds(before.count()));
+    let over_budget = |spent: f64| meter.over(spent);
+    let left = || meter.left();
     // The progress bar counts fits: every candidate on every fold, and the final one. Physical
     // candidates: nominal, identified, compliance, and at most n + (n − 1) + … + 1 of the n
     // joint-error blocks' stepwise selection.
@@ -1642,12 +1796,13 @@ pub fn automatic(
         &groups,
         &mut candidates,
         observer,
+        meter,
         (&over_budget, &left, residual_share),
     );
     // The final fit of the chosen physics on every row, kept out of the residual models'
     // budget: about a fold's fit of the slowest physical candidate (its folds ran two at a time)
     // on a quarter more rows and both cores, with room to spare.
-    let reserve = FINAL_FIT_SHARE * (candidates.iter()).map(|c| c.seconds).fold(0.0, f64::max);
+    let reserve = FINAL_FIT_SHARE * (candidates.iter()).map(|c| c.cost).fold(0.0, f64::max);
     let residual_budget = |spent: f64| over_budget(spent + reserve);
     let residuals = residual_candidates(
         settings,
@@ -1656,7 +1811,7 @@ pub fn automatic(
         &groups,
         &mut candidates,
         observer,
-        &residual_budget,
+        (meter, &residual_budget),
     )?;
 
     // The winner: a residual model significantly better than the physical model, else the
@@ -1783,6 +1938,8 @@ pub fn automatic(
         refitted_on_every_row: plan.refit,
         budget_seconds: settings.budget_seconds,
         seconds: start.elapsed().as_secs_f64(),
+        reproducible: settings.reproducible,
+        counted_seconds: meter.counts().then(|| meter.spent()),
     });
     Ok(built)
 }
@@ -1915,6 +2072,7 @@ mod tests {
             held_out_blocks: None,
             score,
             seconds: 0.0,
+            cost: 0.0,
             status: status.into(),
             budget_cut,
         };
@@ -1965,6 +2123,7 @@ mod tests {
             held_out_blocks: None,
             score: Some(0.03),
             seconds,
+            cost: seconds,
             status: "evaluated".into(),
             budget_cut: false,
         };
@@ -2104,6 +2263,73 @@ mod tests {
         (twin, rows)
     }
 
+    /// With the budget kept by counted work (`reproducible`), where it cuts the search the same
+    /// candidates are scored, skipped and abandoned, with the same held-out numbers to the bit,
+    /// on one core as on two or three: the counts decide, not the clock (its guard set far off,
+    /// so that a slow test machine cannot decide either). Budgets of a fifth to three fifths of
+    /// what the unbounded search counted cut candidates it scored.
+    #[test]
+    fn a_counted_budget_cuts_the_search_alike_on_any_number_of_cores() {
+        let (twin, owned) = twin_rows("configs/twin/arm5.toml", 30);
+        let rows: Vec<&Measurement> = owned.iter().collect();
+        let mut gp = ResidualSettings::gp(3);
+        gp.gp.iterations = 10;
+        gp.gp.hyper_rows = 100;
+        let settings = AutoSettings {
+            self_weight: false,
+            runout: 0,
+            outliers: None,
+            residuals: vec![ResidualStage {
+                settings: gp,
+                holdout: 0.2,
+            }],
+            reproducible: true,
+            ..AutoSettings::default()
+        };
+        let run = |threads: usize, budget: f64| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let meter = Meter::guarded(budget, 1e6);
+                automatic_metered(&settings, &twin.nominal, &rows, None, &Silent, &meter).unwrap()
+            })
+        };
+        let summary = |built: &Built| {
+            let selection = built.selection.as_ref().unwrap();
+            let candidates: Vec<_> = (selection.candidates.iter())
+                .map(|c| (c.name.clone(), c.status.clone(), c.score.map(f64::to_bits)))
+                .collect();
+            (candidates, selection.counted_seconds.map(f64::to_bits))
+        };
+        let unbounded = run(2, 1e6);
+        let (all, counted) = summary(&unbounded);
+        let counted = f64::from_bits(counted.unwrap());
+        assert!(counted > 0.0);
+        assert!(all.iter().all(|(_, _, score)| score.is_some()), "{all:?}");
+        // A fifth of it abandons candidates during their folds (physical and residual), two
+        // and three fifths skip one before its folds or abandon another.
+        for share in [0.2, 0.4, 0.6] {
+            let cut = summary(&run(2, counted * share));
+            assert_eq!(summary(&run(1, counted * share)), cut, "at {share}");
+            assert_eq!(summary(&run(3, counted * share)), cut, "at {share}");
+            let scored = cut.0.iter().filter(|(_, _, score)| score.is_some()).count();
+            assert!(scored < all.len(), "nothing cut at {share}: {:?}", cut.0);
+            assert!(
+                (cut.0.iter()).any(|(_, status, _)| status.contains("time budget")),
+                "{:?}",
+                cut.0
+            );
+        }
+        let abandoned = summary(&run(1, counted * 0.2)).0;
+        assert!(
+            (abandoned.iter())
+                .any(|(name, status, _)| name.ends_with("+ gp") && status.starts_with("abandoned")),
+            "{abandoned:?}"
+        );
+    }
+
     /// The ceiling-mounted ARM6K (gravity along +z of its base frame): the default decides once
     /// that gravity lies along the tracker's −z — within a degree of the twin's — and keeps the
     /// warning for the report; the upright ARM5's is left to each fit, and so is any arm's with
@@ -2112,7 +2338,10 @@ mod tests {
     fn the_mounting_is_decided_once_from_the_data() {
         let (twin, rows) = twin_rows("configs/twin/arm6k.toml", 30);
         let rows: Vec<&Measurement> = rows.iter().collect();
-        let (gravity, warning) = mounting(&AutoSettings::default(), &twin.nominal, &rows).unwrap();
+        let work = robocal_ident::Work::new(None);
+        let (gravity, warning) =
+            mounting(&AutoSettings::default(), &twin.nominal, &rows, &work).unwrap();
+        assert!(work.count() > 0, "the mounting's fit is counted");
         assert!(
             gravity.angle(&twin.gravity).to_degrees() < 1.0,
             "{gravity} vs {}",
@@ -2125,10 +2354,10 @@ mod tests {
         let one_load: Vec<&Measurement> = (rows.iter().copied())
             .filter(|r| r.sample.load == 0.0)
             .collect();
-        assert!(mounting(&AutoSettings::default(), &twin.nominal, &one_load).is_none());
+        assert!(mounting(&AutoSettings::default(), &twin.nominal, &one_load, &work).is_none());
         let (upright, rows) = twin_rows("configs/twin/arm5.toml", 30);
         let rows: Vec<&Measurement> = rows.iter().collect();
-        assert!(mounting(&AutoSettings::default(), &upright.nominal, &rows).is_none());
+        assert!(mounting(&AutoSettings::default(), &upright.nominal, &rows, &work).is_none());
     }
 
     /// ARM5's twin (40 configurations) calibrated by default with its gear harmonics left out
