@@ -884,9 +884,9 @@ impl Chain {
 }
 
 /// The seconds (by the budget's measure, [`Candidate::cost`]) a physical candidate's folds and
-/// the final fit of its physics are projected to take from the candidates scored before it, with what the projection is taken from and its
-/// seconds: the slowest candidate so far (a new one holds at least as many terms), × (1 +
-/// [`FINAL_FIT_SHARE`]). The flank search fits the physics it extends, choosing the flanks up to
+/// the final fit of its physics are projected to take from the candidates scored before it,
+/// with what the projection is taken from and its seconds: the slowest candidate so far (a new
+/// one holds at least as many terms), × (1 + [`FINAL_FIT_SHARE`]). The flank search fits the physics it extends, choosing the flanks up to
 /// [`SEARCH_FLANK_ROUNDS`] times where that candidate chose them [`FLANK_ROUNDS`] times: projected
 /// from that candidate where it was scored, × their ratio (a slower one before it — the axis
 /// runouts the chain dropped — holds terms the search does not fit: on ARM7 it took 38 s against
