@@ -546,8 +546,9 @@ fn score_physics(
     let mut held = Held::default();
     let mut fitted = Vec::new();
     let mut failure = None;
-    let (fits, abandoned, cost) = if meter.counts() {
-        counted_folds(
+    // Counted work's reference seconds (by the clock, the candidate's seconds below).
+    let (fits, abandoned, counted) = if meter.counts() {
+        let (fits, abandoned, cost) = counted_folds(
             physics,
             &kinematic,
             nominal,
@@ -555,7 +556,8 @@ fn score_physics(
             observer,
             meter,
             (over_budget, left),
-        )
+        );
+        (fits, abandoned, Some(cost))
     } else {
         let at_once = rayon::current_num_threads().max(1);
         let share = fold_share(left(), splits.len(), at_once);
@@ -594,7 +596,7 @@ fn score_physics(
             })
             .collect();
         let abandoned = abandoned.load(Ordering::SeqCst);
-        (fits, abandoned, t.elapsed().as_secs_f64())
+        (fits, abandoned, None)
     };
     let mut budget_cut = abandoned;
     if budget_cut {
@@ -619,13 +621,14 @@ fn score_physics(
             }
         }
     }
+    let seconds = t.elapsed().as_secs_f64();
     let mut c = Candidate {
         name: physics.name(),
         held_out: None,
         held_out_blocks: None,
         score: None,
-        seconds: t.elapsed().as_secs_f64(),
-        cost,
+        seconds,
+        cost: counted.unwrap_or(seconds),
         status: failure.clone().unwrap_or_else(|| "evaluated".into()),
         budget_cut,
     };
@@ -1338,13 +1341,14 @@ fn score_residual(
                 spread_pairs.extend(pairs);
                 counted += seconds;
             }
-            c.seconds += t.elapsed().as_secs_f64();
+            let wall = t.elapsed().as_secs_f64();
+            c.seconds += wall;
             // What the chunk spent by the budget's measure: the clock's seconds, or its counted
             // trainings on the reference machine's cores.
             let took = if meter.counts() {
                 counted / REFERENCE_CORES as f64
             } else {
-                t.elapsed().as_secs_f64()
+                wall
             };
             meter.charge(took);
             c.cost += took;
