@@ -27,6 +27,10 @@ pub const REFERENCE_CORES: usize = 2;
 /// field): 13–21 M units/s for the compliances alone, 21–39 M/s for the candidates that spend the
 /// budget (the joint-error blocks, the runouts the fastest per unit). The lower end of those, so
 /// that the counted seconds run ahead of the clock's there and the clock's guard stays idle.
+/// Timed one core at a time (session 65, 24 candidates on three arms), the seconds counted at this
+/// rate are 0.45–1.73× a fit's own: the count leaves out the work outside the solves and weighs a
+/// residual row far below its cost; a finer count fitted to those candidates was not taken
+/// (`docs/accuracy.md`).
 pub const FIT_UNITS_PER_SECOND: f64 = 21e6;
 
 /// A Gaussian process's training work ([`training_seconds`]: its likelihood evaluations × the
