@@ -1643,10 +1643,38 @@ fn identify_anew(
         let start = round.joint_errors.as_mut().expect("joint errors");
         start.backlash_torque = false;
         let home = (start.backlash_home.clone()).unwrap_or_else(|| vec![0.0; nominal.dof()]);
+        // With axis runouts, the rounds start from the flanks chosen on the model without them
+        // (that model's own rounds had the fit on the approach flanks competing): a runout can
+        // take part of a step on a fit that lacks it, and the choice made from what that fit
+        // leaves goes wrong (the paper's arm beyond the model); the rounds then choose again
+        // with the runouts in the model, and the lowest sum of squares of their fits is kept.
+        // No fit on the approach flanks with the runouts: until session 65 it competed too, and
+        // was the dearest identification of the candidate (a third to two fifths of its time on
+        // the paper's arm, hundreds of iterations from zero) while its sum of squares was never
+        // the lowest on the cases traced (`docs/accuracy.md`, session 65).
+        let chosen_flanks = if je.runout > 0 {
+            let mut plain = settings.clone();
+            plain.joint_errors.as_mut().expect("joint errors").runout = 0;
+            let chosen = identify(nominal, obs, &plain, memo)?;
+            chosen.compliance.as_ref().map(|errors| {
+                let mut flanks: Vec<Flank> = (home.iter())
+                    .map(|&h| Flank::Approach { home: h })
+                    .collect();
+                for b in &errors.backlash {
+                    flanks[b.joint] = b.flank.clone();
+                }
+                flanks
+            })
+        } else {
+            None
+        };
+        if let Some(flanks) = chosen_flanks {
+            round.joint_errors.as_mut().expect("joint errors").flanks = Some(flanks);
+        }
         let mut fit = identify(nominal, obs, &round, memo)?;
-        // The fit on the approach flanks competes too: flanks chosen from a fit that lacked
-        // them can leave more than it did (a joint's flank chosen nearly constant, its step then
-        // absorbed by its offset and bent into its harmonics).
+        // Without runouts, the fit on the approach flanks competes too: flanks chosen from a fit
+        // that lacked them can leave more than it did (a joint's flank chosen nearly constant,
+        // its step then absorbed by its offset and bent into its harmonics).
         let mut best = fit.clone();
         // The identification on `flanks`, kept as the best when its sum of squares (the
         // identification's own objective) is the lowest yet (of equal ones, the later).
@@ -1658,25 +1686,6 @@ fn identify_anew(
             }
             Ok::<_, IdentError>(next)
         };
-        // With axis runouts, the rounds start from the flanks chosen on the model without them
-        // (the fit on the approach flanks competing): a runout can take part of a step on a fit
-        // that lacks it, and the choice made from what that fit leaves goes wrong (the paper's
-        // arm beyond the model); the rounds then choose again with the runouts in the model,
-        // and the lowest sum of squares of every fit is kept.
-        if je.runout > 0 {
-            let mut plain = settings.clone();
-            plain.joint_errors.as_mut().expect("joint errors").runout = 0;
-            let chosen = identify(nominal, obs, &plain, memo)?;
-            if let Some(errors) = chosen.compliance.as_ref() {
-                let mut flanks: Vec<Flank> = (home.iter())
-                    .map(|&h| Flank::Approach { home: h })
-                    .collect();
-                for b in &errors.backlash {
-                    flanks[b.joint] = b.flank.clone();
-                }
-                fit = on_flanks(flanks, &mut best)?;
-            }
-        }
         let mut signs: Option<Vec<f64>> = None;
         let rounds = if je.flank_search {
             SEARCH_FLANK_ROUNDS
