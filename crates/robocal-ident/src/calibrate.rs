@@ -158,6 +158,14 @@ pub struct JointErrorSettings {
     /// ([`robocal_robot::Runout`]; 0: none), each reaching as far as its joint's readings allow,
     /// as a harmonic does; those the poses do not separate from the geometry are held at zero.
     pub runout: u32,
+    /// The axis runouts started from the compliances of the model without them: the first fit
+    /// of the compliances (with the links' weights or the payload's centre of mass) leaves them
+    /// out, and the backlash flanks they start from are that model's own — fits a memo that
+    /// has made the model without the runouts holds, so that only the runouts' own fits remain
+    /// (a third of the work on the paper's arm). Other fits than with the runouts in the first
+    /// fit: the default calibration tries it only where the budget cut that candidate
+    /// (`docs/accuracy.md`, session 66).
+    pub runout_from_without: bool,
     /// The transmission harmonics under a zero-mean Gaussian prior whose spread the data choose
     /// (marginal likelihood over the harmonics of the fit without it; empirical Bayes): a
     /// harmonic the poses barely determine is drawn toward the spread of the others (LM only);
@@ -182,6 +190,7 @@ impl Default for JointErrorSettings {
             flank_search: false,
             tilt: false,
             runout: 0,
+            runout_from_without: false,
             harmonic_prior: true,
             gravity: Vector3::new(0.0, 0.0, -9.80665),
         }
@@ -1616,6 +1625,12 @@ fn identify_anew(
             je_first.link_weights = false;
             je_first.backlash = false;
             je_first.tilt = false;
+            // Started from the model without them, the runouts take no part in the first fit:
+            // it is that model's, which the memo may hold.
+            if je_first.runout_from_without {
+                je_first.runout = 0;
+            }
+            je_first.runout_from_without = false;
             if !(je_first.harmonics > 0 || je_first.self_weight) {
                 first.joint_errors = None;
             }
@@ -1654,7 +1669,9 @@ fn identify_anew(
         // the lowest on the cases traced (`docs/accuracy.md`, session 65).
         let chosen_flanks = if je.runout > 0 {
             let mut plain = settings.clone();
-            plain.joint_errors.as_mut().expect("joint errors").runout = 0;
+            let je_plain = plain.joint_errors.as_mut().expect("joint errors");
+            je_plain.runout = 0;
+            je_plain.runout_from_without = false;
             let chosen = identify(nominal, obs, &plain, memo)?;
             chosen.compliance.as_ref().map(|errors| {
                 let mut flanks: Vec<Flank> = (home.iter())

@@ -266,6 +266,10 @@ struct Physics {
     tilt: bool,
     /// Axis runouts up to this order.
     runout: u32,
+    /// The axis runouts started from the model without them (its first fit's compliances and
+    /// its flanks, which the candidates before made): the cheaper fit the chain tries where the
+    /// budget cut the runouts' own (`JointErrorSettings::runout_from_without`).
+    runout_from_without: bool,
     /// Backlash flanks by the search beyond the joint's own terms (`flank_search`).
     flank_search: bool,
 }
@@ -279,6 +283,7 @@ impl Physics {
         backlash: false,
         tilt: false,
         runout: 0,
+        runout_from_without: false,
         flank_search: false,
     };
     const RIGID: Self = Self {
@@ -308,6 +313,9 @@ impl Physics {
         }
         if self.runout > 0 {
             name += &format!(" + runout {}", self.runout);
+            if self.runout_from_without {
+                name += " (from the fit without)";
+            }
         }
         if self.tilt {
             name += " + tilt";
@@ -333,6 +341,7 @@ impl Physics {
             backlash: self.backlash || other.backlash,
             tilt: self.tilt || other.tilt,
             runout: self.runout.max(other.runout),
+            runout_from_without: self.runout_from_without || other.runout_from_without,
             flank_search: self.flank_search || other.flank_search,
             ..self
         }
@@ -403,6 +412,7 @@ impl Physics {
                 flank_search: self.flank_search,
                 tilt: self.tilt,
                 runout: self.runout,
+                runout_from_without: self.runout_from_without,
                 gravity,
                 ..JointErrorSettings::default()
             }),
@@ -438,6 +448,8 @@ struct Scored {
     errors: Option<Vec<f64>>,
     /// The fitted model of each fold.
     fitted: Vec<Option<CalibratedModel>>,
+    /// Whether the time budget cut it (skipped, or abandoned during its folds).
+    budget_cut: bool,
 }
 
 /// The seconds one fold's fit of a candidate may take when `left` seconds of the budget remain
@@ -638,12 +650,14 @@ fn score_physics(
     }
     report(&c, observer);
     let score = c.score;
+    let budget_cut = c.budget_cut;
     candidates.push(c);
     Scored {
         physics,
         score,
         errors: score.map(|_| held.all()),
         fitted,
+        budget_cut,
     }
 }
 
@@ -974,6 +988,7 @@ fn physics_chain(
                 score: None,
                 errors: None,
                 fitted: vec![None; plan.splits.len()],
+                budget_cut: true,
             };
         }
         score_physics(
@@ -1094,6 +1109,21 @@ fn physics_chain(
             ..current
         };
         chain.step("runout", score(wobbling, residual_share), groups);
+        // Where the budget cut the runouts' fits (skipped, or abandoned during their folds), the
+        // cheaper fit that starts them from the model without them, whose first fit and flanks
+        // the candidates before made (a third of the work on the paper's arm: session 66, where
+        // its twin beyond the model had the runouts cut in session 65 and lost 0.137 − 0.026 mm
+        // for it). Other fits than the full one, so tried only where that one has no score; the
+        // same where neither harmonics nor self-weight are in the model (the first fit then
+        // leaves the runouts out anyway).
+        let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
+        if cut && (current.harmonics > 0 || current.self_weight) {
+            let cheaper = Physics {
+                runout_from_without: true,
+                ..wobbling
+            };
+            chain.step("runout", score(cheaper, residual_share), groups);
+        }
     }
     // The backlash flanks searched beyond each joint's own terms, on chosen physics with
     // backlash (or, where asked, with backlash added where the block was not kept): one
@@ -1519,7 +1549,8 @@ fn decisions(
             "not tried (no harmonics, self-weight or backlash in the settings), or every fit failed",
         ),
     });
-    if let Some(step) = steps("runout").first() {
+    // The last runouts' step: the cheaper fit's where the budget cut the full one.
+    if let Some(step) = steps("runout").last() {
         out.push(decision(
             "runout",
             chosen.runout > 0,
