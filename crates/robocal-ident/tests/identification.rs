@@ -1740,15 +1740,11 @@ fn elasto_geometric_lm_finds_the_flank_the_torque_presses() {
     assert!(plain_mean > 5.0 * mean, "{plain_mean} vs {mean}");
 }
 
-/// The same torque flank of joint 4 with a runout of joint 1 injected too (order 2 about its
-/// link frame's x), and the runouts of orders 1–2 asked for with the backlash (the default
-/// calibration's fullest physics on an arm with play): the flank rounds start from the
-/// flanks chosen on the model without the runouts (whose own rounds had the approach flanks
-/// competing), and choose again with them in the model. The flank comes back on nearly every
-/// row, held-out ones too, and the half play within 5 %.
-#[test]
-fn the_torque_flank_is_found_with_the_runouts_asked_for() {
-    use robocal_ident::JointErrorSettings;
+/// The torque flank of joint 4 (`joint4_torque_flank`) with a runout of joint 1 injected too
+/// (order 2 about its link frame's x): the nominal table, the configurations, the true table,
+/// the joint errors, and the noise-free rows of the first 100 configurations at 0, 5, 10 and
+/// 20 kg.
+fn torque_flank_and_runout() -> (Robot, Vec<Vec<f64>>, Robot, Compliance, Observations) {
     use robocal_robot::{Across, Harmonic, Runout};
     let nominal = nominal();
     let configs = configurations();
@@ -1763,8 +1759,20 @@ fn the_torque_flank_is_found_with_the_runouts_asked_for() {
         across: Across::X,
         wave,
     });
-    let loads = [0.0, 5.0, 10.0, 20.0];
-    let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
+    let obs = observe_loaded(&truth, &errors, &configs[..100], &[0.0, 5.0, 10.0, 20.0]);
+    (nominal, configs, truth, errors, obs)
+}
+
+/// The same torque flank of joint 4 with a runout of joint 1 injected too (order 2 about its
+/// link frame's x), and the runouts of orders 1–2 asked for with the backlash (the default
+/// calibration's fullest physics on an arm with play): the flank rounds start from the
+/// flanks chosen on the model without the runouts (whose own rounds had the approach flanks
+/// competing), and choose again with them in the model. The flank comes back on nearly every
+/// row, held-out ones too, and the half play within 5 %.
+#[test]
+fn the_torque_flank_is_found_with_the_runouts_asked_for() {
+    use robocal_ident::JointErrorSettings;
+    let (nominal, configs, truth, errors, obs) = torque_flank_and_runout();
     let settings = with_joint_errors(
         errors.payload_com,
         JointErrorSettings {
@@ -1810,22 +1818,7 @@ fn the_torque_flank_is_found_with_the_runouts_asked_for() {
 #[test]
 fn the_runouts_start_from_the_model_without_them_on_the_fits_it_made() {
     use robocal_ident::JointErrorSettings;
-    use robocal_robot::{Across, Harmonic, Runout};
-    let nominal = nominal();
-    let configs = configurations();
-    let truth = injected(&nominal, &configs, 19);
-    let mut errors = joint4_torque_flank();
-    let wave = Harmonic {
-        sin: 0.006f64.to_radians(),
-        cos: -0.004f64.to_radians(),
-        ..Harmonic::zero(0, 2)
-    };
-    errors.runouts.push(Runout {
-        across: Across::X,
-        wave,
-    });
-    let loads = [0.0, 5.0, 10.0, 20.0];
-    let obs = observe_loaded(&truth, &errors, &configs[..100], &loads);
+    let (nominal, configs, truth, errors, obs) = torque_flank_and_runout();
     let held = observe_loaded(&truth, &errors, &configs[100..], &[0.0, 12.0]);
     let settings = |from_without: bool| {
         with_joint_errors(
