@@ -87,6 +87,56 @@ pub struct KinematicSettings {
 }
 
 impl KinematicSettings {
+    /// The settings of the first identification that gives the compliances the fit starts
+    /// from, where it has one: with the links' weights, the bearings' tilts or the payload's
+    /// centre of mass (at zero compliance they move nothing), the same fit without them, nor
+    /// backlash (whose flanks are chosen with the whole model), nor — with
+    /// [`JointErrorSettings::runout_from_without`] — the axis runouts; `None` where the
+    /// compliances start from given values or from zero.
+    pub fn first_fit(&self) -> Option<KinematicSettings> {
+        let c = self.compliance.as_ref()?;
+        let je = self.joint_errors.as_ref();
+        let link_weights = je.is_some_and(|je| je.link_weights);
+        let tilt = je.is_some_and(|je| je.tilt);
+        if c.start.is_some() || !(link_weights || tilt || c.identify_payload_com) {
+            return None;
+        }
+        let mut first = self.clone();
+        first
+            .compliance
+            .as_mut()
+            .expect("compliance")
+            .identify_payload_com = false;
+        if let Some(je_first) = first.joint_errors.as_mut() {
+            je_first.link_weights = false;
+            je_first.backlash = false;
+            je_first.tilt = false;
+            // Started from the model without them, the runouts take no part in the first fit:
+            // it is that model's, which the memo may hold.
+            if je_first.runout_from_without {
+                je_first.runout = 0;
+            }
+            je_first.runout_from_without = false;
+            if !(je_first.harmonics > 0 || je_first.self_weight) {
+                first.joint_errors = None;
+            }
+        }
+        Some(first)
+    }
+
+    /// Whether [`JointErrorSettings::runout_from_without`] makes other fits than these settings
+    /// without it: only where the compliances' first fit ([`Self::first_fit`]) would hold the
+    /// axis runouts (the flanks come from the model without them either way).
+    pub fn runouts_in_first_fit(&self) -> bool {
+        let mut full = self.clone();
+        if let Some(je) = full.joint_errors.as_mut() {
+            je.runout_from_without = false;
+        }
+        (full.first_fit())
+            .and_then(|first| first.joint_errors)
+            .is_some_and(|je| je.runout > 0)
+    }
+
     /// The weight of an orientation residual, mm per rad (see [`Self::angle_weight`]).
     pub fn angle_weight_per_rad(&self) -> f64 {
         match self.angle_weight {
@@ -1605,36 +1655,12 @@ fn identify_anew(
     // whole model) gives the compliances the one with them starts from (at zero compliance they
     // move nothing, and the identifiability analysis would hold them at zero).
     let link_weights = (settings.joint_errors.as_ref()).is_some_and(|je| je.link_weights);
-    let tilt = (settings.joint_errors.as_ref()).is_some_and(|je| je.tilt);
     if link_weights && settings.compliance.is_none() {
         return Err(IdentError::Compliance(
             "link weights act through the joint compliances: identify the compliances too".into(),
         ));
     }
-    if let Some(c) = &settings.compliance
-        && c.start.is_none()
-        && (link_weights || tilt || c.identify_payload_com)
-    {
-        let mut first = settings.clone();
-        first
-            .compliance
-            .as_mut()
-            .expect("compliance")
-            .identify_payload_com = false;
-        if let Some(je_first) = first.joint_errors.as_mut() {
-            je_first.link_weights = false;
-            je_first.backlash = false;
-            je_first.tilt = false;
-            // Started from the model without them, the runouts take no part in the first fit:
-            // it is that model's, which the memo may hold.
-            if je_first.runout_from_without {
-                je_first.runout = 0;
-            }
-            je_first.runout_from_without = false;
-            if !(je_first.harmonics > 0 || je_first.self_weight) {
-                first.joint_errors = None;
-            }
-        }
+    if let Some(first) = settings.first_fit() {
         let fit = identify(nominal, obs, &first, memo)?;
         let Some(values) = fit.compliance.as_ref().map(|c| c.values.clone()) else {
             return Ok(fit);

@@ -1833,6 +1833,22 @@ fn the_runouts_start_from_the_model_without_them_on_the_fits_it_made() {
             },
         )
     };
+    // The setting makes other fits only where the compliances' first fit holds the runouts:
+    // here (the links' weights call for that fit, the harmonics keep joint errors in it), not
+    // without the links' weights (no first fit) nor without the harmonics (none in it).
+    assert!(settings(true).runouts_in_first_fit());
+    let mut rigid_links = settings(true);
+    let je = rigid_links.joint_errors.as_mut().unwrap();
+    je.link_weights = false;
+    rigid_links
+        .compliance
+        .as_mut()
+        .unwrap()
+        .identify_payload_com = false;
+    assert!(!rigid_links.runouts_in_first_fit());
+    let mut no_harmonics = settings(true);
+    no_harmonics.joint_errors.as_mut().unwrap().harmonics = 0;
+    assert!(!no_harmonics.runouts_in_first_fit());
     // Each variant on a memo that holds the model without the runouts, as the default
     // calibration's chain has it when the runouts' candidate comes.
     let fit = |from_without: bool| {

@@ -1113,11 +1113,11 @@ fn physics_chain(
         // cheaper fit that starts them from the model without them, whose first fit and flanks
         // the candidates before made (a third of the work on the paper's arm: session 66, where
         // its twin beyond the model had the runouts cut in session 65 and lost 0.137 − 0.026 mm
-        // for it). Other fits than the full one, so tried only where that one has no score; the
-        // same where neither harmonics nor self-weight are in the model (the first fit then
-        // leaves the runouts out anyway).
+        // for it). Other fits than the full one, so tried only where that one has no score; and
+        // only where the compliances' first fit would hold the runouts (elsewhere the two are
+        // the same fits).
         let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
-        if cut && (current.harmonics > 0 || current.self_weight) {
+        if cut && wobbling.settings(settings).runouts_in_first_fit() {
             let cheaper = Physics {
                 runout_from_without: true,
                 ..wobbling
