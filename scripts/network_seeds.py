@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A network's seed, and networks averaged over seeds, on robocal's own twin cases.
 
-The measurement of `docs/accuracy.md`, session 31: on each case directory written by the
+On each case directory written by the
 accuracy suite's `--export DIR` (nominal `robot.toml`, `train.csv`, `test.csv`, and `truth.csv`,
 the test rows' noise-free points), one physical model for all (a stage config: compliances,
 transmission harmonics of orders 1 and 2, self-weight, backlash on either flank) with robocal's

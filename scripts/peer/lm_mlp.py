@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The outside comparison pipeline of issue 15, run on robocal's own twin cases.
+"""An outside comparison pipeline, independent of robocal, run on robocal's twin cases or any case folder.
 
 A short scipy + scikit-learn calibration, written independently of robocal (nothing of robocal
 is imported): the nominal table's base frame registered onto the tracker points (Kabsch), then
@@ -239,19 +239,32 @@ def robocal(binary: str, case: Path):
     return json.loads(out.stdout)["mean"], seconds
 
 
+def write_marked(path: Path, section: str, text: str):
+    """Replaces what lies between `<!-- SECTION:begin -->` and `<!-- SECTION:end -->` in `path`."""
+    begin, end = f"<!-- {section}:begin -->", f"<!-- {section}:end -->"
+    page = path.read_text()
+    if begin not in page or end not in page:
+        sys.exit(f"error: {path}: no `{begin}` … `{end}` section to write the table into")
+    head, rest = page.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    path.write_text(f"{head}{begin}\n{text}\n{end}{tail}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("cases", type=Path)
     parser.add_argument("--robocal", help="robocal binary: also run its default calibrate")
     parser.add_argument("--only", default="", help="cases whose name contains this")
+    parser.add_argument("--write", type=Path, help="also write the table into this Markdown file")
+    parser.add_argument("--section", default="twins-peer", help="the marked section --write replaces")
     args = parser.parse_args()
     cases = sorted(c for c in args.cases.iterdir() if (c / "train.csv").exists())
     cases = [c for c in cases if args.only in c.name]
     if not cases:
         sys.exit(f"error: no case directories (with train.csv) under {args.cases}")
-    print("| case | test rows | peer kinematic | peer LM + MLP | peer s | robocal default | "
-          "robocal s | robocal vs peer |")
-    print("|---|---|---|---|---|---|---|---|")
+    lines = ["| case | test rows | peer kinematic | peer LM + MLP | peer s | robocal default | "
+             "robocal s | robocal vs peer |", "|---|---|---|---|---|---|---|---|"]
+    print("\n".join(lines))
     for case in cases:
         kin, mlp, secs, n = peer(case)
         row = f"| {case.name} | {n} | {kin:.4f} | {mlp:.4f} | {secs:.1f} |"
@@ -261,7 +274,9 @@ def main():
         else:
             row += " | | |"
         print(row, flush=True)
-
+        lines.append(row)
+    if args.write:
+        write_marked(args.write, args.section, "\n".join(lines))
 
 if __name__ == "__main__":
     main()

@@ -4,6 +4,7 @@
 //! ([`robustness`]), compensation toward a robot program ([`compensation`]), the pictures of a calibration ([`report`]), with one runner and CSV helpers ([`common`]).
 
 mod commands;
+mod datasets;
 mod common;
 mod compensation;
 mod export;
