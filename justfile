@@ -62,20 +62,29 @@ fuzz cases="20000":
 accuracy seeds="2" aside="":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}}
 
-# the outside pipeline of issue 15 (scipy LM, then a scikit-learn MLP per axis on sin/cos of the
-# joints and the load; scripts/peer/lm_mlp.py, independent of robocal) against robocal's default
-# calibrate through the files, on the accuracy suite's cases (docs/accuracy.md "Against a scipy +
-# scikit-learn pipeline"); a venv with numpy, scipy and scikit-learn in target/peervenv
+# the outside pipeline (scipy LM, then a scikit-learn MLP per axis on sin/cos of the joints and the
+# load; scripts/peer/lm_mlp.py, independent of robocal) against robocal's default calibrate through
+# the files, on the accuracy suite's cases; rewrites docs/accuracy.md's development table (without
+# aside); a venv with numpy, scipy and scikit-learn in target/peervenv
 peer seeds="2" aside="":
     cargo build --release --bin robocal
     rm -rf target/peer-cases
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}} --export target/peer-cases
     test -x target/peervenv/bin/python || python3 -m venv target/peervenv
     target/peervenv/bin/pip install -q numpy scipy scikit-learn
-    target/peervenv/bin/python scripts/peer/lm_mlp.py target/peer-cases --robocal target/release/robocal
+    target/peervenv/bin/python scripts/peer/lm_mlp.py target/peer-cases --robocal target/release/robocal {{ if aside == "" { "--write docs/accuracy.md --section twins-peer-development" } else { "" } }}
+
+# robocal on the real arms of datasets/ (UR5, WAM: each maker's table, the source's splits): nominal,
+# kinematic, the default with its time and memory, the peer and the published number; rewrites
+# docs/accuracy.md's real-arms table
+accuracy-real:
+    cargo build --release --bin robocal
+    test -x target/peervenv/bin/python || python3 -m venv target/peervenv
+    target/peervenv/bin/pip install -q numpy scipy scikit-learn
+    target/peervenv/bin/python scripts/real/benchmark.py --robocal target/release/robocal --write docs/accuracy.md
 
 # a network's seed and five networks averaged (members = 5) on one stage physics, through the
-# files, on the development suite's cases beyond the model (docs/accuracy.md, session 31)
+# files, on the development suite's cases beyond the model
 network-seeds seeds="2" effects="all,beyond":
     cargo build --release --bin robocal
     rm -rf target/seed-cases
@@ -87,13 +96,13 @@ accuracy-outliers seeds="3":
     cargo run --release -p robocal-pipeline --example accuracy -- --outliers --seeds {{seeds}}
 
 # how far the model carries across a cell: each development twin's poses laid all around its base,
-# trained within -60..30 deg of joint 1, tested on every other pose (docs/accuracy.md, session 34)
+# trained within -60..30 deg of joint 1, tested on every other pose
 accuracy-window seeds="1" effects="all,beyond":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} --arms arm7,arm5,pmc6va030 --splits window --effects {{effects}} --no-compensation
 
 # what the data determine beyond joint 1's readings: on the window twins, the default, its physics
 # alone, the physics with every harmonic continued, and that model's standard deviation against
-# the noise floor (scripts/extrapolation/reach.py; docs/accuracy.md, session 42)
+# the noise floor (scripts/extrapolation/reach.py)
 extrapolation-reach seeds="1" effects="all":
     cargo build --release --bin robocal
     rm -rf target/reach-cases

@@ -1,4 +1,4 @@
-//! Command-line arguments (interface.md section 3).
+//! Command-line arguments (`docs/guide.md` and `docs/formats.md`).
 
 use std::path::PathBuf;
 

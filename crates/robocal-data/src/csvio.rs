@@ -1,4 +1,4 @@
-//! Reading and writing the measurement CSV of interface.md section 2.
+//! Reading and writing the measurement CSV of `docs/formats.md` ("Measurements").
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -1,5 +1,6 @@
-//! Laser-tracker measurement sets for robocal: the CSV of interface.md section 2, validated at
-//! load with errors that name the file, line and column; atomic writing of output files.
+//! Laser-tracker measurement sets for robocal: the CSV of `docs/formats.md` ("Measurements"),
+//! validated at load with errors that name the file, line and column; atomic writing of output
+//! files.
 //!
 //! ```
 //! # let dir = tempfile::tempdir()?;

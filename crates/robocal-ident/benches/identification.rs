@@ -123,7 +123,7 @@ enum Memo {
 
 /// The flank search on the fullest physical candidate of [`full_physics_3528_rows`], with an
 /// empty memo and after the fit without the search (the search's time in the default
-/// calibration, session 52: the first fit and the fit on the approach flanks shared).
+/// calibration, where the first fit and the fit on the approach flanks are shared).
 #[divan::bench(args = [Memo::Empty, Memo::AfterRegression], sample_count = 3)]
 fn flank_search_3528_rows(b: Bencher, memo: Memo) {
     let (robot, set) = bundled();
@@ -304,7 +304,7 @@ enum PerRow {
 }
 
 /// [`point_3528_rows`] and [`row_terms_3528_rows`] (waves computed) with the self-weight model
-/// of [`fitted_self_weight`]: a term held at zero costs nothing (session 59).
+/// of [`fitted_self_weight`]: a term held at zero should cost nothing.
 #[divan::bench(args = [PerRow::Point, PerRow::Terms], sample_count = 30)]
 fn self_weight_rows_3528(b: Bencher, per_row: PerRow) {
     let (robot, errors, obs) = fitted_self_weight();

@@ -196,7 +196,7 @@ pub struct JointErrorSettings {
     /// terms (offset, compliance, harmonics, self-weight), its direction fitted again without
     /// them (the `flank` module); `false`: the logistic regression's alone, whose boundary the
     /// compliance pulls toward the rows' middle torque. The default calibration tries it as one
-    /// candidate more where its chosen physics holds backlash (`docs/accuracy.md`, session 32).
+    /// candidate more where its chosen physics holds backlash (`docs/method.md`).
     pub flank_search: bool,
     /// The tilting compliance of every joint ([`robocal_robot::Tilt`]: the parts beyond it turn
     /// across its axis under the gravity moment of the payload and of the links' weights; a
@@ -213,8 +213,7 @@ pub struct JointErrorSettings {
     /// out, and the backlash flanks they start from are that model's own — fits a memo that
     /// has made the model without the runouts holds, so that only the runouts' own fits remain
     /// (a third of the work on the paper's arm). Other fits than with the runouts in the first
-    /// fit: the default calibration tries it only where the budget cut that candidate
-    /// (`docs/accuracy.md`, session 66).
+    /// fit: the default calibration tries it only where the budget cut that candidate.
     pub runout_from_without: bool,
     /// The transmission harmonics under a zero-mean Gaussian prior whose spread the data choose
     /// (marginal likelihood over the harmonics of the fit without it; empirical Bayes): a
@@ -999,10 +998,10 @@ fn joint_error_start(
 /// or the poses barely determine it, and it would not extrapolate): it is held at zero (moved
 /// from `kept` to `fixed`) and the rest solved again, from zero too — not from where the first
 /// solve left them: with backlash flanks the cost has several minima, and the harmonic held at
-/// zero had pulled the rest toward one that extrapolates worse (session 18 tried that start: on
-/// the development twins the same held-out scores, but two rows lower and four higher against
-/// the truth, the joint-1 extrapolation 0.0286 → 0.0543 mm on the paper's arm and 0.0112 →
-/// 0.0144 on ARM7). Returns the solution, the iterations (every solve's) and why the last solve
+/// zero pulls the rest toward one that extrapolates worse (started there, on the development
+/// twins the held-out scores are the same, but two rows lower and four higher against the truth,
+/// the joint-1 extrapolation 0.0286 → 0.0543 mm on the paper's arm and 0.0112 → 0.0144 on ARM7).
+/// Returns the solution, the iterations (every solve's) and why the last solve
 /// stopped.
 fn solve_gated(
     problem: &mut CalibrationProblem<'_>,
@@ -1057,9 +1056,8 @@ fn solve_gated(
         // The fit's residuals and standard deviations, once, for the gate and the prior. Where
         // the data's covariance is singular (at the fit, a backlash whose rows all rest on one
         // flank is its joint's offset), the prior's spread comes from the deviations under a
-        // vanishing ridge ([`null_ridged_standard_deviations`]): until session 48 such a fit
-        // kept no prior at all, and the flank rounds then compared it with fits under the
-        // prior.
+        // vanishing ridge ([`null_ridged_standard_deviations`]): a fit without a prior would
+        // be compared by the flank rounds with fits under one.
         let has_backlash = kept.iter().any(|c| matches!(c, Column::Backlash(_)));
         let fitted = (gate || prior_wanted || has_backlash).then(|| {
             let (r, jac) = problem.residuals_and_jacobian(&solved.0);
@@ -1280,10 +1278,9 @@ type Priors = Vec<(ErrorParam, f64)>;
 /// down to 10⁻⁹ of it), the best point's bracket refined by bisection on the sign of `dL/dτ`.
 /// `L` can have a maximum at zero and one inside, or rise, fall and rise again where a few
 /// estimates are far less certain than the rest; the fixed-point iteration of `Σ w_j² (â_j² − s_j² − τ²) = 0`
-/// (`w_j = 1/(τ² + s_j²)`) used until session 24 started from the estimates' mean square, where
-/// the uncertain ones make the right side negative, jumped to zero and stopped there (ARM5's
-/// joint-1 extrapolation split: five of its first ten fits held at the floor, 0.001°, where the
-/// maximum lay near 0.005°).
+/// (`w_j = 1/(τ² + s_j²)`) started from the estimates' mean square, where the uncertain ones make
+/// the right side negative, jumps to zero and stops there (ARM5's joint-1 extrapolation split:
+/// five of its first ten fits held at the floor, 0.001°, where the maximum lies near 0.005°).
 pub fn prior_spread(estimates: &[(f64, f64)]) -> f64 {
     let log_likelihood = |tau: f64| -> f64 {
         let t2 = tau * tau;
@@ -1689,10 +1686,10 @@ fn identify_anew(
         // take part of a step on a fit that lacks it, and the choice made from what that fit
         // leaves goes wrong (the paper's arm beyond the model); the rounds then choose again
         // with the runouts in the model, and the lowest sum of squares of their fits is kept.
-        // No fit on the approach flanks with the runouts: until session 65 it competed too, and
-        // was the dearest identification of the candidate (a third to two fifths of its time on
-        // the paper's arm, hundreds of iterations from zero) while its sum of squares was never
-        // the lowest on the cases traced (`docs/accuracy.md`, session 65).
+        // No fit on the approach flanks with the runouts: it would be the dearest identification
+        // of the candidate (a third to two fifths of its time on the paper's arm, hundreds of
+        // iterations from zero), and its sum of squares was never the lowest on the cases
+        // traced.
         let chosen_flanks = if je.runout > 0 {
             let mut plain = settings.clone();
             let je_plain = plain.joint_errors.as_mut().expect("joint errors");

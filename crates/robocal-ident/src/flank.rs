@@ -203,8 +203,8 @@ pub(crate) fn choose_flanks(
 /// Row `i`'s joint deflections (rad), what the fit `robot` + `errors` leaves there (measured −
 /// the whole model's point, mm: the point at the deflected angles, turned by the bearings'
 /// tilts and the axis runouts where the fit has them) and the joint Jacobian at the deflected
-/// angles. Until session 51 the turns were left out, and a runout's own displacement was read
-/// as part of a step to explain.
+/// angles. The turns are in it: without them a runout's own displacement would be read as part
+/// of a step to explain.
 fn row_left(
     robot: &Robot,
     errors: &JointErrors,

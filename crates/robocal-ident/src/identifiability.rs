@@ -353,8 +353,8 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// Session 62's analysis, column by column: modified Gram–Schmidt twice, every dot product a
-    /// loop. The identifiable columns and each redundant one's fraction.
+    /// The analysis column by column, as an independent check: modified Gram–Schmidt twice,
+    /// every dot product a loop. The identifiable columns and each redundant one's fraction.
     fn modified_gram_schmidt(
         jac: &Mat<f64>,
         ids: &[Column],

@@ -23,16 +23,16 @@ use std::time::Instant;
 pub const COST_TOLERANCE: f64 = 1e-6;
 
 /// Accepted steps in a row, each gaining less than [`COST_TOLERANCE`], that end the solve: one
-/// alone can be a slow step in a narrow valley that the next one leaves. (Three, until session
-/// 26: the third, one iteration of every solve, 6 % of a default calibration's on ARM7, gained
-/// under 1e-9 of the cost on two thirds of the solves traced there.)
+/// alone can be a slow step in a narrow valley that the next one leaves. (A third, one iteration
+/// of every solve, 6 % of a default calibration's on ARM7, gains under 1e-9 of the cost on two
+/// thirds of the solves traced there.)
 pub const STALLED_STEPS: usize = 2;
 
 /// The damping's divisor after an accepted step (Marquardt's own 10; it is multiplied by 4
 /// after a rejected one). The identifications here are nearly linear least squares started
-/// at zero: with 3, as until session 26, the first steps came out damped long after the model
-/// had proven linear (a fit of the full physical model took 12–14 iterations, 8 of them climbing
-/// down from 1e-3 to 1e-7); with 10 it gets there in 4.
+/// at zero: with 3 the first steps come out damped long after the model has proven linear (a fit
+/// of the full physical model takes 12–14 iterations, 8 of them climbing down from 1e-3 to 1e-7);
+/// with 10 it gets there in 4.
 pub const LAMBDA_DOWN: f64 = 10.0;
 
 /// Settings and running state of the solver.

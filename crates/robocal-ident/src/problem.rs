@@ -514,7 +514,7 @@ impl<'a> CalibrationProblem<'a> {
                         add_deflection_rates(&twists, &rates, &joints, &mut full, row);
                     }
                     // The tilts and the runouts turn the parts beyond their joints, the tool
-                    // frame with them (until session 51 the runouts' turns were left out here).
+                    // frame with them.
                     if !c.has_turns() {
                         rot
                     } else {
@@ -815,12 +815,10 @@ impl<'a> CalibrationProblem<'a> {
     /// to first order ([`Self::first_order_jacobian`]): they leave out the torques' own
     /// dependence on the table (a compliance times a torque's change) and the turns' (tilts',
     /// runouts') dependence on it; the residual is exact, so LM converges to a true optimum.
-    /// [`Self::exact_jacobian`] has those terms; stepping on it was measured in session 45 and
-    /// not taken: on the paper's arm with the runouts its solves converge in tens of
-    /// iterations where these crawl to 200, but the fits land elsewhere, 6 of 24 development
-    /// cases lower and 6 higher (ARM6H by up to 123 %; `docs/accuracy.md`, session 45), and
-    /// without runouts
-    /// it converges no faster (compliance and self-weight on the paper's arm: 33 iterations and
+    /// [`Self::exact_jacobian`] has those terms; stepping on it, on the paper's arm with the
+    /// runouts, the solves converge in tens of iterations where these crawl to 200, but the fits
+    /// land elsewhere (6 of 24 development cases lower and 6 higher, ARM6H by up to 123 %), and
+    /// without runouts it converges no faster (compliance and self-weight on the paper's arm: 33 iterations and
     /// 2.0 s against 26 and 1.2 s, the same cost to four digits).
     pub fn residuals_and_jacobian(&self, u: &[f64]) -> (Vec<f64>, Mat<f64>) {
         self.residuals_and_columns(u, false, 0)

@@ -1564,7 +1564,7 @@ fn elasto_geometric_lm_recovers_injected_backlash() {
 /// zero and says why (at the fit it is the joint's offset, its split with the offset left where
 /// the solver's path put it), every identified parameter keeps its σ, and the held-out
 /// configurations, on the flank the data never showed, are predicted to round-off. (Without
-/// the hold, session 49: the term kept at 0.0083°, the fit 3·10⁻⁵ mm at most, the held-out
+/// the hold: the term kept at 0.0083°, the fit 3·10⁻⁵ mm at most, the held-out
 /// configurations 0.35 mm.)
 #[test]
 fn a_backlash_whose_rows_all_rest_on_one_flank_at_the_fit_is_held_at_zero() {
@@ -1785,7 +1785,7 @@ fn the_torque_flank_is_found_with_the_runouts_asked_for() {
     // The model without the runouts first, its identifications remembered: the runouts' own
     // are then the compliances' first fit (without the backlash), the fit on the flanks the
     // model without them chose and the rounds after it — none on the approach flanks, which
-    // until session 65 came first and was the dearest (5 identifications here, the same fit).
+    // would be the dearest (5 identifications here, the same fit).
     let memo = robocal_ident::FitMemo::default();
     let mut plain = settings.clone();
     plain.joint_errors.as_mut().unwrap().runout = 0;
@@ -2415,8 +2415,8 @@ fn orientation_rows_jacobian_matches_central_differences() {
 /// A 6-DoF probe on an arm whose axes run out (orders 1–2 on joints 1, 3 and 5, turns of
 /// 0.01–0.03°, with its compliances and harmonics): at the model that made the noise-free rows,
 /// every position and every rotation row of the identification problem is zero — the rotation
-/// rows turn the tool frame by the runouts as the model's `rotation` does (until session 51
-/// they took the tilts' turns only, and left the runouts' out).
+/// rows turn the tool frame by the runouts as the model's `rotation` does, not by the tilts'
+/// turns only.
 #[test]
 fn orientation_rows_turn_with_the_runouts() {
     let mut nominal = nominal();
@@ -2605,8 +2605,8 @@ fn the_harmonic_prior_spread_maximises_the_marginal_likelihood() {
 }
 
 /// Where a few estimates are far less certain than the rest, the marginal likelihood's
-/// maximum lies inside while the fixed-point iteration from the estimates' mean square (the
-/// method until session 24) stepped to zero and stopped: the harmonics of one fold of ARM5's
+/// maximum lies inside while the fixed-point iteration from the estimates' mean square steps to
+/// zero and stops: the harmonics of one fold of ARM5's
 /// joint-1 extrapolation split (deg; `(â, s)`), whose maximum a fine search puts at 0.0049°.
 #[test]
 fn the_harmonic_prior_spread_finds_an_inner_maximum_beside_uncertain_estimates() {

@@ -1,4 +1,4 @@
-//! The model directory (`interface.md` section 4): its layout version and every file name.
+//! The model directory (`docs/formats.md`, "Model directory"): its layout version and every file name.
 //!
 //! ```text
 //! MODEL_DIR/

@@ -5,7 +5,7 @@
 //! [`JointErrors`] value) and the residual model learned on what those leave. It predicts the
 //! measured point of a configuration under a load, and it is the only code that reads or
 //! writes a model directory ([`CalibratedModel::save`], [`CalibratedModel::load`]; the layout is
-//! in `interface.md` section 4 and [`dir`]).
+//! in `docs/formats.md` ("Model directory") and [`dir`]).
 //!
 //! A library user loads a model directory written by `robocal calibrate` and predicts:
 //!

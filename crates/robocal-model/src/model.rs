@@ -102,9 +102,8 @@ impl CalibratedModel {
     /// under `load`, mm, world frame: the bearings' tilts ([`robocal_robot::Tilt`]) and the
     /// axis runouts ([`robocal_robot::Runout`]; zero without either) — the physical point less
     /// the table's at the deflected angles, computed without evaluating the table there twice.
-    /// (Until session 51 the runouts were left out, and commands compensated through a model
-    /// with them missed their targets by what the runouts move the point: `docs/accuracy.md`,
-    /// "Compensation".)
+    /// Without the runouts here, commands compensated through a model with them would miss their
+    /// targets by what the runouts move the point.
     pub fn turn_offset(&self, q: &[f64], load: f64) -> Vector3<f64> {
         match &self.joint_errors {
             Some(e) if e.has_turns() => {

@@ -1,7 +1,6 @@
 //! robocal's accuracy suite (`just accuracy`): the default calibration, and each stage alone, on
 //! twins of several arms (by default the development families: the paper's arm, ARM7, ARM5,
-//! since session 41 ARM5W, ARM5 on a wall, and since session 42 ARM5T, ARM5 on a pedestal
-//! inclined 45°), several seeds, with the twins' effects all on or only those the physical model
+//! ARM5W, ARM5 on a wall, and ARM5T, ARM5 on a pedestal inclined 45°), several seeds, with the twins' effects all on or only those the physical model
 //! family holds, on a split of configurations and on an extrapolation split. Errors are measured
 //! against the twins' noise-free points on poses never trained on; the noise floor is the
 //! measured points' own distance from those.
@@ -19,10 +18,8 @@
 //! runout, a third gear harmonic, a coupled wrist; [`beyond`]), where only a learned residual
 //! model can take what the physics leaves.
 //!
-//! Every twin is a twin's; none of these numbers is a real robot's. The ARM6S, ARM6H and ARM6C
-//! families are kept aside: they run only with `--aside` (or `--arms`), never while tuning. ARM6S
-//! was reported once (it then counted as seen); ARM6H was made after that, for the next report;
-//! ARM6C after ARM6H had been reported.
+//! Every twin is a twin's; none of these numbers is a real robot's. The families of [`ASIDE`]
+//! are kept aside: they run only with `--aside` (or `--arms`), never while tuning.
 //! `--networks` prints the residual models side by side on the identified physics instead
 //! (SOMM with the paper's and robocal's settings, robocal's CA-SOMM, the GP); with
 //! `--physics full`, on the default's fullest physical candidate (backlash and the links'
@@ -66,12 +63,7 @@ const ARMS: [(&str, &str); 14] = [
     ("arm6w", "configs/twin/arm6w.toml"),
     ("arm6t", "configs/twin/arm6t.toml"),
 ];
-/// Families kept aside: never run while tuning (ARM6S was reported once, then ARM6H made; ARM6H
-/// reported in session 7, then ARM6C made in session 10, first run in session 11; ARM6M made in
-/// session 12 once ARM6C had been seen, run once; ARM6N made then; ARM6U made in session 13
-/// once all five had been seen; ARM6K, ceiling-mounted, made in session 14 once ARM6U had been
-/// seen; ARM6W, wall-mounted, made in session 15 once ARM6K had been seen; ARM6T, on an
-/// inclined pedestal, made at the end of session 15 once ARM6W had been seen, for the next change).
+/// Families kept aside: never run while tuning, only to report a change once it is decided.
 const ASIDE: [&str; 9] = [
     "arm6s", "arm6h", "arm6c", "arm6m", "arm6n", "arm6u", "arm6k", "arm6w", "arm6t",
 ];
@@ -170,7 +162,7 @@ impl Effects {
 ///
 /// `scale` multiplies every one of them (the tilts' compliance, the runout, the third harmonic,
 /// the coupled error): `--beyond-scale K`, for arms where what the physics lacks is most of what
-/// the kinematic table leaves (as on issue 15's real arms, where a network on the joints halved it).
+/// the kinematic table leaves (as on real arms where a network on the joints halves it).
 fn beyond(twin: &TwinConfig, seed: u64, scale: f64) -> robocal_twin::Beyond {
     let n = twin.truth.dof();
     let mut rng = ChaCha8Rng::seed_from_u64(twin.seed ^ seed.wrapping_mul(0xBE70));
@@ -287,7 +279,7 @@ fn versus_truth(
     ErrorStats::from_errors(&errors)
 }
 
-/// The default calibration as it was before the cross-validated one (robocal 0.1, session 5):
+/// robocal 0.1's default calibration, the baseline of the suite's "robocal 0.1" column:
 /// stages tried in order — kinematic, compliance (two or more loads), SOMM with the paper's
 /// settings (40 or more configurations) — on one seeded 20 % hold-out of configurations, each
 /// kept if it lowers the held-out mean, the kept ones fitted again on every row.
@@ -541,8 +533,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     // self-weight; 3: the default's fullest candidate (compliance held
                     // plausible, harmonics 2, the links' weights and the payload's centre of
                     // mass, backlash on either flank). Every one with the compliances finds an
-                    // arm on a wall or a ceiling as the default does (until session 41 columns
-                    // 1 and 2 took the base's −z for gravity there).
+                    // arm on a wall or a ceiling as the default does.
                     let stage = |physics: u8, residual: Option<ResidualSettings>| Stages {
                         kinematic: KinematicSettings {
                             compliance: match physics {

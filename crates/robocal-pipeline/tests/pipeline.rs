@@ -699,7 +699,7 @@ fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_m
 /// regression's boundary (pulled toward the rows' middle torque) gains nothing on the folds and
 /// the block is dropped; the searched backlash lowers the held-out score by a third, is kept,
 /// and the model holds joint 2's play on a torque flank (as ARM6H's joint 2, whose flank turns
-/// at its lightest loads, docs/accuracy.md session 39). Not asked, the default tries no such
+/// at its lightest loads). Not asked, the default tries no such
 /// candidate and keeps no backlash. Fails with the search tried only on a physics that holds
 /// backlash already.
 #[test]
@@ -1179,9 +1179,7 @@ fn a_stage_after_the_search_for_bad_shots_takes_its_last_fit() {
 /// The search for bad shots fits least squares by Levenberg–Marquardt whatever loss and solver
 /// the stage asks for (its threshold is in robust standard deviations of a least-squares fit's
 /// errors): a Huber stage's search, and a BFGS stage's (the paper's, on the mean distance), find
-/// what a least-squares stage's does, with the same spread to the bit (until session 57 the
-/// search fitted a stage's Huber loss, until session 58 its BFGS, and the spread came out
-/// otherwise).
+/// what a least-squares stage's does, with the same spread to the bit.
 #[test]
 fn the_search_for_bad_shots_is_least_squares_under_a_huber_or_bfgs_stage() {
     use robocal_ident::{ComplianceSettings, Loss, SolverKind};

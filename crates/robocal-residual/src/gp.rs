@@ -767,7 +767,7 @@ mod tests {
 
     /// The gradient's sums, taken lane by lane over the features, and the kernel matrix's lower
     /// triangle alone give the NLL and gradient of the full symmetric matrix and one loop over
-    /// the pairs (as until session 58), to the bit: 60 rows of 13 features (the periodic
+    /// the pairs, to the bit: 60 rows of 13 features (the periodic
     /// encoding's count for six joints and a load), a hyper-parameter per feature.
     #[test]
     fn the_gradient_is_the_one_loop_over_pairs_to_the_bit() {

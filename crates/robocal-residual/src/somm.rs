@@ -12,7 +12,7 @@ use crate::samples::Samples;
 ///
 /// Networks trained from different seeds err differently where the data leave them free: on
 /// the development twins five members erred less than one network of five seeds, on average,
-/// on 22 of 24 cases (`docs/accuracy.md`, session 31).
+/// on 22 of 24 cases (`just network-seeds`).
 #[derive(Debug, Clone)]
 pub struct Somm {
     /// Each member's X, Y and Z networks (at least one).

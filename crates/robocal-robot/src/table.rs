@@ -203,7 +203,7 @@ fn check_finite(path: &Path, key: String, values: &[f64]) -> Result<()> {
 }
 
 impl Robot {
-    /// Reads and validates a robot file (interface.md section 1).
+    /// Reads and validates a robot file (`docs/formats.md`, "Robot table").
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
@@ -349,7 +349,7 @@ pub fn file_value(v: f64, write: impl Fn(f64) -> f64, read: impl Fn(f64) -> f64)
 }
 
 impl Robot {
-    /// The table in the TOML schema of interface.md section 1 (mm, degrees; angles as the
+    /// The table in the TOML schema of `docs/formats.md` ("Robot table") (mm, degrees; angles as the
     /// shortest decimals that read back exactly, see [`degrees`]).
     pub fn to_toml_string(&self) -> String {
         let raw = RobotTable {

@@ -2,8 +2,8 @@
 //!
 //! By the clock (the default) every decision of the budget — a candidate skipped before its
 //! folds, abandoned during them, a fold's fit stopped — reads the time the selection has taken,
-//! so where the budget binds a seed's model depends on the machine's pace (`docs/accuracy.md`,
-//! session 64: one case, three runs, two models). By counted work (`reproducible`) the same
+//! so where the budget binds a seed's model depends on the machine's pace (one case of the paper's
+//! arm, three runs: two models). By counted work (`reproducible`) the same
 //! decisions read what the fits and trainings have counted, turned into the seconds a reference
 //! machine of [`REFERENCE_CORES`] cores takes for it: the same on every machine and any number of
 //! cores, so a seed gives one model. The clock stays as a guard: no fit runs past the budget
@@ -17,33 +17,31 @@ use std::time::{Duration, Instant};
 use robocal_data::Observer;
 use robocal_residual::{ResidualKind, ResidualStage};
 
-/// The cores of the machine the counted budget is sized for (issue 15's: 120 s for 1000 rows on
-/// 2 cores): counted work turns into its seconds at this many cores' worth per second.
+/// The cores of the machine the counted budget is sized for (120 s for 1000 rows on 2 cores): counted work turns into its seconds at this many cores' worth per second.
 pub const REFERENCE_CORES: usize = 2;
 
 /// Identification work ([`robocal_ident::Work`]: each evaluation's residuals and each Jacobian's
 /// entries) one core of the reference machine does in a second. Measured on this project's
-/// 2-core machine (session 64, every fold fit of two cases, the paper's arm and ARM7 with a
+/// 2-core machine (every fold fit of two cases, the paper's arm and ARM7 with a
 /// field): 13–21 M units/s for the compliances alone, 21–39 M/s for the candidates that spend the
 /// budget (the joint-error blocks, the runouts the fastest per unit). The lower end of those, so
 /// that the counted seconds run ahead of the clock's there and the clock's guard stays idle.
-/// Timed one core at a time (session 65, 24 candidates on three arms), the seconds counted at this
+/// Timed one core at a time (24 candidates on three arms), the seconds counted at this
 /// rate are 0.45–1.73× a fit's own: the count leaves out the work outside the solves and weighs a
-/// residual row far below its cost; a finer count fitted to those candidates was not taken
-/// (`docs/accuracy.md`).
+/// residual row far below its cost.
 pub const FIT_UNITS_PER_SECOND: f64 = 21e6;
 
 /// A Gaussian process's training work ([`training_seconds`]: its likelihood evaluations × the
 /// rows they are fitted on, cubed, and a third of the rows it conditions on, cubed) that the
 /// reference machine does in a second of a training beside another fold's (its three axes'
-/// fits together). Measured (session 64, every fold of three cases with a field, 80 evaluations):
+/// fits together). Measured (every fold of three cases with a field, 80 evaluations):
 /// 2.5e9 on ARM7 (486 rows), 2.7e9 on ARM5 (288), 3.4e9 on the paper's arm (2100 rows, 500 in
 /// the likelihood); the paper's arm's, where the budget binds, counted a little ahead of its clock.
 pub const GP_UNITS_PER_SECOND: f64 = 3.0e9;
 
 /// A network's training work, epochs × rows × inputs (every network of the model together),
 /// that the reference machine does in a second of a training beside another fold's. Measured
-/// (session 64, SOMM, the same cases): 1.16e6 on the paper's arm, 1.22e6 on ARM7, 1.24e6 on
+/// (SOMM, the same cases): 1.16e6 on the paper's arm, 1.22e6 on ARM7, 1.24e6 on
 /// ARM5.
 pub const NETWORK_UNITS_PER_SECOND: f64 = 1.15e6;
 

@@ -35,7 +35,7 @@ pub struct OutlierSettings {
 
 /// The default threshold, in robust standard deviations: no clean row of robocal's twins came
 /// near it (their largest about 7 of them: 7.1 under `accuracy --outliers`, 7.0 on the
-/// development families' 36 cases of session 38), while a 2 mm bad shot on a 0.1 mm calibration
+/// development families' 36 cases), while a 2 mm bad shot on a 0.1 mm calibration
 /// is 20 of them and more (not on the paper's arm, whose compliance fit leaves 0.16–0.24 mm:
 /// there the refined search, [`REFINED_SHARE`]).
 pub const OUTLIER_THRESHOLD: f64 = 12.0;
@@ -47,11 +47,11 @@ pub const OUTLIER_THRESHOLD: f64 = 12.0;
 /// physics with the transmission harmonics the same shots lie 13–21 robust standard deviations
 /// out, and no clean row of the development families beyond 10.8 — but a richer physics has
 /// failures of its own that leave a clean row far out (a backlash flank taken wrongly, or one
-/// it does not hold: [`SINGLE_JOINT_SHARE`]), so a row must be far out under both. Session 38:
+/// it does not hold: [`SINGLE_JOINT_SHARE`]), so a row must be far out under both. Measured:
 /// no clean row of the 144 cases of the accuracy suite (every family, seeds 0 and 1, all three
 /// effect sets, both splits) flagged; of shots of 2 mm in random directions on the paper's arm
-/// (four cases, 48 shots) 9 found before, 43 now; of 1.5 mm, none before, 22 now
-/// (`docs/accuracy.md`, session 38).
+/// (four cases, 48 shots) 43 found, 9 by the threshold alone; of 1.5 mm, 22, none by the
+/// threshold alone (`accuracy --outliers`).
 pub const REFINED_SHARE: f64 = 0.5;
 
 /// Share of a row's error under the refined physics (its square) that one joint's motion may
@@ -59,7 +59,7 @@ pub const REFINED_SHARE: f64 = 0.5;
 /// (`past_a_flip`): an error along a single joint's motion at a configuration's lightest or
 /// heaviest loads may be that joint's play, on the flank its torque presses, which the refined
 /// physics does not hold (ARM6H: 14 clean rows of 12 cases at the lightest loads, 0.96–1.00 of
-/// their errors along joint 2's motion, session 38); a reflector mis-seated moves the point in
+/// their errors along joint 2's motion); a reflector mis-seated moves the point in
 /// any direction, at any load.
 pub const SINGLE_JOINT_SHARE: f64 = 0.95;
 
@@ -139,9 +139,8 @@ pub struct OutlierReport {
 /// `settings` ask for: the threshold is in robust standard deviations of a least-squares fit's
 /// errors (a Huber fit, or BFGS on the mean distance, hugs the bulk closer, and the same rows
 /// then sit further out: the error components' robust spread 2–12 % smaller under the BFGS stage
-/// on eight development cases, session 58); the refits without the flagged rows keep the shots
-/// from pulling it. (Until session 57 a stage config's Huber loss was kept here, until session
-/// 58 its BFGS.)
+/// on eight development cases); the refits without the flagged rows keep the shots from pulling
+/// it.
 fn search_physics(settings: &KinematicSettings, rows: &[&Measurement]) -> KinematicSettings {
     let mut s = KinematicSettings {
         solver: SolverKind::Lm,

@@ -113,8 +113,7 @@ pub struct AutoSettings {
     /// Seed of the folds (and of the residual models).
     pub seed: u64,
     /// Fewest configurations (in the data, or in each fold's training part) for which a
-    /// residual model is tried (default 10: above it the paired test decides; 40 until session
-    /// 27 kept small data sets from trying them at all, `docs/accuracy.md`).
+    /// residual model is tried (default 10: above it the paired test decides).
     pub min_residual_configurations: usize,
     /// Transmission harmonics up to this order tried with the geometry (0: not tried).
     pub harmonics: u32,
@@ -127,18 +126,18 @@ pub struct AutoSettings {
     /// parts beyond each joint turning across its axis under the gravity moment of the payload
     /// and of the links' weights (when identified). Off by default: on the development twins
     /// the candidate was never kept, and on the paper's arm its folds took the time the GP
-    /// needed (`docs/accuracy.md`, session 20); measured again in session 40, one case beyond
-    /// the model 12 % higher (ARM6H, joint-1 extrapolation).
+    /// needed; and one case beyond the model came out 12 % higher (ARM6H, joint-1
+    /// extrapolation).
     pub tilt: bool,
     /// Axis runouts of orders 1 up to this one (every joint, about both axes across it; 0: not
     /// tried), tried on the physics the joint-error blocks reached, before the flank search and
     /// the tilts: the parts beyond each joint turning across its axis periodically in its angle.
-    /// Default 2 (since session 44): orders 1 and 2, under the prior of their own spread, on
+    /// Default 2: orders 1 and 2, under the prior of their own spread, on
     /// the 72 development cases lowered the 18 the folds kept them on by 2–69 % (the rest
     /// identical); with the effects beyond the model four times as large, 15 of 16 lower by
     /// 13–58 %, one higher: ARM5W seed 0's joint-1 extrapolation, +9 %, where the harmonic
-    /// reach then continued joint 1's harmonics (`docs/accuracy.md`, session 44). Order 1
-    /// alone had stayed opt-in (that case +32 %). 0 switches them off.
+    /// reach then continued joint 1's harmonics. Order 1 alone: that case +32 %. 0 switches
+    /// them off.
     pub runout: u32,
     /// Backlash with its flanks searched also tried where the physics the chain chose holds no
     /// backlash (the block with the regression's flanks was not kept): for a joint whose play
@@ -146,12 +145,12 @@ pub struct AutoSettings {
     /// configuration's lightest or heaviest loads only), where the regression's flanks miss and
     /// the block gains nothing. Off by default: on the development twins it lowered ARM6H's
     /// error with every effect by 16–68 % and raised one case beyond the model by 7 %
-    /// (`docs/accuracy.md`, session 39). With backlash chosen the search is tried either way.
+    /// (`just accuracy`). With backlash chosen the search is tried either way.
     pub flank_search: bool,
     /// The residual models tried, each on top of the best physical model. By default a GP and
-    /// robocal's networks, both in the frame turning with joint 1 (`Frame::Joint1`; the world
-    /// frame until session 40: on the 48 development cases 15 lower, by up to 21 %, one higher
-    /// by 4 %, the rest identical; `docs/accuracy.md`).
+    /// robocal's networks, both in the frame turning with joint 1 (`Frame::Joint1`: against the
+    /// world frame, on the 48 development cases 15 lower, by up to 21 %, one higher by 4 %, the
+    /// rest identical).
     pub residuals: Vec<ResidualStage>,
     /// Where joint 1's axis lies more than [`JOINT1_GRAVITY_ANGLE_DEG`] from the line of gravity
     /// (an arm on a wall or an inclined pedestal), each residual model of `residuals` in the
@@ -186,13 +185,13 @@ pub const DEFAULT_FOLDS: usize = 5;
 /// The share of the slowest physical candidate's seconds (every fold) set aside for the final
 /// fit of the physics on every row when the residual models are given the rest of the budget.
 /// The candidate's ten fits ran two at a time; the final fit, on a quarter more rows, runs its
-/// rows on both cores: about 0.13 of the candidate's seconds (the paper's arm, session 23), 0.25
-/// when it ran on one core (the share was 0.4 then).
+/// rows on both cores: about 0.13 of the candidate's seconds (the paper's arm), 0.25 when it runs
+/// on one core.
 const FINAL_FIT_SHARE: f64 = 0.2;
 
 /// The share of the time budget the axis runouts' candidate leaves to the residual models: one
 /// GP's folds and final fit on the paper's arm (about 900 rows) take 16–20 s of the 120; the
-/// runouts, started late, took the rest (44 s) and left none (session 61).
+/// runouts, started late, could take the rest (44 s) and leave none.
 const RESIDUAL_SHARE: f64 = 0.25;
 
 /// The seconds of the budget the axis runouts' candidate leaves to the residual models
@@ -535,7 +534,7 @@ fn counted_folds(
 /// seconds kept from this candidate for the residual models, which its status then names. Its
 /// start was projected from the candidates before it ([`physics_chain`]); one that unites more
 /// blocks than any before can take twice that, and one with many more unknowns far more (the
-/// axis runouts on the paper's arm: 22–46 s of folds spent before the pace said so, session 46).
+/// axis runouts on the paper's arm: 22–46 s of folds spent before the pace says so).
 #[allow(clippy::too_many_arguments)]
 fn score_physics(
     physics: Physics,
@@ -667,7 +666,7 @@ fn score_physics(
 /// readings' span beyond them; the model is continued as far as it is used: a harmonic that
 /// only just beats holding that near is too uncertain to carry farther (on the development
 /// twins, gains of 2–15 % there came with losses of 2–9 % a quarter to two fifths of the span
-/// beyond; `docs/accuracy.md`, session 34).
+/// beyond).
 pub const REACH_GAIN: f64 = 0.2;
 
 /// How far joint 1's transmission harmonics (and its runouts' waves, which are held and continued
@@ -907,7 +906,7 @@ impl Chain {
 /// [`SEARCH_FLANK_ROUNDS`] times where that candidate chose them [`FLANK_ROUNDS`] times: projected
 /// from that candidate where it was scored, × their ratio (a slower one before it — the axis
 /// runouts the chain dropped — holds terms the search does not fit: on ARM7 it took 38 s against
-/// 2.6 s, and the search was skipped until session 52), from the slowest elsewhere.
+/// 2.6 s), from the slowest elsewhere.
 fn projection(physics: Physics, candidates: &[Candidate]) -> (&'static str, f64, f64) {
     let rounds = if physics.flank_search {
         SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
@@ -1111,9 +1110,8 @@ fn physics_chain(
         chain.step("runout", score(wobbling, residual_share), groups);
         // Where the budget cut the runouts' fits (skipped, or abandoned during their folds), the
         // cheaper fit that starts them from the model without them, whose first fit and flanks
-        // the candidates before made (a third of the work on the paper's arm: session 66, where
-        // its twin beyond the model had the runouts cut in session 65 and lost 0.137 − 0.026 mm
-        // for it). Other fits than the full one, so tried only where that one has no score; and
+        // the candidates before made (a third of the work on the paper's arm, whose twin beyond
+        // the model, at 75 s, goes from 0.101 to 0.022 mm on its joint-1 extrapolation with it). Other fits than the full one, so tried only where that one has no score; and
         // only where the compliances' first fit would hold the runouts (elsewhere the two are
         // the same fits).
         let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
@@ -1179,8 +1177,7 @@ struct ResidualScore {
 /// holds more than the identified table, the lowest-scoring of those significantly better than
 /// it again on the identified table alone, in each frame: a large error of no physical form can
 /// bend the physics' terms (a backlash step, a harmonic) into shapes a residual model must then
-/// undo, where on the table alone it learns the error and the physics' effects together
-/// (`docs/accuracy.md`, session 60).
+/// undo, where on the table alone it learns the error and the physics' effects together.
 #[allow(clippy::too_many_arguments)]
 fn residual_candidates(
     settings: &AutoSettings,
@@ -1221,7 +1218,7 @@ fn residual_candidates(
     )?;
     // Only where a residual model beat the chain's physics significantly: the data then hold
     // an error the physics misses (where none did, a model on the table alone, which must learn
-    // the physics' effects too, has never won: session 60's suite).
+    // the physics' effects too, has never won on the accuracy suite).
     let best = (scored.iter())
         .filter(|(_, s)| s.significant)
         .filter_map(|(_, s)| s.score.map(|m| (s, m)))
@@ -1428,10 +1425,8 @@ fn score_residual(
 
 /// The residual model the default keeps, with its score: of those whose held-out errors are
 /// significantly lower than the physical model's (and whose score is lower), the one with the
-/// lowest score. Until session 35 the lowest score was taken first and the paired test asked of
-/// it alone, so a lowest-scoring network that failed the test left no residual model where the
-/// GP had passed it. (Preferring the GP unless a network beat it significantly was measured in
-/// session 35 and not kept: one row of the families kept aside 9 % higher, `docs/accuracy.md`.)
+/// lowest score: the test is asked of each, so a lowest-scoring network that fails it does not
+/// keep out a GP that passed.
 fn pick_residual(residuals: &[ResidualScore], physics_mean: f64) -> Option<(usize, f64)> {
     (residuals.iter().enumerate())
         .filter(|(_, s)| s.significant)
@@ -2011,8 +2006,7 @@ fn leaving(reserve: f64) -> String {
 /// them: the model chosen is the best of those scored, and a larger budget scores the rest. On
 /// the paper's twin beyond the model (2646 rows) the default 120 s leaves the axis runouts
 /// unscored, and with them scored the error on poses past the trained joint-1 range falls from
-/// 0.14 and 0.11 to 0.03 and 0.05 mm on two seeds (`docs/accuracy.md`, session 50): a user who
-/// can wait should know.
+/// 0.14 and 0.11 to 0.03 and 0.05 mm on two seeds: a user who can wait should know.
 fn budget_warning(candidates: &[Candidate], budget_seconds: f64) -> Option<String> {
     let words = the_budget(budget_seconds);
     let cut: Vec<&str> = (candidates.iter())

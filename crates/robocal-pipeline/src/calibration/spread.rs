@@ -5,7 +5,7 @@
 //! pose, under its own kernel; it knows nothing of the physics' uncertainty beneath it, and a
 //! kernel fitted by marginal likelihood is often too sure of itself. On the accuracy suite's
 //! development twins the raw deviation was 1.8–3× smaller than the error left on the test
-//! poses (`docs/accuracy.md`, session 29). The folds hold the independent check: on each
+//! poses. The folds hold the independent check: on each
 //! held-out row the error from the measured point `e = y − ŷ` is the tracker's noise plus the
 //! model's own error, so with `σᵢ` the fold model's deviation there (root sum of the axes'
 //! variances) and the error taken as isotropic,
@@ -176,7 +176,7 @@ pub fn calibrate(pairs: &[(f64, f64)]) -> Option<SpreadCalibration> {
 /// network leaves. On the held-out rows `eᵢ ~ N(0, (ν + σᵢ²)/3 · I₃)`, `σᵢ` the fold's physical
 /// deviation, and the `ν` that makes them most likely is that spread (the factor on `σ` held at
 /// 1: the physics' deviation is its own, and a factor fitted beside `ν` brought it farther from
-/// the truth on ten of twelve development cases, session 30). `ν` holds the tracker's noise too,
+/// the truth on ten of twelve development cases). `ν` holds the tracker's noise too,
 /// which the held-out rows cannot tell from the network's error: the deviation is the measured
 /// point's, on the cautious side by that noise.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
