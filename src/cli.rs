@@ -45,55 +45,34 @@ pub enum Command {
         /// Stage config (TOML), e.g. configs/stages/kinematic-bfgs.toml.
         #[arg(long, value_name = "STAGE_TOML")]
         config: Option<PathBuf>,
-        /// Write the model even when the data do not fit the robot file (positions in inches
-        /// or metres, angles in radians, swapped joint columns: refused without it).
+        /// Write the model even when the data do not fit the robot file (units, joint order).
         #[arg(long)]
         force: bool,
-        /// Keep the bad shots found in the fit (they are still named on stderr and in
-        /// report.json).
+        /// Keep the bad shots found (still named on stderr and in report.json).
         #[arg(long)]
         keep_outliers: bool,
-        /// Also write the pictures of the calibration on the training data into DIR (as
-        /// `robocal report` does; the fit, not the accuracy on new poses).
+        /// Also write `robocal report`'s pictures of the fit on the training rows into DIR.
         #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
-        /// Weight of a 6-DoF probe's orientation residuals (rows with rx, ry, rz), mm per
-        /// degree; default: a stage config's `[kinematic] angle_weight`, else noise_mm /
-        /// noise_deg (0.02 / 0.01 = 2).
+        /// Weight of a 6-DoF probe's orientation rows, mm per degree [default: 2].
         #[arg(long, value_name = "MM_PER_DEG")]
         angle_weight: Option<f64>,
-        /// Time budget of the default calibration (no `--config`), s: candidates whose folds
-        /// would run past it are skipped or abandoned and named in report.json [default: 120]
+        /// Time budget of the default calibration, s [default: 120].
         #[arg(long, value_name = "SECONDS")]
         budget: Option<f64>,
-        /// Keep the default calibration's budget (no `--config`) by counted work instead of
-        /// the clock: the same model for the same data and seed on every machine at least as
-        /// fast as the reference (2 cores, this project's), where the budget cuts the search;
-        /// the clock still ends it at the budget
+        /// Keep the budget by counted work instead of the clock: the same model on any machine.
         #[arg(long)]
         reproducible: bool,
-        /// The default calibration (no `--config`) also tries the bearings' tilt under the
-        /// gravity moment (a tilting compliance per joint), last, on the physics it chose;
-        /// kept only where it lowers the held-out error
+        /// Also try the bearings' tilt under the gravity moment (kept where it pays).
         #[arg(long)]
         tilt: bool,
-        /// The default calibration (no `--config`) also tries backlash with its flanks searched
-        /// where the physics it chose holds none: for a joint whose play rests on the flank its
-        /// torque presses and turns at a configuration's lightest or heaviest loads only; kept
-        /// only where it lowers the held-out error
+        /// Also try backlash with searched torque flanks where the chosen physics has none.
         #[arg(long)]
         flank_search: bool,
-        /// The highest order of the axis runouts the default calibration (no `--config`) tries
-        /// on the physics the joint-error blocks reached (the parts beyond each joint turning
-        /// across its axis periodically in its angle; four coefficients per joint and order);
-        /// kept only where it lowers the held-out error [default: 2; 0: not tried]
+        /// Highest order of the axis runouts tried [default: 2; 0: none].
         #[arg(long, value_name = "ORDERS")]
         runout: Option<u32>,
-        /// The frame the default calibration's (no `--config`) residual models learn in:
-        /// `joint1` (turning with joint 1 about its axis: an error that turns with the arm is
-        /// carried to joint-1 angles never measured) or `world` (the tracker's X, Y, Z). Without
-        /// it: `joint1`, and both, the held-out poses choosing, where joint 1 lies more than 10°
-        /// off the line of gravity (a wall, an inclined pedestal); naming one tries only it
+        /// Frame the residual models learn in: `joint1` or `world` [default: chosen by the folds].
         #[arg(long, value_name = "FRAME")]
         residual_frame: Option<String>,
     },
@@ -108,10 +87,7 @@ pub enum Command {
         /// Output CSV: pose, load, x, y, z (and sigma).
         #[arg(long, value_name = "CSV")]
         out: PathBuf,
-        /// Add a column `sigma`: each point's standard deviation, mm (a model with a
-        /// Gaussian-process residual: the GP's, with what holding a harmonic beyond its reach
-        /// may miss; a network residual: the physics' deviation with the spread its folds
-        /// found beside it; a physical model: its identified parameters').
+        /// Add a column `sigma`: each point's standard deviation, mm.
         #[arg(long)]
         sigma: bool,
     },
@@ -123,8 +99,7 @@ pub enum Command {
         /// Measurement CSV: pose, q1..qN, load, x, y, z.
         #[arg(long, value_name = "CSV")]
         data: PathBuf,
-        /// Also write every row's error: pose, line, load, dx, dy, dz (measured − predicted),
-        /// error (mm).
+        /// Also write every row's error (measured − predicted, mm) to this CSV.
         #[arg(long, value_name = "CSV")]
         per_pose: Option<PathBuf>,
         /// Print one JSON object with keys count, mean, std, rms, max.
@@ -143,13 +118,10 @@ pub enum Command {
         /// Output CSV: id, q1..qN (deg), targets that failed left out (and named on stderr).
         #[arg(long, value_name = "CSV")]
         out: PathBuf,
-        /// Frame of the targets: `world` (the tracker's, as measured), `base` (the robot base
-        /// frame {0} of the calibrated model), or a user-frame file (TOML: `xyz` mm and `rpy`
-        /// deg of the user frame in {0}, as a robot controller's user frame).
+        /// Frame of the targets: `world` (the tracker's), `base`, or a user-frame TOML file.
         #[arg(long, value_name = "world|base|FILE", default_value = "world")]
         frame: String,
-        /// The point to put on the targets, in the flange frame, mm (a production tool instead
-        /// of the reflector the model was measured with), e.g. `--tool 0,0,250`.
+        /// The point to put on the targets, flange frame, mm (e.g. `--tool 0,0,250`).
         #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
         tool: Option<String>,
     },
@@ -161,14 +133,11 @@ pub enum Command {
         /// Output directory (replaced atomically).
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
-        /// Measure these poses (`pose,q1..qN,load`, e.g. from `robocal plan`) instead of the
-        /// twin's own pose design.
+        /// Measure these poses (`pose,q1..qN,load`, e.g. from `robocal plan`).
         #[arg(long, value_name = "POSES_CSV")]
         poses: Option<PathBuf>,
     },
-    /// Export a calibrated model's kinematic table: a URDF (checked by reading it back and
-    /// comparing its forward kinematics with the model's) or a plain JSON MDH/β table with
-    /// standard deviations; says what the table cannot carry.
+    /// Export the calibrated kinematic table as URDF or JSON (with standard deviations).
     Export {
         /// Model directory written by `calibrate`.
         #[arg(long, value_name = "MODEL_DIR")]
@@ -179,15 +148,11 @@ pub enum Command {
         /// Output file (replaced atomically).
         #[arg(long, value_name = "FILE")]
         out: PathBuf,
-        /// Measurements (e.g. the training file) on which to state the error the table alone
-        /// leaves beside the whole model's.
+        /// Measurements on which to state the error the table alone leaves.
         #[arg(long, value_name = "CSV")]
         data: Option<PathBuf>,
     },
-    /// The pictures of a calibration on measurements: error histograms before and after, error
-    /// per pose, signed error per axis against every joint angle, error against load and over
-    /// the workspace (PNG and SVG), report.md, a self-contained report.html and
-    /// statistics.json.
+    /// Figures and tables of a calibrated model on measurements (report.html, PNG, SVG).
     Report {
         /// Model directory written by `calibrate`.
         #[arg(long, value_name = "MODEL_DIR")]
@@ -199,17 +164,12 @@ pub enum Command {
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
     },
-    /// Choose the configurations to measure (D-optimal for the parameters calibrate will
-    /// identify) and say what accuracy they buy: writes POSES_CSV (`pose,q1..qN,load`) and
-    /// plan.json beside it, prints the observability indices, every parameter's predicted
-    /// standard deviation and the predicted position error, against random sets of the same
-    /// size.
+    /// Choose the configurations to measure (I-optimal by default) and predict their error.
     Plan {
         /// Robot file (TOML) with joint limits.
         #[arg(long, value_name = "ROBOT_TOML")]
         robot: PathBuf,
-        /// Configurations to choose; a comma list (`20,40,80`) prints the predicted-error
-        /// curve and writes the largest set.
+        /// Configurations to choose; a comma list (`20,40,80`) prints the curve.
         #[arg(long, value_name = "K", value_delimiter = ',', required = true)]
         count: Vec<usize>,
         /// Output pose file (replaced atomically).
@@ -218,8 +178,7 @@ pub enum Command {
         /// Plan settings (TOML): seed, loads, workspace, noise_mm, pool, check, model.
         #[arg(long, value_name = "PLAN_TOML")]
         config: Option<PathBuf>,
-        /// Candidate configurations (`pose,q1..qN,load`; x, y, z ignored) instead of random
-        /// ones within the joint limits.
+        /// Candidate configurations (`pose,q1..qN,load`) instead of random ones.
         #[arg(long, value_name = "CSV")]
         candidates: Option<PathBuf>,
     },

@@ -8,7 +8,9 @@ use std::path::Path;
 
 use anyhow::Result;
 use robocal_data::{Measurement, MeasurementSet};
-use robocal_pipeline::calibration::{Calibration, CalibrationInput, Checks, calibrate};
+use robocal_pipeline::calibration::{
+    Calibration, CalibrationInput, CalibrationReport, Checks, calibrate,
+};
 use robocal_pipeline::{DataRole, Stages, write_data_report};
 use robocal_robot::Robot;
 
@@ -38,6 +40,7 @@ pub fn run(
     runout: Option<u32>,
     residual_frame: Option<&str>,
 ) -> Result<()> {
+    let started = std::time::Instant::now();
     let residual_frame = residual_frame
         .map(|f| {
             robocal_residual::Frame::parse(f).map_err(|e| anyhow::anyhow!("--residual-frame: {e}"))
@@ -324,7 +327,76 @@ pub fn run(
         ),
     };
     eprintln!("robocal: model written to {}; {held_out}", out.display());
+    print!("{}", summary(out, &report, started.elapsed().as_secs_f64()));
     Ok(())
+}
+
+/// Condition number of the identified parameters' scaled Jacobian above which the summary warns:
+/// a well-spread pose set on a six-axis arm with base and tool gives about a thousand.
+const CONDITION_WARNING: f64 = 1e4;
+
+/// The summary `calibrate` ends with on stdout: the model chosen, its held-out error, the time,
+/// where the files are, and the warnings that matter most — a high condition number, and
+/// parameters whose standard deviation exceeds their change from the nominal table (the data do
+/// not say which way they moved).
+fn summary(out: &Path, report: &CalibrationReport, seconds: f64) -> String {
+    let k = &report.kinematic;
+    let mut lines = vec!["calibration summary".to_string()];
+    let (model, score) = match &report.selection {
+        Some(s) => match s.candidates.iter().find(|c| c.status == "chosen") {
+            Some(c) => (c.name.clone(), c.score.map(|v| (v, s.held_out.clone()))),
+            None => ("(none chosen)".to_string(), None),
+        },
+        None => (format!("the stages of {}", report.stages_from), None),
+    };
+    lines.push(format!("  model      {model}"));
+    if let Some(v) = &report.validation {
+        lines.push(format!(
+            "  held out   {:.4} mm mean, {:.4} mm max on {}",
+            v.after.mean,
+            v.after.max,
+            v.file.display()
+        ));
+    } else if let Some((score, how)) = score {
+        lines.push(format!("  held out   {score:.4} mm mean ({how})"));
+    }
+    lines.push(format!(
+        "  fitted     {:.4} mm mean on the training rows by the identified physics (the nominal table, base and tool fitted: {:.4} mm)",
+        k.after.mean, k.before.mean
+    ));
+    let budget = (report.selection.as_ref()).map_or(String::new(), |s| {
+        format!(" (budget {:.0} s)", s.budget_seconds)
+    });
+    lines.push(format!("  time       {seconds:.0} s{budget}"));
+    lines.push(format!("  files      {}", out.display()));
+    let mut warnings = Vec::new();
+    if k.condition_number > CONDITION_WARNING {
+        warnings.push(format!(
+            "condition number {:.0}: the poses barely separate some parameters; spread them wider (robocal plan)",
+            k.condition_number
+        ));
+    }
+    let loose: Vec<String> = (k.parameters.iter())
+        .filter(|p| p.identified_flag)
+        .filter_map(|p| {
+            let std = p.std?;
+            (std > p.delta.abs() && std > 0.0).then(|| format!("{} ±{:.3} {}", p.name, std, p.unit))
+        })
+        .collect();
+    if !loose.is_empty() {
+        warnings.push(format!(
+            "standard deviation above the change from nominal (the data do not tell which way these moved): {}",
+            loose.join(", ")
+        ));
+    }
+    if let Some(w) = k.warnings.iter().find(|w| w.contains("--budget")) {
+        warnings.push(w.clone());
+    }
+    for (i, w) in warnings.iter().enumerate() {
+        let head = if i == 0 { "  warnings" } else { "          " };
+        lines.push(format!("{head}   {w}"));
+    }
+    lines.join("\n") + "\n"
 }
 
 /// One line per link with identified shared weights: its mass (kg, at its frame's origin) and

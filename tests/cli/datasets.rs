@@ -52,20 +52,32 @@ fn the_ur5_nominal_table_reproduces_the_source_targets() {
     // published lengths and of the tool point (a link 0.01 mm off moves the point about that).
     let (rms, max, n) = nominal_against_targets("ur5", "grid.csv");
     assert_eq!(n, 1000);
-    assert!(rms < 0.02 && max < 0.05, "UR5 grid: rms {rms} mm, max {max} mm");
+    assert!(
+        rms < 0.02 && max < 0.05,
+        "UR5 grid: rms {rms} mm, max {max} mm"
+    );
     let (rms, max, n) = nominal_against_targets("ur5", "random.csv");
     assert_eq!(n, 20);
-    assert!(rms < 0.02 && max < 0.05, "UR5 random: rms {rms} mm, max {max} mm");
+    assert!(
+        rms < 0.02 && max < 0.05,
+        "UR5 random: rms {rms} mm, max {max} mm"
+    );
 }
 
 #[test]
 fn the_wam_nominal_table_reproduces_the_source_targets() {
     let (rms, max, n) = nominal_against_targets("wam", "grid.csv");
     assert_eq!(n, 216);
-    assert!(rms < 0.001 && max < 0.005, "WAM grid: rms {rms} mm, max {max} mm");
+    assert!(
+        rms < 0.001 && max < 0.005,
+        "WAM grid: rms {rms} mm, max {max} mm"
+    );
     let (rms, max, n) = nominal_against_targets("wam", "random.csv");
     assert_eq!(n, 20);
-    assert!(rms < 0.001 && max < 0.005, "WAM random: rms {rms} mm, max {max} mm");
+    assert!(
+        rms < 0.001 && max < 0.005,
+        "WAM random: rms {rms} mm, max {max} mm"
+    );
 }
 
 #[test]
@@ -80,7 +92,12 @@ fn a_measured_point_is_the_target_plus_the_source_difference() {
         -98.6368469428076 + 0.8144149428075877,
     ];
     for k in 0..3 {
-        assert!((p[k] - want[k]).abs() < 1e-9, "axis {k}: {} against {}", p[k], want[k]);
+        assert!(
+            (p[k] - want[k]).abs() < 1e-9,
+            "axis {k}: {} against {}",
+            p[k],
+            want[k]
+        );
     }
     assert_eq!(set.rows[0].sample.pose, "g0000");
 }
@@ -92,7 +109,10 @@ fn a_measured_point_is_the_target_plus_the_source_difference() {
 fn the_conversion_gives_the_bundled_files() {
     let source = root().join("../shared/data");
     if !source.join("serial_robots_datasets").is_dir() {
-        eprintln!("no source files at {}: conversion not rerun", source.display());
+        eprintln!(
+            "no source files at {}: conversion not rerun",
+            source.display()
+        );
         return;
     }
     let out = tempfile::tempdir().unwrap();
@@ -103,12 +123,19 @@ fn the_conversion_gives_the_bundled_files() {
         .arg(out.path())
         .output()
         .expect("python3 runs");
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
     for arm in ["ur5", "wam"] {
         for file in ["robot.toml", "grid.csv", "random.csv", "targets.csv"] {
             let made = std::fs::read(out.path().join(arm).join(file)).unwrap();
             let bundled = std::fs::read(root().join("datasets").join(arm).join(file)).unwrap();
-            assert!(made == bundled, "datasets/{arm}/{file} differs from the conversion");
+            assert!(
+                made == bundled,
+                "datasets/{arm}/{file} differs from the conversion"
+            );
         }
     }
 }

@@ -4,9 +4,9 @@
 //! ([`robustness`]), compensation toward a robot program ([`compensation`]), the pictures of a calibration ([`report`]), with one runner and CSV helpers ([`common`]).
 
 mod commands;
-mod datasets;
 mod common;
 mod compensation;
+mod datasets;
 mod export;
 mod hardening;
 mod planning;
