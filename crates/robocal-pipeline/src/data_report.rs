@@ -1,6 +1,6 @@
 //! The pictures of a calibration on the user's own measurements (`robocal report`,
-//! `calibrate --report`): the error before and after as histograms, per pose, per axis against
-//! every joint angle, against the load and over the workspace; PNG and SVG, `report.md`, one
+//! `calibrate --report`): the error before and after as cumulative distributions, per pose, per
+//! axis against every joint angle, against the load (two or more loads) and over the workspace; PNG and SVG, `report.md`, one
 //! self-contained `report.html` (the SVGs inline) and `statistics.json`.
 //!
 //! "Before" is the nominal table with its base and tool registered in the tracker frame (the
@@ -17,7 +17,9 @@ use robocal_model::CalibratedModel;
 use serde::Serialize;
 
 use crate::error::{PipelineError, Result};
-use crate::plots::{ColourPanel, Draw, Panel, Series, colour_figure, figure_grid, histograms};
+use crate::plots::{
+    ColourPanel, Draw, Panel, Series, colour_figure, cumulative_curves, figure_grid,
+};
 
 /// What the rows are to the model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -179,7 +181,10 @@ fn parts(model: &CalibratedModel) -> Vec<String> {
         model.dof()
     )];
     if let Some(e) = &model.joint_errors {
-        let mut blocks = vec!["payload compliance"];
+        let mut blocks = Vec::new();
+        if e.values.iter().any(|c| *c != 0.0) {
+            blocks.push("payload compliance");
+        }
         if !e.harmonics.is_empty() {
             blocks.push("transmission harmonics");
         }
@@ -195,7 +200,9 @@ fn parts(model: &CalibratedModel) -> Vec<String> {
         if !e.runouts.is_empty() {
             blocks.push("axis runout");
         }
-        parts.push(format!("joint errors: {}", blocks.join(", ")));
+        if !blocks.is_empty() {
+            parts.push(format!("joint errors: {}", blocks.join(", ")));
+        }
     }
     if let Some(r) = &model.residual {
         parts.push(format!("residual model: {}", r.kind().name()));
@@ -263,7 +270,9 @@ fn draw(
     let n = rows.len();
     let before_title = "Before calibration (nominal table, base and tool registered)";
 
-    // Histograms: before on its own panel, its errors being many times the calibrated ones.
+    // Cumulative distributions: before on its own panel, its errors being many times the
+    // calibrated ones. A staircase reads the same at 20 rows as at 2000, where a histogram's
+    // bins are mostly empty or one row each.
     let mut after_named = Vec::new();
     if let Some(k) = kinematic {
         after_named.push((
@@ -277,20 +286,20 @@ fn draw(
         panels.push(Panel {
             title: format!("{before_title}, {n} rows"),
             x_label: "error (mm)".into(),
-            y_label: "share of rows (%)".into(),
-            series: histograms(&[("before".to_string(), b.to_vec())], 40, true),
+            y_label: "rows with this error or less (%)".into(),
+            series: cumulative_curves(&[("before".to_string(), b.to_vec())]),
         });
     }
     panels.push(Panel {
         title: format!("After calibration, {n} rows"),
         x_label: "error (mm)".into(),
-        y_label: "share of rows (%)".into(),
-        series: histograms(&after_named, 40, true),
+        y_label: "rows with this error or less (%)".into(),
+        series: cumulative_curves(&after_named),
     });
     figure_grid(dir, out, "histogram", (1700, 600), &panels, 2)?;
     figures.push(Figure {
         stem: "histogram".into(),
-        caption: "Distribution of the position error (distance between measured and predicted point), before and after calibration".into(),
+        caption: "Cumulative distribution of the position error (distance between measured and predicted point), before and after calibration: the share of rows at or below each error".into(),
     });
 
     // Error per pose.
@@ -359,45 +368,48 @@ fn draw(
         caption: "Signed error along each world axis after calibration against each joint angle: a trend or a wave here is an effect the model does not hold".into(),
     });
 
-    // Error against load.
-    let at_load = |errors: &[f64]| -> Vec<Series> {
-        vec![
-            Series {
-                name: "rows".into(),
-                points: rows
-                    .iter()
-                    .zip(errors)
-                    .map(|(m, &e)| (m.sample.load, e))
-                    .collect(),
-                draw: Draw::Points,
-            },
-            Series {
-                name: "mean per load".into(),
-                points: mean_by_load(rows, errors),
-                draw: Draw::Marked,
-            },
-        ]
-    };
-    let mut panels = Vec::new();
-    if let Some(b) = before {
+    // Error against load, where the rows hold two or more: one load would draw one stripe on an
+    // axis around it.
+    if loads(rows).len() >= 2 {
+        let at_load = |errors: &[f64]| -> Vec<Series> {
+            vec![
+                Series {
+                    name: "rows".into(),
+                    points: rows
+                        .iter()
+                        .zip(errors)
+                        .map(|(m, &e)| (m.sample.load, e))
+                        .collect(),
+                    draw: Draw::Points,
+                },
+                Series {
+                    name: "mean per load".into(),
+                    points: mean_by_load(rows, errors),
+                    draw: Draw::Marked,
+                },
+            ]
+        };
+        let mut panels = Vec::new();
+        if let Some(b) = before {
+            panels.push(Panel {
+                title: before_title.into(),
+                x_label: "load (kg)".into(),
+                y_label: "error (mm)".into(),
+                series: at_load(b),
+            });
+        }
         panels.push(Panel {
-            title: before_title.into(),
+            title: "After calibration (the whole model)".into(),
             x_label: "load (kg)".into(),
             y_label: "error (mm)".into(),
-            series: at_load(b),
+            series: at_load(after),
+        });
+        figure_grid(dir, out, "load", (1700, 600), &panels, 2)?;
+        figures.push(Figure {
+            stem: "load".into(),
+            caption: "Error against the payload: every row and the mean per load".into(),
         });
     }
-    panels.push(Panel {
-        title: "After calibration (the whole model)".into(),
-        x_label: "load (kg)".into(),
-        y_label: "error (mm)".into(),
-        series: at_load(after),
-    });
-    figure_grid(dir, out, "load", (1700, 600), &panels, 2)?;
-    figures.push(Figure {
-        stem: "load".into(),
-        caption: "Error against the payload: every row and the mean per load".into(),
-    });
 
     // Error over the workspace.
     let panel = |title: &str, y: usize, y_name: &str| ColourPanel {
@@ -455,12 +467,12 @@ fn draw_sigma(dir: &Path, out: &Path, after: &[f64], sigmas: &[f64]) -> Result<F
                 Series {
                     name: "error = σ (61 % below, if σ is right)".into(),
                     points: line(1.0),
-                    draw: Draw::Line,
+                    draw: Draw::Curve,
                 },
                 Series {
                     name: "error = 2σ (99 % below)".into(),
                     points: line(2.0),
-                    draw: Draw::Line,
+                    draw: Draw::Curve,
                 },
             ],
         }],
@@ -1058,6 +1070,31 @@ mod tests {
             .collect()
     }
 
+    /// The model's parts name the payload compliance only where a joint has one: a model whose
+    /// compliance stage was skipped (one load) holds joint errors without it.
+    #[test]
+    fn the_parts_name_the_payload_compliance_only_where_a_joint_has_one() {
+        let robot = Robot::load(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/robots/pmc6va030.toml"),
+        )
+        .unwrap();
+        let mut model = CalibratedModel::kinematic(robot);
+        let mut errors = robocal_robot::JointErrors::new(
+            vec![0.0; 6],
+            Vector3::new(0.0, 0.0, -9.80665),
+            Vector3::zeros(),
+        );
+        errors.harmonics.push(robocal_robot::Harmonic::zero(0, 1));
+        model.joint_errors = Some(errors.clone());
+        assert_eq!(parts(&model)[1], "joint errors: transmission harmonics");
+        errors.values[1] = 1e-6;
+        model.joint_errors = Some(errors);
+        assert_eq!(
+            parts(&model)[1],
+            "joint errors: payload compliance, transmission harmonics"
+        );
+    }
+
     #[test]
     fn a_model_without_its_nominal_table_is_reported_after_calibration_only() {
         let robot = Robot::load(
@@ -1087,6 +1124,22 @@ mod tests {
         assert!((r.axes[2].mean - 0.02).abs() < 1e-9 && r.axes[2].std < 1e-9);
         assert!((r.worst[0].error - (1.1f64.powi(2) + 0.02f64.powi(2)).sqrt()).abs() < 1e-9);
         assert_eq!(r.figures.len(), 5);
+        assert!(r.figures.iter().any(|f| f.stem == "load"));
+        // The same rows at one load: no figure against the load (one stripe on an axis around it).
+        let light: Vec<&Measurement> = rows.iter().filter(|m| m.sample.load == 0.0).collect();
+        let one = dir.path().join("one");
+        let r1 = write_data_report(
+            &model,
+            "m",
+            Path::new("d.csv"),
+            &light,
+            DataRole::HeldOut,
+            &one,
+        )
+        .unwrap();
+        let stems: Vec<&str> = r1.figures.iter().map(|f| f.stem.as_str()).collect();
+        assert_eq!(stems, ["histogram", "per-pose", "axes-joints", "workspace"]);
+        assert!(!one.join("load.png").exists());
         let md = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(md.contains("shown after calibration only"), "{md}");
         assert!(

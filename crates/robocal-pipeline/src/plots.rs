@@ -92,6 +92,9 @@ pub(crate) enum Draw {
     Marked,
     /// Markers alone (a scatter).
     Points,
+    /// A line alone, no markers (a cumulative distribution, a reference line): nothing on it
+    /// that could be read as a data point.
+    Curve,
 }
 
 /// Named (x, y) points.
@@ -230,6 +233,9 @@ where
         }
         // Markers on every point of a short series, on every few of a long one (a histogram):
         // the shape tells series apart where colours alone would not.
+        if s.draw == Draw::Curve {
+            continue;
+        }
         let every = if s.draw == Draw::Line {
             (s.points.len() / 12).max(1)
         } else {
@@ -254,22 +260,28 @@ where
     Ok(())
 }
 
-/// The legend column: one line per series name, its line and marker, beside the panels so that
-/// it never covers data.
-fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, names: &[String]) -> Drawn
+/// The legend column: one line per series name, drawn as its series is (a line for a line, a
+/// marker for markers, both for a marked line), beside the panels so that it never covers data.
+fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, names: &[(String, Draw)]) -> Drawn
 where
     DB::ErrorType: 'static,
 {
     let font = ("sans-serif", 13).into_font();
-    for (i, name) in names.iter().enumerate() {
+    for (i, (name, draw)) in names.iter().enumerate() {
         let st = style(i);
         let c = st.colour;
         let y = 40 + 22 * i as i32;
-        if st.dashed {
-            area.draw(&PathElement::new(vec![(8, y), (17, y)], c.stroke_width(2)))?;
-            area.draw(&PathElement::new(vec![(25, y), (34, y)], c.stroke_width(2)))?;
-        } else {
-            area.draw(&PathElement::new(vec![(8, y), (34, y)], c.stroke_width(2)))?;
+        if *draw != Draw::Points {
+            if st.dashed {
+                area.draw(&PathElement::new(vec![(8, y), (17, y)], c.stroke_width(2)))?;
+                area.draw(&PathElement::new(vec![(25, y), (34, y)], c.stroke_width(2)))?;
+            } else {
+                area.draw(&PathElement::new(vec![(8, y), (34, y)], c.stroke_width(2)))?;
+            }
+        }
+        if *draw == Draw::Curve {
+            area.draw(&Text::new(name.clone(), (42, y - 7), font.clone()))?;
+            continue;
         }
         match st.marker {
             Marker::Circle => area.draw(&Circle::new((21, y), 4, c.filled()))?,
@@ -282,12 +294,13 @@ where
     Ok(())
 }
 
-/// Every series name of `panels`, in order of first appearance: a name's place is its style.
-fn series_names(panels: &[Panel]) -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
+/// Every series name of `panels` with how its first series is drawn, in order of first
+/// appearance: a name's place is its style.
+fn series_names(panels: &[Panel]) -> Vec<(String, Draw)> {
+    let mut names: Vec<(String, Draw)> = Vec::new();
     for s in panels.iter().flat_map(|p| &p.series) {
-        if !names.contains(&s.name) {
-            names.push(s.name.clone());
+        if !names.iter().any(|(n, _)| *n == s.name) {
+            names.push((s.name.clone(), s.draw));
         }
     }
     names
@@ -305,7 +318,7 @@ where
     let names = series_names(panels);
     let width = root.dim_in_pixel().0;
     let (plots, legend) = root.split_horizontally(width.saturating_sub(LEGEND_W));
-    let style_of = |name: &str| style(names.iter().position(|n| n == name).unwrap_or(0));
+    let style_of = |name: &str| style(names.iter().position(|(n, _)| n == name).unwrap_or(0));
     let columns = columns.clamp(1, panels.len().max(1));
     let areas = plots.split_evenly((panels.len().div_ceil(columns), columns));
     for (area, panel) in areas.iter().zip(panels) {
@@ -504,6 +517,39 @@ pub fn histogram(values: &[f64], lo: f64, hi: f64, bins: usize) -> Vec<(f64, f64
         .iter()
         .enumerate()
         .map(|(b, &c)| (lo + (b as f64 + 0.5) * width, 100.0 * c as f64 / n))
+        .collect()
+}
+
+/// The share of `values` (%) at or below each error: the empirical cumulative distribution as
+/// a staircase from `(0, 0)`, rising by `100 / n` at each sorted value, flat to `top` after the
+/// largest. Non-finite values count in `n` but never rise.
+pub(crate) fn cumulative(values: &[f64], top: f64) -> Vec<(f64, f64)> {
+    let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    sorted.sort_by(f64::total_cmp);
+    let n = values.len().max(1) as f64;
+    let mut points = vec![(0f64.min(sorted.first().copied().unwrap_or(0.0)), 0.0)];
+    for (i, &v) in sorted.iter().enumerate() {
+        points.push((v, 100.0 * i as f64 / n));
+        points.push((v, 100.0 * (i + 1) as f64 / n));
+    }
+    let last = points.last().map_or(0.0, |p| p.1);
+    points.push((top.max(sorted.last().copied().unwrap_or(0.0)), last));
+    points
+}
+
+/// Cumulative distributions ([`cumulative`]) of several named value lists, each flat to the
+/// largest value of them all, drawn as lines without markers.
+pub(crate) fn cumulative_curves(named: &[(String, Vec<f64>)]) -> Vec<Series> {
+    let top = (named.iter())
+        .flat_map(|(_, v)| v.iter().copied())
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    (named.iter())
+        .map(|(name, v)| Series {
+            name: name.clone(),
+            points: cumulative(v, top),
+            draw: Draw::Curve,
+        })
         .collect()
 }
 
@@ -799,6 +845,7 @@ mod tests {
         };
         // A name in two panels keeps its style; names are styled in order of appearance.
         let names = series_names(&[panel(&["before"]), panel(&["a", "b"]), panel(&["a", "c"])]);
+        let names: Vec<&str> = names.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(names, ["before", "a", "b", "c"]);
         // More series than styles is refused.
         let many: Vec<String> = (0..=MAX_SERIES).map(|i| format!("s{i}")).collect();
@@ -806,5 +853,28 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let err = figure(dir.path(), dir.path(), "many", TWO, &[panel(&refs)]).unwrap_err();
         assert!(err.to_string().contains("at most"), "{err}");
+    }
+
+    /// The cumulative staircase against a count made point by point: at every error `x` it
+    /// reaches, the share of values at or below `x` is its height at the end of the riser there.
+    #[test]
+    fn the_cumulative_curve_is_the_share_of_values_at_or_below_each_error() {
+        let values = [0.3, 0.1, 0.2, 0.2, f64::NAN];
+        let curve = cumulative(&values, 0.5);
+        assert_eq!(curve.first(), Some(&(0.0, 0.0)));
+        assert_eq!(curve.last(), Some(&(0.5, 80.0)));
+        for &x in &[0.1, 0.2, 0.3] {
+            let share = 100.0 * values.iter().filter(|v| **v <= x).count() as f64 / 5.0;
+            let top = (curve.iter())
+                .filter(|p| p.0 == x)
+                .map(|p| p.1)
+                .fold(f64::MIN, f64::max);
+            assert!((top - share).abs() < 1e-12, "at {x}: {top} against {share}");
+        }
+        // A staircase: x never decreases, and each step rises by one value's share.
+        for w in curve.windows(2) {
+            assert!(w[1].0 >= w[0].0 && w[1].1 >= w[0].1);
+            assert!(w[1].1 - w[0].1 <= 20.0 + 1e-12);
+        }
     }
 }
