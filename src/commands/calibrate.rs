@@ -130,14 +130,18 @@ pub fn run(
         }
     }
     let r = &built.kinematic.report;
+    // What the identified physical model holds, so that its error is read as that model's.
+    let mut holds = vec!["table"];
+    if r.compliance.is_some() {
+        holds.push("joint compliance");
+    }
+    if r.joint_errors.iter().any(|t| t.identified) {
+        holds.push("joint errors");
+    }
     eprintln!(
-        "robocal: kinematic ({}{}): {} points, mean error {:.4} → {:.4} mm (max {:.4} → {:.4}), {} iterations",
+        "robocal: identified physics ({}, by {}): {} points, mean error {:.4} → {:.4} mm (max {:.4} → {:.4}), {} iterations",
+        holds.join(" + "),
         r.solver,
-        if r.compliance.is_some() {
-            " with joint compliance"
-        } else {
-            ""
-        },
         r.points,
         r.before.mean,
         r.after.mean,
@@ -244,7 +248,7 @@ pub fn run(
         }
         if let Some(s) = &r.spread {
             eprintln!(
-                "robocal: residual ({}): standard deviations × {:.2}, as its folds' {} held-out rows found them (within one predicted spread of the measured point: {:.0} % as fitted, {:.0} % scaled, 61 % if the spread is right)",
+                "robocal: residual ({}): standard deviations × {:.2}, as its folds found them on {} held-out predictions (up to 150 rows of each random fold and each block of joint 1; within one predicted spread of the measured point: {:.0} % as fitted, {:.0} % scaled, 61 % if the spread is right)",
                 r.model,
                 s.scale,
                 s.rows,
@@ -254,7 +258,7 @@ pub fn run(
         }
         if let Some(b) = &r.spread_beside {
             eprintln!(
-                "robocal: residual ({}): spread {:.4} mm beside the physics' standard deviation, as its folds' {} held-out rows found it (within one predicted spread of the measured point: {:.0} % with the physics' alone, {:.0} % with the spread, 61 % if it is right; it holds the tracker's noise too)",
+                "robocal: residual ({}): spread {:.4} mm beside the physics' standard deviation, as its folds found it on {} held-out predictions (within one predicted spread of the measured point: {:.0} % with the physics' alone, {:.0} % with the spread, 61 % if it is right; it holds the tracker's noise too)",
                 r.model,
                 b.spread,
                 b.rows,
@@ -331,6 +335,12 @@ pub fn run(
     Ok(())
 }
 
+/// Standard deviations (mm, deg) below which an identified parameter counts as determined in the
+/// summary's warning, whatever its change from nominal: a tracker's own noise is hundredths of
+/// a millimetre.
+const LOOSE_MM: f64 = 0.1;
+const LOOSE_DEG: f64 = 0.01;
+
 /// Condition number of the identified parameters' scaled Jacobian above which the summary warns:
 /// a well-spread pose set on a six-axis arm with base and tool gives about a thousand.
 const CONDITION_WARNING: f64 = 1e4;
@@ -380,7 +390,10 @@ fn summary(out: &Path, report: &CalibrationReport, seconds: f64) -> String {
         .filter(|p| p.identified_flag)
         .filter_map(|p| {
             let std = p.std?;
-            (std > p.delta.abs() && std > 0.0).then(|| format!("{} ±{:.3} {}", p.name, std, p.unit))
+            // A deviation under the floor is a parameter the data pin down, moved or not.
+            let floor = if p.unit == "mm" { LOOSE_MM } else { LOOSE_DEG };
+            (std > p.delta.abs() && std > floor)
+                .then(|| format!("{} ±{:.3} {}", p.name, std, p.unit))
         })
         .collect();
     if !loose.is_empty() {

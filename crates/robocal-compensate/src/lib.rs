@@ -128,12 +128,13 @@ pub fn compensate(
             Err(_) => {
                 return Err(Failure::Unreachable {
                     model_error: (model.point(&q, load) - target).norm(),
+                    limited: robot.joints.iter().any(|j| j.limits.is_some()),
                 });
             }
         };
         let next: Vec<f64> = actual.iter().zip(&bend).map(|(a, b)| a - b).collect();
         if !robot.within_limits(&next) {
-            return Err(Failure::Unreachable {
+            return Err(Failure::BeyondLimits {
                 model_error: (model.point(&next, load) - target).norm(),
             });
         }

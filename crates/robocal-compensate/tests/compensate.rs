@@ -185,6 +185,30 @@ fn unreachable_targets_and_bad_seeds_are_refused() {
         ),
         Err(Failure::Unreachable { .. })
     ));
+    // Said as the robot file has it: with joint limits, within them; without, plainly.
+    let limited = calibrated.joints.iter().any(|j| j.limits.is_some());
+    let mut free = calibrated.clone();
+    for j in &mut free.joints {
+        j.limits = None;
+    }
+    let said = |robot: &robocal_robot::Robot| {
+        compensate(
+            &CalibratedModel::kinematic(robot.clone()),
+            &far,
+            0.0,
+            &seed,
+            &options,
+        )
+        .unwrap_err()
+        .to_string()
+    };
+    assert!(limited, "the test's arm has joint limits");
+    assert!(said(&calibrated).contains("within the joint limits"));
+    let plain = said(&free);
+    assert!(
+        plain.starts_with("not reachable: the kinematic solve") && !plain.contains("limits"),
+        "{plain}"
+    );
     assert!(matches!(
         compensate(
             &CalibratedModel::kinematic(calibrated.clone()),

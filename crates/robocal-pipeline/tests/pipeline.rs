@@ -352,7 +352,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
                 names[physical + 2..],
                 [
                     format!("kinematic + {kind} (world frame)"),
-                    format!("kinematic + {kind}")
+                    format!("kinematic + {kind} (joint-1 frame)")
                 ],
                 "{names:?}"
             );
@@ -975,6 +975,7 @@ fn residual_models_skipped_on(file: &str, frames: usize) {
         ["gp", "somm"].iter().any(|k| {
             c.name.ends_with(&format!(" + {k}"))
                 || c.name.ends_with(&format!(" + {k} (world frame)"))
+                || c.name.ends_with(&format!(" + {k} (joint-1 frame)"))
         })
     };
     let skipped: Vec<&str> = (selection.candidates.iter())

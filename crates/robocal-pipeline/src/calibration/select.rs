@@ -741,16 +741,34 @@ fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Decision> {
     })
 }
 
+/// A candidate's seconds in words: under a tenth of a second is said so, not as `0.0 s`, which
+/// reads as nothing having run (its fits were quick, or made already by a candidate before it).
+fn seconds_words(seconds: f64) -> String {
+    if seconds < 0.1 {
+        "under 0.1 s".into()
+    } else {
+        format!("{seconds:.1} s")
+    }
+}
+
 /// Says a candidate's held-out numbers, or why it was skipped.
 fn report(c: &Candidate, observer: &dyn Observer) {
     observer.message(&match (&c.held_out, &c.held_out_blocks) {
         (Some(h), Some(b)) => format!(
-            "candidate {}: held-out mean {:.4} mm (max {:.4}) on random folds, {:.4} mm (max {:.4}) on blocks of joint 1 ({:.1} s)",
-            c.name, h.mean, h.max, b.mean, b.max, c.seconds
+            "candidate {}: held-out mean {:.4} mm (max {:.4}) on random folds, {:.4} mm (max {:.4}) on blocks of joint 1 ({})",
+            c.name,
+            h.mean,
+            h.max,
+            b.mean,
+            b.max,
+            seconds_words(c.seconds)
         ),
         (Some(h), None) => format!(
-            "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({:.1} s)",
-            c.name, h.mean, h.max, c.seconds
+            "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({})",
+            c.name,
+            h.mean,
+            h.max,
+            seconds_words(c.seconds)
         ),
         _ => format!("candidate {}: {}", c.name, c.status),
     });
@@ -1190,18 +1208,18 @@ fn residual_candidates(
 ) -> Result<Vec<ResidualScore>> {
     let base_physics = chain.identified();
     let mut pace = Pace::default();
-    // With the models in both frames, those in the world frame say so.
+    // With the models in both frames, each one's name says its frame.
     let frames = |f: Frame| settings.residuals.iter().any(|s| s.settings.frame == f);
     let both = frames(Frame::World) && frames(Frame::Joint1);
-    // Each residual model `stage` on the physical candidate `base`, named with the world frame
-    // where `world`, in order.
+    // Each residual model `stage` on the physical candidate `base`, its name saying its frame
+    // where `named`, in order.
     let mut score_each = |jobs: Vec<(ResidualStage, usize, bool)>| -> Result<Vec<_>> {
         (jobs.iter())
-            .map(|(stage, base, world)| {
+            .map(|(stage, base, named)| {
                 score_residual(
                     settings,
                     chain,
-                    (stage, *base, *world),
+                    (stage, *base, *named),
                     plan,
                     groups,
                     observer,
@@ -1213,7 +1231,7 @@ fn residual_candidates(
     };
     let mut scored = score_each(
         (settings.residuals.iter())
-            .map(|s| (s.clone(), base_physics, both && s.settings.frame.is_world()))
+            .map(|s| (s.clone(), base_physics, both))
             .collect(),
     )?;
     // Only where a residual model beat the chain's physics significantly: the data then hold
@@ -1228,7 +1246,7 @@ fn residual_candidates(
         let table = TABLE_FRAMES.map(|frame| {
             let mut stage = best.clone();
             stage.settings.frame = frame;
-            (stage, KINEMATIC, frame.is_world())
+            (stage, KINEMATIC, true)
         });
         scored.extend(score_each(table.into())?);
     }
@@ -1261,12 +1279,13 @@ struct Pace {
 }
 
 /// One residual model `stage` trained on every fold on what the physical candidate `base`
-/// (index into [`Chain::scored`]) leaves, scored, its name saying the world frame where `world`.
+/// (index into [`Chain::scored`]) leaves, scored, its name saying its frame where `named` (the
+/// same model is tried in the other frame too: `… (world frame)`, `… (joint-1 frame)`).
 #[allow(clippy::too_many_arguments)]
 fn score_residual(
     settings: &AutoSettings,
     chain: &Chain,
-    (stage, base_physics, world): (&ResidualStage, usize, bool),
+    (stage, base_physics, named): (&ResidualStage, usize, bool),
     plan: &FoldPlan<'_>,
     groups: &[usize],
     observer: &dyn Observer,
@@ -1284,7 +1303,11 @@ fn score_residual(
             "{} + {}{}",
             chain.scored[base_physics].physics.name(),
             stage.settings.kind.name(),
-            if world { " (world frame)" } else { "" }
+            match (named, stage.settings.frame) {
+                (false, _) => "",
+                (true, Frame::World) => " (world frame)",
+                (true, Frame::Joint1) => " (joint-1 frame)",
+            }
         ),
         held_out: None,
         held_out_blocks: None,
@@ -1882,7 +1905,7 @@ fn automatic_metered(
         {
             d.kept = false;
             d.reason = format!(
-                "dropped{}; kept by the chain of physical models, left out of the chosen model: its residual model scored lower on the identified table alone",
+                "not in the chosen model: a residual model on the identified table alone scored lower than the physical models that hold it (kept by the chain of physical models{})",
                 d.reason.strip_prefix("kept").unwrap_or(&d.reason)
             );
         }
@@ -2354,7 +2377,7 @@ mod tests {
         let abandoned = summary(&run(1, counted * 0.2)).0;
         assert!(
             (abandoned.iter())
-                .any(|(name, status, _)| name.ends_with("+ gp") && status.starts_with("abandoned")),
+                .any(|(name, status, _)| name.contains("+ gp") && status.starts_with("abandoned")),
             "{abandoned:?}"
         );
     }
@@ -2461,7 +2484,7 @@ mod tests {
         let physics = named("kinematic + compliance");
         let on_chain = named("kinematic + compliance + gp");
         let world = named("kinematic + gp (world frame)");
-        let joint1 = named("kinematic + gp");
+        let joint1 = named("kinematic + gp (joint-1 frame)");
         let compliance = (selection.decisions.iter())
             .find(|d| d.stage == "compliance")
             .unwrap();
