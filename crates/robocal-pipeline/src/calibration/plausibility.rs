@@ -70,8 +70,45 @@ fn turned_axes(fit: &KinematicCalibration) -> Vec<String> {
         .collect()
 }
 
+/// How much more a fit with the far-moved lengths held at the robot file's values may miss the
+/// points, as a share of the free fit's mean error, for the move to count as not needed.
+const HELD_SHARE: f64 = 0.25;
+
+/// Whether the far moves of `fit`'s link lengths are ones the data do not need: the same fit
+/// with those lengths held at the robot file's values meets the points within [`HELD_SHARE`]
+/// more mean error. Biased by effects the model lacks, a length the poses barely separate from
+/// others (a wrist offset on a grid of one wrist orientation) can move far by more than its
+/// standard deviations, which assume the model right; data in other units need every length
+/// scaled, and held they miss by orders of magnitude more.
+fn far_moves_not_needed(
+    fit: &KinematicCalibration,
+    nominal: &Robot,
+    rows: &[&Measurement],
+) -> bool {
+    let far: Vec<&str> = far_from_nominal(&fit.report.parameters, &nominal.param_ids())
+        .iter()
+        .map(|p| p.name.as_str())
+        .collect();
+    if far.is_empty() || fit.report.after.mean > POOR_FIT {
+        return false;
+    }
+    let free: Vec<String> = (fit.report.parameters.iter())
+        .filter(|p| p.identified_flag && !far.contains(&p.name.as_str()))
+        .map(|p| p.name.clone())
+        .collect();
+    let held = KinematicSettings {
+        parameters: Some(free),
+        ..KinematicSettings::default()
+    };
+    fit_kinematic(nominal, rows, &held).is_ok_and(|h| {
+        h.report.after.mean <= (1.0 + HELD_SHARE) * fit.report.after.mean
+            && turned_axes(&h).is_empty()
+    })
+}
+
 /// Whether the rigid fit `rigid` of `rows` is plausible, or else the fit with the arm's
-/// deflection under its own weight and the payload's is.
+/// deflection under its own weight and the payload's is, or else the rigid fit's far-moved
+/// lengths are ones the data do not need ([`far_moves_not_needed`]).
 fn fits(rigid: &KinematicCalibration, nominal: &Robot, rows: &[&Measurement]) -> bool {
     if plausible(rigid, nominal) {
         return true;
@@ -80,6 +117,9 @@ fn fits(rigid: &KinematicCalibration, nominal: &Robot, rows: &[&Measurement]) ->
     // the turn and still meet the points within the poor-fit bound.
     if !turned_axes(rigid).is_empty() {
         return false;
+    }
+    if far_moves_not_needed(rigid, nominal, rows) {
+        return true;
     }
     let elastic = KinematicSettings {
         compliance: (loads(rows).len() >= 2).then(ComplianceSettings::default),
