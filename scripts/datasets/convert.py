@@ -8,7 +8,8 @@ compensate`); the README and licence notice of each folder are written by hand.
 
   python3 scripts/datasets/convert.py SOURCE_DIR [--out datasets]
 
-SOURCE_DIR holds `serial_robots_datasets/` (UR5 and WAM, P. Jacobi, MIT licence).
+SOURCE_DIR holds `serial_robots_datasets/` (UR5 and WAM, P. Jacobi, MIT licence) and
+`ipa-robot-accuracy/` (UR10 with a T-Mac 6-DoF probe, C. Landgraf et al., MIT licence).
 
 UR5 and WAM rows: the source gives the target position (`x_t, y_t, z_t`, mm, robot base frame),
 the difference to the position reached (`x_dif, y_dif, z_dif`, mm) and the commanded joint
@@ -21,6 +22,16 @@ Standard DH (Craig's distal form, `RotZ(θ) TransZ(d) TransX(a) RotX(α)` per jo
 DH (`RotX(α) TransX(a) RotZ(θ) TransZ(d)`) by moving each joint's `a` and `α` onto the next one:
 MDH row i takes `α_{i-1}, a_{i-1}` and `d_i, θ_i`. The last joint's `a` and `α` are zero for both
 arms, so the tool point stays in the same flange frame.
+
+UR10 rows: the probe's measured position (mm) and orientation (`measurement_rx, ry, rz`, deg,
+intrinsic X-Y-Z Euler angles: R = Rx(rx) Ry(ry) Rz(rz)) in the tracker frame of its series, the
+joint angles (rad, written in deg) and the commanded pose (`Goal x, y, z` m, `Goal roll, pitch,
+yaw` rad, fixed-axis x-y-z, robot base frame). The orientation is written in robocal's convention
+(fixed-axis roll, pitch, yaw: R = Rz(rz) Ry(ry) Rx(rx)), the source's angles kept beside it
+(`tmac_rx, tmac_ry, tmac_rz`) for the round-trip test; the goal in mm and deg (`goal_*`); the
+per-value standard deviations (`std_x` … `std_rz`) and the temperature (`temperature`, °C). The
+probe's frame in the flange frame is the inverse of the source's `Trafo_TM_F_init.txt`; UR's base
+frame is the DH base turned 180° about z.
 """
 
 import argparse
@@ -28,6 +39,20 @@ import csv
 import math
 import sys
 from pathlib import Path
+
+UR10_DH = {
+    "d": [127.3, 0.0, 0.0, 163.941, 115.7, 92.2],
+    "a": [0.0, -612.0, -572.3, 0.0, 0.0, 0.0],
+    "alpha": [90.0, 0.0, 0.0, 90.0, -90.0, 0.0],
+}
+
+# Series of the UR10: output file, source file, pose-id prefix.
+UR10_SERIES = [
+    ("series-a-grid.csv", "Series_A/measurements_grid.csv", "a"),
+    ("series-b-joint-configurations.csv", "Series_B/measurements_joint_configurations.csv", "b"),
+    ("series-c-random.csv", "Series_C/measurements_random_poses.csv", "c"),
+    ("series-d-iso-cubes.csv", "Series_D/measurements_iso_cubes.csv", "d"),
+]
 
 # Standard DH as published by the makers: d (mm), a (mm), alpha (deg) per joint, base to tip.
 UR5_DH = {
@@ -133,11 +158,138 @@ def convert_rows(path, prefix, dof):
     return out
 
 
+def mat_mul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(len(b))) for j in range(len(b[0]))]
+            for i in range(len(a))]
+
+
+def rot_x(t):
+    c, s_ = math.cos(t), math.sin(t)
+    return [[1.0, 0.0, 0.0], [0.0, c, -s_], [0.0, s_, c]]
+
+
+def rot_y(t):
+    c, s_ = math.cos(t), math.sin(t)
+    return [[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]]
+
+
+def rot_z(t):
+    c, s_ = math.cos(t), math.sin(t)
+    return [[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]]
+
+
+def intrinsic_xyz(rx, ry, rz):
+    """R = Rx(rx) Ry(ry) Rz(rz), angles in deg (the T-Mac's Euler angles)."""
+    r = [math.radians(v) for v in (rx, ry, rz)]
+    return mat_mul(mat_mul(rot_x(r[0]), rot_y(r[1])), rot_z(r[2]))
+
+
+def fixed_xyz_angles(m):
+    """robocal's (roll, pitch, yaw), deg, of R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    pitch = math.asin(max(-1.0, min(1.0, -m[2][0])))
+    roll = math.atan2(m[2][1], m[2][2])
+    yaw = math.atan2(m[1][0], m[0][0])
+    return [math.degrees(v) for v in (roll, pitch, yaw)]
+
+
+def invert_rigid(m):
+    """The inverse of a 4x4 rigid transform."""
+    r = [[m[j][i] for j in range(3)] for i in range(3)]
+    t = [-sum(r[i][k] * m[k][3] for k in range(3)) for i in range(3)]
+    return [r[0] + [t[0]], r[1] + [t[1]], r[2] + [t[2]], [0.0, 0.0, 0.0, 1.0]]
+
+
+def decimal(text, where):
+    """A number written with `,` as the decimal mark."""
+    try:
+        v = float(text.replace(",", "."))
+    except ValueError:
+        raise ValueError(f"{where}: `{text}` is not a number") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{where}: `{text}` is not finite")
+    return v
+
+
+def ur10_robot(probe):
+    """The UR10's robot.toml: UR's table as MDH, the base turned 180° about z, the probe's
+    frame (its origin and axes in the flange frame) as the tool."""
+    rows = mdh_rows(UR10_DH)
+    lines = ['name = "UR10"', ""]
+    for i, (alpha, a, d, theta) in enumerate(rows, start=1):
+        lines += ["[[joint]]", f"a = {fmt(a)}", f"alpha = {fmt(alpha)}", f"d = {fmt(d)}",
+                  f"theta = {fmt(theta)}"]
+        if i in (3, 4):
+            lines.append("beta = 0.0")
+        lines += ["limits = [-360.0, 360.0]", ""]
+    rpy = fixed_xyz_angles([row[:3] for row in probe[:3]])
+    xyz = [probe[i][3] for i in range(3)]
+    lines += ["[base]", "xyz = [0.0, 0.0, 0.0]", "rpy = [0.0, 0.0, 180.0]", ""]
+    lines += ["[tool]", "xyz = [" + ", ".join(fmt(round(v, 9)) for v in xyz) + "]",
+              "rpy = [" + ", ".join(fmt(round(v, 9)) for v in rpy) + "]", ""]
+    return "\n".join(lines)
+
+
+UR10_COLUMNS = ["pose", "seq", "q1", "q2", "q3", "q4", "q5", "q6", "load", "x", "y", "z",
+                "rx", "ry", "rz", "temperature", "std_x", "std_y", "std_z", "std_rx", "std_ry",
+                "std_rz", "tmac_rx", "tmac_ry", "tmac_rz", "goal_x", "goal_y", "goal_z",
+                "goal_roll", "goal_pitch", "goal_yaw"]
+
+
+def convert_ur10(path, prefix):
+    """The source's rows of one series as robocal rows (`UR10_COLUMNS`)."""
+    out = []
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f, delimiter=";")
+        joints = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+                  "wrist_2_joint", "wrist_3_joint"]
+        need = ["Goal x", "Goal y", "Goal z", "Goal roll", "Goal pitch", "Goal yaw",
+                "measurement_temperature", "measurement_x", "measurement_y", "measurement_z",
+                "measurement_rx", "measurement_ry", "measurement_rz"] + joints
+        missing = [c for c in need if c not in (reader.fieldnames or [])]
+        if missing:
+            raise ValueError(f"{path}: missing columns {', '.join(missing)}")
+        rows = list(reader)
+        width = len(str(len(rows)))
+        for n, r in enumerate(rows):
+            where = f"{path}:{n + 2}"
+            get = lambda c: decimal(r[c], f"{where}: {c}")  # noqa: E731
+            std = lambda c: fmt(get(c)) if r.get(c, "") != "" else ""  # noqa: E731
+            q = [math.degrees(get(c)) for c in joints]
+            tmac = [get(c) for c in ("measurement_rx", "measurement_ry", "measurement_rz")]
+            rpy = fixed_xyz_angles(intrinsic_xyz(*tmac))
+            goal = [1000.0 * get(c) for c in ("Goal x", "Goal y", "Goal z")]
+            goal_rpy = [math.degrees(get(c)) for c in ("Goal roll", "Goal pitch", "Goal yaw")]
+            out.append(
+                [f"{prefix}{n:0{width}d}", str(n)] + [fmt(v) for v in q] + ["0"]
+                + [fmt(get(c)) for c in ("measurement_x", "measurement_y", "measurement_z")]
+                + [fmt(v) for v in rpy] + [fmt(get("measurement_temperature"))]
+                + [std(f"measurement_std_{c}") for c in ("x", "y", "z", "rx", "ry", "rz")]
+                + [fmt(v) for v in tmac] + [fmt(v) for v in goal] + [fmt(v) for v in goal_rpy])
+    return out
+
+
+def write_ur10(source, out):
+    folder = out / "ur10-tmac"
+    folder.mkdir(parents=True, exist_ok=True)
+    base = source / "ipa-robot-accuracy"
+    text = (base / "Series_A" / "Trafo_TM_F_init.txt").read_text().split()
+    trafo = [[float(v) for v in text[4 * i:4 * i + 4]] for i in range(4)]
+    (folder / "robot.toml").write_text(ur10_robot(invert_rigid(trafo)))
+    for name, rel, prefix in UR10_SERIES:
+        rows = convert_ur10(base / rel, prefix)
+        with open(folder / name, "w", newline="") as f:
+            w = csv.writer(f, lineterminator="\n")
+            w.writerow(UR10_COLUMNS)
+            w.writerows(rows)
+        print(f"{folder / name}: {len(rows)} rows from {rel}", file=sys.stderr)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("source", type=Path, help="folder holding serial_robots_datasets/")
     ap.add_argument("--out", type=Path, default=Path("datasets"))
     args = ap.parse_args()
+    write_ur10(args.source, args.out)
     for key, arm in ARMS.items():
         dof = len(arm["dh"]["d"])
         folder = args.out / key

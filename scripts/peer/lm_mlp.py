@@ -41,6 +41,9 @@ from scipy.optimize import least_squares
 from sklearn.neural_network import MLPRegressor
 from sklearn.preprocessing import StandardScaler
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from marked import write_marked  # noqa: E402
+
 GRID = [((64, 64), 1e-3), ((64, 64), 3e-3), ((128, 128), 1e-3), ((128, 128), 3e-3)]
 
 
@@ -237,17 +240,6 @@ def robocal(binary: str, case: Path):
             check=True, capture_output=True, text=True,
         )
     return json.loads(out.stdout)["mean"], seconds
-
-
-def write_marked(path: Path, section: str, text: str):
-    """Replaces what lies between `<!-- SECTION:begin -->` and `<!-- SECTION:end -->` in `path`."""
-    begin, end = f"<!-- {section}:begin -->", f"<!-- {section}:end -->"
-    page = path.read_text()
-    if begin not in page or end not in page:
-        sys.exit(f"error: {path}: no `{begin}` … `{end}` section to write the table into")
-    head, rest = page.split(begin, 1)
-    _, tail = rest.split(end, 1)
-    path.write_text(f"{head}{begin}\n{text}\n{end}{tail}")
 
 
 def main():
