@@ -62,26 +62,30 @@ fuzz cases="20000":
 accuracy seeds="2" aside="":
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}}
 
+# writes docs/accuracy.md's table of the default against each stage alone (development twins, seed 0, beyond the model)
+accuracy-docs:
+    cargo run --release -p robocal-pipeline --example accuracy -- --seeds 1 --effects beyond --no-compensation --write docs/accuracy.md
+
 # the outside pipeline (scipy LM, then a scikit-learn MLP per axis on sin/cos of the joints and the
 # load; scripts/peer/lm_mlp.py, independent of robocal) against robocal's default calibrate through
-# the files, on the accuracy suite's cases; rewrites docs/accuracy.md's development table (without
-# aside); a venv with numpy, scipy and scikit-learn in target/peervenv
+# the files, on the accuracy suite's cases; rewrites docs/accuracy.md's development table (or, with
+# aside="--aside", the families kept aside); a venv with numpy, scipy and scikit-learn in target/peervenv
 peer seeds="2" aside="":
     cargo build --release --bin robocal
     rm -rf target/peer-cases
     cargo run --release -p robocal-pipeline --example accuracy -- --seeds {{seeds}} {{aside}} --export target/peer-cases
     test -x target/peervenv/bin/python || python3 -m venv target/peervenv
     target/peervenv/bin/pip install -q numpy scipy scikit-learn
-    target/peervenv/bin/python scripts/peer/lm_mlp.py target/peer-cases --robocal target/release/robocal {{ if aside == "" { "--write docs/accuracy.md --section twins-peer-development" } else { "" } }}
+    target/peervenv/bin/python scripts/peer/lm_mlp.py target/peer-cases --robocal target/release/robocal --write docs/accuracy.md --section {{ if aside == "" { "twins-peer-development" } else { "twins-peer-aside" } }}
 
-# robocal on the real arms of datasets/ (UR5, WAM: each maker's table, the source's splits): nominal,
-# kinematic, the default with its time and memory, the peer and the published number; rewrites
-# docs/accuracy.md's real-arms table
-accuracy-real:
+# robocal on the real arms of datasets/ (UR5, WAM, UR10) on fixed splits: nominal, kinematic, the
+# default with its time and memory, the peer and the published number; rewrites docs/accuracy.md's
+# real-arms table (aside="--aside" adds UR10 Series B, kept aside while developing)
+accuracy-real aside="":
     cargo build --release --bin robocal
     test -x target/peervenv/bin/python || python3 -m venv target/peervenv
     target/peervenv/bin/pip install -q numpy scipy scikit-learn
-    target/peervenv/bin/python scripts/real/benchmark.py --robocal target/release/robocal --write docs/accuracy.md
+    target/peervenv/bin/python scripts/real/benchmark.py --robocal target/release/robocal --write docs/accuracy.md {{aside}}
 
 # a network's seed and five networks averaged (members = 5) on one stage physics, through the
 # files, on the development suite's cases beyond the model

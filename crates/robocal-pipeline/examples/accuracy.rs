@@ -7,6 +7,7 @@
 //!
 //! ```sh
 //! cargo run --release -p robocal-pipeline --example accuracy -- [--seeds N] [--arms a,b] [--aside]
+//!     [--write FILE [--section NAME]]
 //!     [--effects all,modelled,beyond] [--budget S] [--no-compensation] [--verbose] [--networks]
 //!     [--physics full] [--export DIR] [--poses N] [--splits configurations,q1,window]
 //!     [--beyond-scale K]
@@ -385,7 +386,72 @@ where
     (text.map(|s| s.parse().map_err(|e| format!("{flag}: `{s}`: {e}")))).transpose()
 }
 
+/// What the suite printed on stdout, for `--write`.
+static PRINTED: std::sync::Mutex<String> = std::sync::Mutex::new(String::new());
+
+/// `println!`, and the line kept for `--write`.
+macro_rules! out {
+    () => {
+        out!("")
+    };
+    ($($arg:tt)*) => {{
+        let line = format!($($arg)*);
+        println!("{line}");
+        let mut printed = PRINTED.lock().unwrap_or_else(|e| e.into_inner());
+        printed.push_str(&line);
+        printed.push('\n');
+    }};
+}
+
+/// Runs the suite; with `--write FILE` its tables replace the section of FILE between
+/// `<!-- SECTION:begin -->` and `<!-- SECTION:end -->` (`--section SECTION`, default
+/// `twins-suite`), so that the page holds what this code measured.
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let value = |flag: &str| {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let write = value("--write").map(PathBuf::from);
+    let section = value("--section").unwrap_or_else(|| "twins-suite".into());
+    if let Some(path) = &write {
+        // Checked before hours of calibrations, not after.
+        marked_section(&std::fs::read_to_string(path)?, &section, "").ok_or_else(|| {
+            format!(
+                "{}: no `<!-- {section}:begin -->` … `<!-- {section}:end -->` section",
+                path.display()
+            )
+        })?;
+    }
+    suite()?;
+    if let Some(path) = write {
+        let page = std::fs::read_to_string(&path)?;
+        let printed = PRINTED.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let command = format!(
+            "Written by `cargo run --release -p robocal-pipeline --example accuracy -- {}`.\n\n",
+            args.join(" ")
+        );
+        let page = marked_section(&page, &section, &(command + printed.trim_end()))
+            .expect("checked before the suite ran");
+        std::fs::write(&path, page)?;
+    }
+    Ok(())
+}
+
+/// `page` with the text between `<!-- SECTION:begin -->` and `<!-- SECTION:end -->` replaced by
+/// `text`; `None` where the page has no such section.
+fn marked_section(page: &str, section: &str, text: &str) -> Option<String> {
+    let (begin, end) = (
+        format!("<!-- {section}:begin -->"),
+        format!("<!-- {section}:end -->"),
+    );
+    let (head, rest) = page.split_once(&begin)?;
+    let (_, tail) = rest.split_once(&end)?;
+    Some(format!("{head}{begin}\n{text}\n{end}{tail}"))
+}
+
+fn suite() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value = |flag: &str| {
         args.iter()
@@ -452,15 +518,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return bad_shots(&arms, seeds);
     }
     if networks {
-        println!(
+        out!(
             "| arm | seed | effects | split | test rows | noise floor | physics | + SOMM (paper) | s | + SOMM (robocal) | s | + CA-SOMM (robocal) | s | + GP | s |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        out!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     } else {
-        println!(
-            "| arm | seed | effects | split | test rows | noise floor | previous default | kinematic | + compliance | + compliance + harmonics + self-weight | that + GP | default | change | default's choice | default s |"
+        out!(
+            "| arm | seed | effects | split | test rows | noise floor | robocal 0.1 default | kinematic | + compliance | + compliance + harmonics + self-weight | that + GP | default | against robocal 0.1 | default's choice | default s |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        out!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     }
     for (name, file) in ARMS.iter().filter(|a| arms.iter().any(|n| n == a.0)) {
         let base = TwinConfig::load(root().join(file))?;
@@ -603,7 +669,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         ));
                         let (gp, gp_s) = timed(&stage(level, Some(ResidualSettings::gp(2020))));
                         let (e, h) = label(effects, how);
-                        println!(
+                        out!(
                             "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gated} | {gated_s:.1} | {gp} | {gp_s:.1} |",
                             test.len()
                         );
@@ -664,7 +730,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         ));
                     }
                     let (e, h) = label(effects, how);
-                    println!(
+                    out!(
                         "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {previous:.4} | {kin} | {comp} | {physics} | {gp} | **{default:.4}** | {:+.0} % | {choice} | {secs:.1} |",
                         test.len(),
                         100.0 * (default / previous - 1.0),
@@ -674,15 +740,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     if !landings.is_empty() {
-        println!();
-        println!(
+        out!();
+        out!(
             "Compensation (every effect, and beyond the model; configuration split): each test row's noise-free point, moved by (1.2, -1.0, 1.2) mm, is a target; the default model's commands from the row's reading as seed, executed by the twin without noise."
         );
-        println!();
-        println!("| arm | seed | effects | targets | mean before | mean after | max after |");
-        println!("|---|---|---|---|---|---|---|");
+        out!();
+        out!("| arm | seed | effects | targets | mean before | mean after | max after |");
+        out!("|---|---|---|---|---|---|---|");
         for (name, seed, effects, (n, before, after, max)) in landings {
-            println!(
+            out!(
                 "| {name} | {seed} | {} | {n} | {before:.4} | {after:.4} | {max:.4} |",
                 effects.label()
             );
@@ -738,10 +804,10 @@ fn land(twin: &TwinConfig, model: &CalibratedModel, test: &[&Measurement]) -> La
 /// truth) with them against without.
 fn bad_shots(arms: &[String], seeds: u64) -> Result<(), Box<dyn std::error::Error>> {
     use robocal_pipeline::calibration::{OutlierSettings, find_outliers};
-    println!(
+    out!(
         "| arm | seed | rows | largest clean row (robust σ) | clean rows flagged | bad shots | named | missed | clean flagged with them | test mean clean | with bad shots | change |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    out!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, file) in ARMS.iter().filter(|a| arms.iter().any(|n| n == a.0)) {
         let base = TwinConfig::load(root().join(file))?;
         for seed in 0..seeds {
@@ -803,7 +869,7 @@ fn bad_shots(arms: &[String], seeds: u64) -> Result<(), Box<dyn std::error::Erro
                 Ok(versus_truth(&built.model(), &test, &truth).mean)
             };
             let (a, b) = (mean(&clean)?, mean(&dirty_rows)?);
-            println!(
+            out!(
                 "| {name} | {seed} | {} | {largest:.1} | {} | {k} | {hit} | {} | {wrong} | {a:.4} | {b:.4} | {:+.1} % |",
                 clean.len(),
                 found.rows.len(),

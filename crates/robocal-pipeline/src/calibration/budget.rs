@@ -31,7 +31,7 @@ pub const REFERENCE_CORES: usize = 2;
 /// residual row far below its cost.
 pub const FIT_UNITS_PER_SECOND: f64 = 21e6;
 
-/// A Gaussian process's training work ([`training_seconds`]: its likelihood evaluations × the
+/// A Gaussian process's training work (`training_seconds`: its likelihood evaluations × the
 /// rows they are fitted on, cubed, and a third of the rows it conditions on, cubed) that the
 /// reference machine does in a second of a training beside another fold's (its three axes'
 /// fits together). Measured (every fold of three cases with a field, 80 evaluations):
