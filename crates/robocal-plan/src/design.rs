@@ -14,7 +14,7 @@ use robocal_robot::{ErrorParam, JointErrors, Robot, Unit};
 use serde::Serialize;
 
 use crate::error::Result;
-use crate::settings::PlanSettings;
+use crate::settings::{Criterion, PlanSettings};
 
 /// Rank tolerance of the identifiability analysis (calibrate's default).
 pub const RANK_TOLERANCE: f64 = 1e-6;
@@ -317,21 +317,6 @@ fn i_gain(b: &DMatrix<f64>, inv: &DMatrix<f64>, p: &DMatrix<f64>) -> f64 {
         Some(c) => c.solve(&q).trace(),
         None => 0.0,
     }
-}
-
-/// What a plan optimises.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Criterion {
-    /// D-optimal: the largest `log det` of the information (the parameters' joint confidence
-    /// region smallest).
-    DOptimal,
-    /// I-optimal (the default): the smallest mean predicted variance of the position over the
-    /// check poses, the error the plan predicts and the one users judge a calibration by. On
-    /// robocal's twins it left less error on unmeasured poses than D-optimal plans more often
-    /// (`docs/accuracy.md`, "Planned poses").
-    #[default]
-    IOptimal,
 }
 
 /// `log det(I + B M⁻¹ Bᵀ)`: how much adding the rows `B` raises `log det M`.

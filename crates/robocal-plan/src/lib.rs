@@ -38,7 +38,7 @@ pub mod error;
 pub mod plan;
 pub mod settings;
 
-pub use design::{Criterion, Design, Indices, Pool, log_det};
+pub use design::{Design, Indices, Pool, log_det};
 pub use error::{PlanError, Result};
 pub use plan::{ParameterSigma, PlanReport, PlanResult, candidates_from_limits, plan};
-pub use settings::{PlanSettings, RawPlan};
+pub use settings::{Criterion, PlanSettings, RawPlan};

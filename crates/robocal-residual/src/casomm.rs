@@ -16,8 +16,8 @@ use crate::classifier::{
 };
 use crate::error::{ResidualError, Result};
 use crate::mlp::NetSettings;
-use crate::model::Residual;
 use crate::net::AxisNet;
+use crate::residual::Residual;
 use crate::samples::Samples;
 use crate::somm::Somm;
 

@@ -39,7 +39,7 @@ use robocal_data::Invalid;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
-use crate::model::Residual;
+use crate::residual::Residual;
 use crate::samples::{Samples, Standardizer};
 
 /// How a Gaussian process is fitted.

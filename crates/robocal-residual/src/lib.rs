@@ -1,9 +1,9 @@
 //! Residual learning (paper section III-B, V-B): what kinematic calibration leaves, learned as a
 //! function of the joint angles and the load.
 //!
-//! - [`model`]: [`ResidualModel`], the [`Residual`] trait every kind implements, training and
-//!   prediction on raw input rows; [`persist`]: its saved form (`residual.json` + one burn
-//!   record per network).
+//! - [`model`]: [`ResidualModel`], training and prediction on raw input rows; [`residual`]:
+//!   the [`Residual`] trait every kind implements; [`persist`]: its saved form
+//!   (`residual.json` and one burn record per network).
 //! - The kinds, one module each: [`somm`] (one network per world axis), [`mosm`] (one
 //!   three-output network), [`casomm`] (a linfa decision tree, [`classifier`], picks one of two
 //!   SOMM sets), [`gp`] (a Gaussian process per axis, ARD squared-exponential kernel, marginal
@@ -43,6 +43,7 @@ pub mod model;
 pub mod mosm;
 pub mod net;
 pub mod persist;
+pub mod residual;
 pub mod samples;
 pub mod search;
 pub mod settings;
@@ -57,10 +58,11 @@ pub use classifier::{
 pub use error::{ResidualError, Result};
 pub use gp::{GpAxis, GpOptimizer, GpResidual, GpSettings};
 pub use mlp::{Activation, Dense, Mlp, NetSettings, Schedule, Split, TrainReport, train};
-pub use model::{Fitted, GateDecision, Residual, ResidualModel};
+pub use model::{Fitted, GateDecision, ResidualModel};
 pub use mosm::Mosm;
 pub use net::AxisNet;
 pub use persist::{MANIFEST, MAX_INPUTS, RESIDUAL_FORMAT};
+pub use residual::Residual;
 pub use samples::{Encoding, Frame, Samples, Standardizer, inputs_of};
 pub use search::{SearchLog, SearchSettings, Trial, search};
 pub use settings::{ResidualKind, ResidualSettings};

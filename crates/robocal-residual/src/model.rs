@@ -20,28 +20,11 @@ use crate::gp::GpResidual;
 use crate::mlp::NetSettings;
 use crate::mosm::Mosm;
 use crate::net::AxisNet;
+use crate::residual::Residual;
 use crate::samples::{Encoding, Frame, Samples};
 use crate::search::{SearchLog, search};
 use crate::settings::{ResidualKind, ResidualSettings};
 use crate::somm::Somm;
-
-/// A fitted residual model of one kind.
-pub trait Residual {
-    /// Predicted error (mm, world X/Y/Z) for each encoded input row, and — for a model that
-    /// knows how sure it is, when `std` is asked for — each axis's standard deviation (mm).
-    /// `raw` holds the same rows unencoded, with their physics rows (what a gate may read).
-    fn predict(
-        &self,
-        encoded: &[Vec<f64>],
-        raw: &Samples,
-        std: bool,
-    ) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>);
-
-    /// Its networks, in the order they are saved (none for a model without networks).
-    fn nets(&self) -> Vec<&AxisNet> {
-        Vec::new()
-    }
-}
 
 /// The fitted model of each kind.
 #[derive(Debug, Clone)]

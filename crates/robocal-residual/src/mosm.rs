@@ -3,8 +3,8 @@
 use robocal_data::Observer;
 
 use crate::mlp::NetSettings;
-use crate::model::Residual;
 use crate::net::AxisNet;
+use crate::residual::Residual;
 use crate::samples::Samples;
 
 /// One network, outputs X, Y, Z.

@@ -4,8 +4,8 @@
 use robocal_data::Observer;
 
 use crate::mlp::NetSettings;
-use crate::model::Residual;
 use crate::net::AxisNet;
+use crate::residual::Residual;
 use crate::samples::Samples;
 
 /// One network per world axis: X, Y, Z; with several members, the members' average.
