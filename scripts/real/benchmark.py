@@ -155,8 +155,7 @@ def calibrated_error(binary: str, robot: Path, train: Path, test: Path, config: 
 
 def peer_error(robot: Path, train: Path, test: Path):
     """The scipy + scikit-learn pipeline's mean error on the test rows (mm) and its seconds."""
-    sys.path.insert(0, str(ROOT / "scripts" / "peer"))
-    import lm_mlp  # noqa: E402  (numpy, scipy, scikit-learn)
+    from peer import lm_mlp  # noqa: E402  (numpy, scipy, scikit-learn: imported when needed)
 
     with tempfile.TemporaryDirectory() as tmp:
         case = Path(tmp)

@@ -9,7 +9,7 @@ use std::path::Path;
 use anyhow::Result;
 use robocal_data::{Measurement, MeasurementSet};
 use robocal_pipeline::calibration::{
-    Calibration, CalibrationInput, CalibrationReport, Checks, calibrate,
+    Calibration, CalibrationInput, CalibrationReport, Checks, Selection, calibrate,
 };
 use robocal_pipeline::{DataRole, Stages, write_data_report};
 use robocal_robot::Robot;
@@ -317,7 +317,7 @@ pub fn run(
             v.after.mean,
             v.after.max
         ),
-        (None, Some(s)) => match s.candidates.iter().find(|c| c.status == "chosen") {
+        (None, Some(s)) => match s.chosen() {
             Some(c) => format!(
                 "held-out error (score of the chosen candidate, {}): {:.4} mm",
                 s.held_out,
@@ -353,7 +353,7 @@ fn summary(out: &Path, report: &CalibrationReport, seconds: f64) -> String {
     let k = &report.kinematic;
     let mut lines = vec!["calibration summary".to_string()];
     let (model, score) = match &report.selection {
-        Some(s) => match s.candidates.iter().find(|c| c.status == "chosen") {
+        Some(s) => match s.chosen() {
             Some(c) => (c.name.clone(), c.score.map(|v| (v, s.held_out.clone()))),
             None => ("(none chosen)".to_string(), None),
         },
@@ -402,8 +402,12 @@ fn summary(out: &Path, report: &CalibrationReport, seconds: f64) -> String {
             loose.join(", ")
         ));
     }
-    if let Some(w) = k.warnings.iter().find(|w| w.contains("--budget")) {
-        warnings.push(w.clone());
+    if let Some(w) = report
+        .selection
+        .as_ref()
+        .and_then(Selection::budget_warning)
+    {
+        warnings.push(w);
     }
     for (i, w) in warnings.iter().enumerate() {
         let head = if i == 0 { "  warnings" } else { "          " };

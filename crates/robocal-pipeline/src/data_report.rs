@@ -1,7 +1,8 @@
 //! The pictures of a calibration on the user's own measurements (`robocal report`,
 //! `calibrate --report`): the error before and after as cumulative distributions, per pose, per
-//! axis against every joint angle, against the load (two or more loads) and over the workspace; PNG and SVG, `report.md`, one
-//! self-contained `report.html` (the SVGs inline) and `statistics.json`.
+//! axis against every joint angle, against the load (two or more loads) and over the
+//! workspace; PNG and SVG, `report.md`, one self-contained `report.html` (the SVGs inline) and
+//! `statistics.json`.
 //!
 //! "Before" is the nominal table with its base and tool registered in the tracker frame (the
 //! model directory's `nominal.toml`, written by `calibrate`); a model without it is shown after

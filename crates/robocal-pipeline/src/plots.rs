@@ -231,11 +231,11 @@ where
                 chart.draw_series(LineSeries::new(points, c.stroke_width(2)))?;
             }
         }
-        // Markers on every point of a short series, on every few of a long one (a histogram):
-        // the shape tells series apart where colours alone would not.
         if s.draw == Draw::Curve {
             continue;
         }
+        // Markers on every point of a short series, on every few of a long one (a histogram):
+        // the shape tells series apart where colours alone would not.
         let every = if s.draw == Draw::Line {
             (s.points.len() / 12).max(1)
         } else {
@@ -279,15 +279,15 @@ where
                 area.draw(&PathElement::new(vec![(8, y), (34, y)], c.stroke_width(2)))?;
             }
         }
-        if *draw == Draw::Curve {
-            area.draw(&Text::new(name.clone(), (42, y - 7), font.clone()))?;
-            continue;
-        }
-        match st.marker {
-            Marker::Circle => area.draw(&Circle::new((21, y), 4, c.filled()))?,
-            Marker::Triangle => area.draw(&TriangleMarker::new((21, y), 5, c.filled()))?,
-            Marker::Cross => area.draw(&Cross::new((21, y), 4, c.stroke_width(2)))?,
-            Marker::Square => area.draw(&Rectangle::new([(18, y - 3), (24, y + 3)], c.filled()))?,
+        if *draw != Draw::Curve {
+            match st.marker {
+                Marker::Circle => area.draw(&Circle::new((21, y), 4, c.filled()))?,
+                Marker::Triangle => area.draw(&TriangleMarker::new((21, y), 5, c.filled()))?,
+                Marker::Cross => area.draw(&Cross::new((21, y), 4, c.stroke_width(2)))?,
+                Marker::Square => {
+                    area.draw(&Rectangle::new([(18, y - 3), (24, y + 3)], c.filled()))?
+                }
+            }
         }
         area.draw(&Text::new(name.clone(), (42, y - 7), font.clone()))?;
     }

@@ -1,14 +1,14 @@
 //! The default calibration's time budget, kept by the clock or by counted work.
 //!
-//! By the clock (the default) every decision of the budget — a candidate skipped before its
-//! folds, abandoned during them, a fold's fit stopped — reads the time the selection has taken,
-//! so where the budget binds a seed's model depends on the machine's pace (one case of the paper's
-//! arm, three runs: two models). By counted work (`reproducible`) the same
-//! decisions read what the fits and trainings have counted, turned into the seconds a reference
-//! machine of [`REFERENCE_CORES`] cores takes for it: the same on every machine and any number of
-//! cores, so a seed gives one model. The clock stays as a guard: no fit runs past the budget
-//! itself, and no candidate starts once the clock is past what the counts say — on a machine
-//! slower than the reference the clock then decides, and the model may again depend on it.
+//! By the clock (the default) every decision of the budget — a candidate skipped before its folds,
+//! abandoned during them, a fold's fit stopped — reads the time the selection has taken, so where
+//! the budget binds a seed's model depends on the machine's pace (one case of the paper's arm,
+//! three runs: two models). By counted work (`reproducible`) the same decisions read what the fits
+//! and trainings have counted, turned into the seconds a reference machine of [`REFERENCE_CORES`]
+//! cores takes for it: the same on every machine and any number of cores, so a seed gives one
+//! model. The clock stays as a guard: no fit runs past the budget itself, and no candidate starts
+//! once the clock is past what the counts say — on a machine slower than the reference the clock
+//! then decides, and the model may again depend on it.
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -17,7 +17,8 @@ use std::time::{Duration, Instant};
 use robocal_data::Observer;
 use robocal_residual::{ResidualKind, ResidualStage};
 
-/// The cores of the machine the counted budget is sized for (120 s for 1000 rows on 2 cores): counted work turns into its seconds at this many cores' worth per second.
+/// The cores of the machine the counted budget is sized for (120 s for 1000 rows on 2 cores):
+/// counted work turns into its seconds at this many cores' worth per second.
 pub const REFERENCE_CORES: usize = 2;
 
 /// Identification work ([`robocal_ident::Work`]: each evaluation's residuals and each Jacobian's

@@ -291,10 +291,9 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         .filter(|r| r.sample.line == 0 || !flagged.contains(&r.sample.line))
         .collect();
     let repeats = repeats(&kept).map(|mut r| {
-        r.held_out_over_floor = (built.selection.iter())
+        r.held_out_over_floor = (built.selection.as_ref())
             .filter(|_| input.validation.is_none())
-            .flat_map(|s| s.candidates.iter())
-            .find(|c| c.status == "chosen")
+            .and_then(Selection::chosen)
             .and_then(|c| c.held_out.as_ref())
             .filter(|_| r.floor_mm > 0.0)
             .map(|h| h.mean / r.floor_mm);

@@ -105,6 +105,19 @@ pub struct Selection {
     pub counted_seconds: Option<f64>,
 }
 
+impl Selection {
+    /// The candidate the selection chose, if it chose one.
+    pub fn chosen(&self) -> Option<&Candidate> {
+        self.candidates.iter().find(|c| c.status == "chosen")
+    }
+
+    /// The warning that the time budget ended the search before some candidates were scored
+    /// (the one the report's warnings hold), if it did.
+    pub fn budget_warning(&self) -> Option<String> {
+        budget_warning(&self.candidates, self.budget_seconds)
+    }
+}
+
 /// Settings of the default calibration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AutoSettings {
@@ -1129,9 +1142,10 @@ fn physics_chain(
         // Where the budget cut the runouts' fits (skipped, or abandoned during their folds), the
         // cheaper fit that starts them from the model without them, whose first fit and flanks
         // the candidates before made (a third of the work on the paper's arm, whose twin beyond
-        // the model, at 75 s, goes from 0.101 to 0.022 mm on its joint-1 extrapolation with it). Other fits than the full one, so tried only where that one has no score; and
-        // only where the compliances' first fit would hold the runouts (elsewhere the two are
-        // the same fits).
+        // the model, at 75 s, goes from 0.101 to 0.022 mm on its joint-1 extrapolation with it).
+        // Other fits than the full one, so tried only where that one has no score; and only
+        // where the compliances' first fit would hold the runouts (elsewhere the two are the
+        // same fits).
         let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
         if cut && wobbling.settings(settings).runouts_in_first_fit() {
             let cheaper = Physics {
