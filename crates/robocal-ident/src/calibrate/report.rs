@@ -1,0 +1,253 @@
+//! What an identification reports: every parameter with its change and deviation, the
+//! compliances and joint errors in their file units, what was held and why.
+
+use super::joint_errors::ComplianceChoice;
+use crate::identifiability::Column;
+use crate::problem::Observations;
+use robocal_data::ErrorStats;
+use robocal_robot::{DEG_PER_KNM, ErrorParam, JointErrors};
+use serde::Serialize;
+
+/// One joint-error coefficient besides the payload compliances, in the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ErrorTermReport {
+    /// Stable name: `j2.h1.sin`, `j3.sw4.mass`.
+    pub name: String,
+    /// `deg` for harmonics, `deg per basis unit` for self-weight terms.
+    pub unit: &'static str,
+    /// Identified value (0 when held).
+    pub value: f64,
+    /// Standard deviation.
+    pub std: Option<f64>,
+    /// Whether it was identified (false: the poses cannot separate it; held at 0).
+    pub identified: bool,
+}
+
+/// One joint's compliance in the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointCompliance {
+    /// Joint, counted from 1.
+    pub joint: usize,
+    /// Identified compliance, deg per kN·m (0 when not identified).
+    pub compliance: f64,
+    /// Its standard deviation, deg per kN·m.
+    pub std: Option<f64>,
+    /// RMS payload torque on the joint over the loaded points, N·m per kg.
+    pub torque_per_kg: f64,
+    /// Whether it was identified.
+    pub identified: bool,
+    /// Why it was or was not.
+    pub reason: String,
+}
+
+/// The compliance part of a kinematic report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ComplianceReport {
+    /// Gravity in the base frame, m/s².
+    pub gravity: [f64; 3],
+    /// Payload centre of mass in the flange frame, mm.
+    pub payload_com: [f64; 3],
+    /// Where the payload centre of mass came from.
+    pub payload_com_source: String,
+    /// How the joints were chosen.
+    pub joints_source: String,
+    /// Every joint.
+    pub joints: Vec<JointCompliance>,
+    /// Distinct loads in the data, kg.
+    pub loads: Vec<f64>,
+}
+
+/// One parameter in the report (file units: mm or deg).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParameterReport {
+    /// Stable name, e.g. `j2.beta`.
+    pub name: String,
+    /// `mm` or `deg`.
+    pub unit: &'static str,
+    /// Value in the robot file given to `calibrate`.
+    pub nominal: f64,
+    /// Identified value (for base and tool: relative to the registration, see `fitted_frame`).
+    pub identified: f64,
+    /// identified − nominal.
+    pub delta: f64,
+    /// Standard deviation from the covariance and the residual; absent when not identified.
+    pub std: Option<f64>,
+    /// Whether the parameter was identified (false: held at its registered/nominal value).
+    pub identified_flag: bool,
+}
+
+/// The orientation part of a kinematic report (a 6-DoF probe's rows).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrientationReport {
+    /// Rows with a measured orientation.
+    pub rows: usize,
+    /// Weight of an orientation residual, mm per deg.
+    pub angle_weight: f64,
+    /// Angle between measured and predicted tool frames, deg: the aligned nominal table.
+    pub before: ErrorStats,
+    /// The same, identified model.
+    pub after: ErrorStats,
+}
+
+/// A parameter held fixed because the data cannot determine it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FixedParameter {
+    /// Stable name.
+    pub name: String,
+    /// Fraction of its Jacobian column not explained by the identified parameters.
+    pub independent_fraction: f64,
+    /// Human-readable reason.
+    pub reason: String,
+}
+
+/// What a kinematic identification did and found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct KinematicReport {
+    /// `lm` or `bfgs`.
+    pub solver: &'static str,
+    /// What it minimised.
+    pub cost: &'static str,
+    /// Optimiser iterations.
+    pub iterations: u64,
+    /// Why the optimiser stopped.
+    pub termination: String,
+    /// Measured points used.
+    pub points: usize,
+    /// Nominal table with only base and tool fitted (best-fit alignment).
+    pub before: ErrorStats,
+    /// Identified model on the same points.
+    pub after: ErrorStats,
+    /// With a 6-DoF probe's rows: the angle between measured and predicted tool frames, deg,
+    /// of the aligned nominal table and of the identified model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<OrientationReport>,
+    /// Every parameter of the table.
+    pub parameters: Vec<ParameterReport>,
+    /// Parameters held fixed as unidentifiable with this pose set.
+    pub fixed: Vec<FixedParameter>,
+    /// With several reflectors: the parameters identified that the default reflector's rows
+    /// alone would leave fixed (the points' own offsets aside).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub identified_by_reflectors: Vec<String>,
+    /// Condition number of the scaled Jacobian of the identified parameters.
+    pub condition_number: f64,
+    /// Observability index O1 (Borm & Menq) of the scaled Jacobian.
+    pub observability_index: f64,
+    /// Joint compliances, when identified with the geometry.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compliance: Option<ComplianceReport>,
+    /// Transmission harmonics and self-weight terms, when identified with the geometry.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub joint_errors: Vec<ErrorTermReport>,
+    /// The spread (standard deviation, deg) of the harmonics' prior the data chose
+    /// ([`JointErrorSettings::harmonic_prior`]), when the harmonics were identified under one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub harmonic_prior_deg: Option<f64>,
+    /// The spread (standard deviation, deg) of the axis runouts' prior the data chose, when the
+    /// runouts were identified under one (their own, beside the harmonics').
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub runout_prior_deg: Option<f64>,
+    /// What the user should know about the data's ability to determine the parameters.
+    pub warnings: Vec<String>,
+}
+
+/// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
+/// payload torque and why it was held (rigid, or at a first fit's value).
+pub(super) fn compliance_report(
+    choice: Option<&ComplianceChoice>,
+    compliance: Option<&JointErrors>,
+    obs: &Observations,
+    kept: &[Column],
+    fixed: &[FixedParameter],
+    std_of: &dyn Fn(Column) -> Option<f64>,
+) -> Option<ComplianceReport> {
+    match (choice, compliance) {
+        (Some(choice), Some(model)) => Some(ComplianceReport {
+            gravity: model.gravity.into(),
+            payload_com: model.payload_com.into(),
+            payload_com_source: match (0..3)
+                .filter(|&axis| kept.contains(&Column::PayloadCom(axis)))
+                .count()
+            {
+                0 => choice.payload_com_source.clone(),
+                n => format!(
+                    "identified with the compliances ({n} of 3 coordinates; started from {})",
+                    choice.payload_com_source
+                ),
+            },
+            joints_source: choice.joints_source.clone(),
+            loads: obs.distinct_loads(),
+            joints: (0..model.values.len())
+                .map(|j| {
+                    let column = Column::Compliance(j);
+                    let identified = kept.contains(&column);
+                    let reason = if identified && model.values[j] < 0.0 {
+                        "identified, NEGATIVE: no joint stiffens under load; the stage is absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection); consider leaving this joint out".to_string()
+                    } else if identified {
+                        "identified".to_string()
+                    } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
+                        // Rigid, or at the first fit's value when the gate held it in the fit
+                        // that started there (its reason says which).
+                        if model.values[j] == 0.0 {
+                            format!("held rigid: {}", f.reason)
+                        } else {
+                            format!("held: {}", f.reason)
+                        }
+                    } else {
+                        "held rigid: not selected".to_string()
+                    };
+                    JointCompliance {
+                        joint: j + 1,
+                        compliance: model.values[j] / DEG_PER_KNM,
+                        std: std_of(column).map(|s| s / DEG_PER_KNM),
+                        torque_per_kg: choice.torque_per_kg[j],
+                        identified,
+                        reason,
+                    }
+                })
+                .collect(),
+        }),
+        _ => None,
+    }
+}
+
+/// The joint-error terms besides the compliances in the report (harmonics, self-weight, backlash,
+/// the links' weights, the payload's centre of mass): value in its unit, σ, whether identified.
+pub(super) fn joint_error_reports(
+    model: &JointErrors,
+    params: &[ErrorParam],
+    kept: &[Column],
+    std_of: &dyn Fn(Column) -> Option<f64>,
+) -> Vec<ErrorTermReport> {
+    params
+        .iter()
+        .filter(|p| !matches!(p, ErrorParam::Compliance(_)))
+        .map(|&p| {
+            let column = Column::of_error(model, p);
+            ErrorTermReport {
+                name: model.param_name(p),
+                unit: match p {
+                    ErrorParam::SelfWeight(_) => "deg per basis unit",
+                    ErrorParam::LinkWeight(i) => model.link_weights[i].part.weight_unit(),
+                    ErrorParam::PayloadCom(_) => "mm",
+                    ErrorParam::Tilt(_) => "deg per kN·m",
+                    _ => "deg",
+                },
+                value: in_file_unit(p, model.param(p)),
+                std: std_of(column).map(|s| in_file_unit(p, s)),
+                identified: kept.contains(&column),
+            }
+        })
+        .collect()
+}
+
+/// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m and
+/// the payload's centre of mass's mm as they are, a tilting compliance in deg per kN·m, the rest
+/// from radians to degrees.
+pub(super) fn in_file_unit(p: ErrorParam, value: f64) -> f64 {
+    match p {
+        ErrorParam::LinkWeight(_) | ErrorParam::PayloadCom(_) => value,
+        ErrorParam::Tilt(_) => value / DEG_PER_KNM,
+        _ => value.to_degrees(),
+    }
+}
