@@ -23,6 +23,8 @@ pub(super) fn indices(robot: &Robot, keep: impl Fn(ParamId) -> bool) -> Vec<usiz
 /// `obs` ([`align`]), and its angle (degrees) from `gravity` (base frame): how far from upright
 /// the arm stands if the tracker is levelled. Beyond [`MOUNTING_ANGLE_DEG`] the arm is taken
 /// to hang on a wall or a ceiling, and the data decide which of the two gravity is.
+///
+/// [`MOUNTING_ANGLE_DEG`]: super::MOUNTING_ANGLE_DEG
 pub fn tracker_down(
     nominal: &Robot,
     obs: &Observations,

@@ -14,6 +14,8 @@ use robocal_robot::Robot;
 /// and the default calibration's candidates on one fold share them. Only what succeeded is
 /// kept; each set of rows is kept once. Safe to share between threads (the lock is held for a
 /// lookup or an insertion, never while fitting).
+///
+/// [`calibrate_kinematics_with`]: super::calibrate_kinematics_with
 #[derive(Default)]
 pub struct FitMemo(std::sync::Mutex<MemoEntries>);
 

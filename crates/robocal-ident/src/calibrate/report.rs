@@ -141,6 +141,8 @@ pub struct KinematicReport {
     pub joint_errors: Vec<ErrorTermReport>,
     /// The spread (standard deviation, deg) of the harmonics' prior the data chose
     /// ([`JointErrorSettings::harmonic_prior`]), when the harmonics were identified under one.
+    ///
+    /// [`JointErrorSettings::harmonic_prior`]: super::JointErrorSettings::harmonic_prior
     #[serde(skip_serializing_if = "Option::is_none")]
     pub harmonic_prior_deg: Option<f64>,
     /// The spread (standard deviation, deg) of the axis runouts' prior the data chose, when the

@@ -253,6 +253,8 @@ impl Default for JointErrorSettings {
 pub struct ComplianceSettings {
     /// Joints (0-based) whose compliance is identified; `None`: the joints that carry the
     /// payload's gravity torque in these data ([`default_compliance_joints`]).
+    ///
+    /// [`default_compliance_joints`]: super::default_compliance_joints
     pub joints: Option<Vec<usize>>,
     /// Gravity in the robot base frame {0}, m/s².
     pub gravity: Vector3<f64>,
