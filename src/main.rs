@@ -18,7 +18,7 @@ fn main() -> ExitCode {
         Err(err) => {
             eprintln!(
                 "robocal: error: {}",
-                robocal_pipeline::error::message(err.as_ref())
+                robocal_calibration::message(err.as_ref())
             );
             ExitCode::FAILURE
         }

@@ -8,8 +8,9 @@
 use std::path::Path;
 
 use proptest::prelude::*;
+use robocal_calibration::Stages;
 use robocal_data::{MeasurementSet, SampleSet, read_targets};
-use robocal_pipeline::{Experiment, Stages};
+use robocal_pipeline::Experiment;
 use robocal_robot::{Compliance, Robot};
 use robocal_twin::TwinConfig;
 

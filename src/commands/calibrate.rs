@@ -2,16 +2,17 @@
 //!
 //! With `--config`, the stages the file asks for; without, the default calibration, which
 //! chooses its stages from the data by their error on held-out poses (see
-//! `robocal_pipeline::calibration`).
+//! `robocal_calibration`).
 
 use std::path::Path;
 
 use anyhow::Result;
-use robocal_data::{Measurement, MeasurementSet};
-use robocal_pipeline::calibration::{
+use robocal_calibration::Stages;
+use robocal_calibration::{
     Calibration, CalibrationInput, CalibrationReport, Checks, Selection, calibrate,
 };
-use robocal_pipeline::{DataRole, Stages, write_data_report};
+use robocal_data::{Measurement, MeasurementSet};
+use robocal_report::{DataRole, write_data_report};
 use robocal_robot::Robot;
 
 use super::terminal::Terminal;

@@ -44,7 +44,7 @@ pub fn run(cli: Cli) -> Result<()> {
             validate.as_deref(),
             &out,
             config.as_deref(),
-            robocal_pipeline::calibration::Checks {
+            robocal_calibration::Checks {
                 force,
                 keep_outliers,
             },

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::Result;
 use robocal_data::{Measurement, MeasurementSet};
 use robocal_model::CalibratedModel;
-use robocal_pipeline::{DataRole, write_data_report};
+use robocal_report::{DataRole, write_data_report};
 
 /// Writes the report of the model in `model` on the rows of `data` into `out`, atomically.
 pub fn run(model_dir: &Path, data: &Path, out: &Path) -> Result<()> {

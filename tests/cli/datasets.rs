@@ -217,8 +217,8 @@ fn the_conversion_gives_the_bundled_files() {
 /// points nearly as well, so the data are not refused as being in wrong units.
 #[test]
 fn a_far_length_the_data_do_not_need_is_not_taken_for_wrong_units() {
+    use robocal_calibration::{check_plausible, fit_kinematic};
     use robocal_ident::{KinematicSettings, far_from_nominal};
-    use robocal_pipeline::calibration::{check_plausible, fit_kinematic};
     let dir = root().join("datasets/ur10-tmac");
     let robot = Robot::load(dir.join("robot.toml")).unwrap();
     let set = MeasurementSet::read(dir.join("series-a-grid.csv"), 6).unwrap();

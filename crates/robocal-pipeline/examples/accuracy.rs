@@ -35,14 +35,14 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use robocal_calibration::DEFAULT_BUDGET_SECONDS;
+use robocal_calibration::{AutoSettings, Stages, automatic};
+use robocal_calibration::{
+    configured, fit_kinematic, hold_out, physical_model, train_residual_model,
+};
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, Silent};
 use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
 use robocal_pipeline::CalibratedModel;
-use robocal_pipeline::calibration::DEFAULT_BUDGET_SECONDS;
-use robocal_pipeline::calibration::{
-    configured, fit_kinematic, hold_out, physical_model, train_residual_model,
-};
-use robocal_pipeline::{AutoSettings, Stages, automatic};
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
 use robocal_robot::{JointField, ParamId};
 use robocal_twin::TwinConfig;
@@ -803,7 +803,7 @@ fn land(twin: &TwinConfig, model: &CalibratedModel, test: &[&Measurement]) -> La
 /// which the search names, and the default calibration's error on the test rows (against the
 /// truth) with them against without.
 fn bad_shots(arms: &[String], seeds: u64) -> Result<(), Box<dyn std::error::Error>> {
-    use robocal_pipeline::calibration::{OutlierSettings, find_outliers};
+    use robocal_calibration::{OutlierSettings, find_outliers};
     out!(
         "| arm | seed | rows | largest clean row (robust σ) | clean rows flagged | bad shots | named | missed | clean flagged with them | test mean clean | with bad shots | change |"
     );
@@ -857,7 +857,7 @@ fn bad_shots(arms: &[String], seeds: u64) -> Result<(), Box<dyn std::error::Erro
                 &kinematic,
                 &OutlierSettings::default(),
             )?;
-            let is_shot = |o: &robocal_pipeline::calibration::Outlier| {
+            let is_shot = |o: &robocal_calibration::Outlier| {
                 shot.iter()
                     .any(|&i| dirty[i].sample.pose == o.pose && dirty[i].sample.load == o.load)
             };

@@ -17,9 +17,10 @@
 
 use std::path::Path;
 
+use robocal_calibration::physical_model;
 use robocal_data::Silent;
 use robocal_model::gate_physics_rows;
-use robocal_pipeline::{Experiment, physical_model, run};
+use robocal_pipeline::{Experiment, run};
 use robocal_residual::{Residual, ResidualKind, ResidualSettings, Samples, Somm, inputs_of};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

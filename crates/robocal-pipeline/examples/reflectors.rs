@@ -21,9 +21,9 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
+use robocal_calibration::Stages;
+use robocal_calibration::{CalibrationInput, Checks, calibrate};
 use robocal_data::{Measurement, MeasurementSet, Silent};
-use robocal_pipeline::Stages;
-use robocal_pipeline::calibration::{CalibrationInput, Checks, calibrate};
 use robocal_twin::TwinConfig;
 
 const TWIN: &str = "configs/twin/pmc6va030.toml";

@@ -1,4 +1,4 @@
-//! Errors of the pipeline crate. Every variant names the file, and the key or line where there is
+//! Errors of the experiments. Every variant names the file, and the key or line where there is
 //! one.
 
 use std::path::PathBuf;
@@ -75,26 +75,44 @@ pub enum PipelineError {
     },
 }
 
-/// An error and its causes as one line, each cause once: errors quote their source already
-/// (`{path}: cannot read: {source}`), so a cause whose text is in the message is not repeated.
-/// The command line and the Python bindings show errors this way.
-pub fn message(err: &(dyn std::error::Error + 'static)) -> String {
-    let mut text = String::new();
-    let mut cause = Some(err);
-    while let Some(c) = cause {
-        let part = c.to_string();
-        if !text.contains(&part) {
-            if !text.is_empty() {
-                text.push_str(": ");
-            }
-            text.push_str(&part);
+impl From<robocal_calibration::CalibrationError> for PipelineError {
+    /// The calibration's error as the same variant here: an experiment names a bad stage file's
+    /// key as it names its own.
+    fn from(e: robocal_calibration::CalibrationError) -> Self {
+        use robocal_calibration::CalibrationError as C;
+        match e {
+            C::Read { path, source } => Self::Read { path, source },
+            C::Key { path, key, message } => Self::Key { path, key, message },
+            C::Toml(fault) => Self::Toml(fault),
+            C::Stage(message) => Self::Stage(message),
+            C::Robot(e) => Self::Robot(e),
+            C::Data(e) => Self::Data(e),
+            C::Ident(e) => Self::Ident(e),
+            C::Residual(e) => Self::Residual(e),
+            C::Implausible { data, why } => Self::Implausible { data, why },
+            C::Failed { data, source } => Self::Failed {
+                data,
+                source: Box::new(Self::from(*source)),
+            },
         }
-        cause = c.source();
     }
-    text
 }
 
-/// Result of the pipeline crate.
+impl From<robocal_report::ReportError> for PipelineError {
+    fn from(e: robocal_report::ReportError) -> Self {
+        use robocal_report::ReportError as R;
+        match e {
+            R::Read { path, source } => Self::Read { path, source },
+            R::Plot { path, message } => Self::Plot { path, message },
+            R::Data(message) => Self::Stage(message),
+            R::Write(e) => Self::Data(e),
+        }
+    }
+}
+
+pub use robocal_calibration::message;
+
+/// Result of the experiments.
 pub type Result<T> = std::result::Result<T, PipelineError>;
 
 /// Reads a config file as text, naming it when that fails.

@@ -11,7 +11,7 @@ use robocal_residual::{Gate, PerClass, ResidualKind};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{PipelineError, Result, read_text};
-use crate::stages::{RawStages, Stages};
+use robocal_calibration::{RawStages, Stages};
 
 /// An experiment file as written.
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -13,23 +13,17 @@
 //! # Ok::<(), robocal_pipeline::PipelineError>(())
 //! ```
 
-pub mod calibration;
-pub mod data_report;
 pub mod error;
 pub mod experiment;
+pub mod figures;
 pub mod paper;
-pub mod plots;
 pub mod report;
 pub mod run;
 pub mod split;
-pub mod stages;
 
-pub use calibration::{AutoSettings, Built, automatic, configured, physical_model};
-pub use data_report::{DataReport, DataRole, write_data_report};
 pub use error::{PipelineError, Result};
 pub use experiment::{Experiment, ModelPlan, RawExperiment, SplitDesign};
 pub use report::{Written, write_report};
 pub use robocal_model::CalibratedModel;
 pub use run::{Outcome, Summary, run};
 pub use split::{Set, Splits};
-pub use stages::{RawStages, Stages};

@@ -8,12 +8,12 @@ use std::time::Instant;
 use robocal_data::{ErrorStats, write_dir_atomically, write_text_in};
 use robocal_twin::{BacklashSide, TwinConfig};
 
-use crate::calibration::GateSummary;
 use crate::error::{PipelineError, Result};
+use crate::figures::{draw_all, report_dir};
 use crate::paper;
-use crate::plots::{draw_all, report_dir};
 use crate::run::{Outcome, Summary, stats};
 use crate::split::Set;
+use robocal_calibration::GateSummary;
 
 fn ours(s: &ErrorStats) -> String {
     format!("{:.3} | {:.3} | {:.3}", s.mean, s.std, s.max)

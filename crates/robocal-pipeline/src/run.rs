@@ -17,10 +17,10 @@ use robocal_robot::{ParamId, Robot};
 use robocal_twin::TwinConfig;
 use serde::Serialize;
 
-use crate::calibration::{GateSummary, gate_ready, gate_summary, physical_model};
 use crate::error::{PipelineError, Result};
 use crate::experiment::{DataSource, Experiment};
 use crate::split::{Set, Splits};
+use robocal_calibration::{GateSummary, gate_ready, gate_summary, physical_model};
 
 /// Named groups of rows that the statistics are given for.
 pub const GROUPS: [&str; 10] = [

@@ -8,12 +8,12 @@ use std::path::Path;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use robocal_calibration::fit_kinematic;
+use robocal_calibration::physical_model;
 use robocal_data::{Measurement, Sample};
 use robocal_ident::{
     CalibrationProblem, ComplianceSettings, JointErrorSettings, KinematicSettings, Observations,
 };
-use robocal_pipeline::calibration::fit_kinematic;
-use robocal_pipeline::physical_model;
 use robocal_robot::Parameter;
 use robocal_twin::TwinConfig;
 

@@ -4,10 +4,11 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
+use robocal_calibration::Stages;
+use robocal_calibration::{OutlierSettings, find_outliers};
 use robocal_data::{Lines, Measurement, MeasurementSet};
 use robocal_ident::KinematicSettings;
-use robocal_pipeline::calibration::{OutlierSettings, find_outliers};
-use robocal_pipeline::{Experiment, PipelineError, RawExperiment, Set, Splits, Stages};
+use robocal_pipeline::{Experiment, PipelineError, RawExperiment, Set, Splits};
 use robocal_robot::Robot;
 use robocal_twin::TwinConfig;
 
@@ -283,8 +284,8 @@ fn experiment_files_are_validated_with_the_key_named() {
 /// chosen stages fitted again on every row.
 #[test]
 fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error() {
-    use robocal_pipeline::calibration::{fit_kinematic, folds};
-    use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_calibration::{AutoSettings, automatic};
+    use robocal_calibration::{fit_kinematic, folds};
     use robocal_residual::{GpSettings, ResidualKind, ResidualSettings, ResidualStage};
     let twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     let data = twin.generate().unwrap().measurements;
@@ -440,7 +441,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let kinematic = selection.candidates[1].held_out.as_ref().unwrap().mean;
     assert!((kinematic - mean).abs() < 1e-12, "{kinematic} vs {mean}");
     // The blocks: joint 1's readings of one block all lie beyond those of the block before.
-    let (block_of, kb) = robocal_pipeline::calibration::blocks(&rows, 3);
+    let (block_of, kb) = robocal_calibration::blocks(&rows, 3);
     assert_eq!(kb, 3);
     for b in 1..kb {
         let q1 = |block: usize| {
@@ -615,19 +616,19 @@ fn torque_flank_twin(preload: f64, gears: bool) -> (TwinConfig, MeasurementSet) 
 
 /// The default's settings of the torque-flank tests: three folds, compliance and backlash the
 /// only joint errors, no residual model.
-fn torque_flank_settings() -> robocal_pipeline::AutoSettings {
-    robocal_pipeline::AutoSettings {
+fn torque_flank_settings() -> robocal_calibration::AutoSettings {
+    robocal_calibration::AutoSettings {
         folds: 3,
         harmonics: 0,
         self_weight: false,
         residuals: Vec::new(),
-        ..robocal_pipeline::AutoSettings::default()
+        ..robocal_calibration::AutoSettings::default()
     }
 }
 
 /// The chosen candidate is compliance with the searched backlash, and the model holds joint 2's
 /// play on a torque flank, its width within 10 % of the twin's.
-fn assert_searched_torque_play_chosen(built: &robocal_pipeline::Built) {
+fn assert_searched_torque_play_chosen(built: &robocal_calibration::Built) {
     use robocal_robot::Flank;
     let selection = built.selection.as_ref().unwrap();
     let chosen = (selection.candidates.iter())
@@ -649,10 +650,7 @@ fn assert_searched_torque_play_chosen(built: &robocal_pipeline::Built) {
 }
 
 /// The held-out score of the candidate named `name` (panics, naming the candidates, if none).
-fn candidate_score(
-    selection: &robocal_pipeline::calibration::Selection,
-    name: &str,
-) -> Option<f64> {
+fn candidate_score(selection: &robocal_calibration::Selection, name: &str) -> Option<f64> {
     (selection.candidates.iter())
         .find(|c| c.name == name)
         .unwrap_or_else(|| panic!("{name}: {:?}", selection.candidates))
@@ -666,7 +664,7 @@ fn candidate_score(
 /// kept, and is what the model holds: joint 2's play on a torque flank, its width recovered.
 #[test]
 fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_middle() {
-    use robocal_pipeline::automatic;
+    use robocal_calibration::automatic;
     let (twin, data) = torque_flank_twin(-25.0, true);
     let rows: Vec<&Measurement> = data.rows.iter().collect();
     let lines = Lines::default();
@@ -705,7 +703,7 @@ fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_m
 #[test]
 fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions_flanks_is_dropped()
 {
-    use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_calibration::{AutoSettings, automatic};
     let (twin, data) = torque_flank_twin(-35.0, false);
     let rows: Vec<&Measurement> = data.rows.iter().collect();
     let settings = torque_flank_settings();
@@ -766,7 +764,7 @@ fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions
 /// mm against 0.038).
 #[test]
 fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolate() {
-    use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_calibration::{AutoSettings, automatic};
     use robocal_robot::Harmonic;
     let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     twin.poses = twin.poses.around_base(240);
@@ -831,8 +829,8 @@ fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolat
 /// where a quarter to two fifths of the span beyond lost on the development twins).
 #[test]
 fn the_default_keeps_the_quarter_reach_where_continued_only_just_beats_held() {
-    use robocal_pipeline::calibration::REACH_GAIN;
-    use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_calibration::REACH_GAIN;
+    use robocal_calibration::{AutoSettings, automatic};
     let mut twin = TwinConfig::load(root().join("configs/twin/arm7.toml")).unwrap();
     twin.poses = twin.poses.around_base(300);
     let data = twin.generate().unwrap();
@@ -865,13 +863,13 @@ fn the_default_keeps_the_quarter_reach_where_continued_only_just_beats_held() {
 /// data in inches are still refused, with the cause named.
 #[test]
 fn a_heavy_arms_own_weight_is_not_taken_for_wrong_units() {
-    use robocal_pipeline::calibration::check_plausible;
+    use robocal_calibration::check_plausible;
     let twin = TwinConfig::load(root().join("configs/twin/arm6h.toml")).unwrap();
     let data = twin.generate().unwrap().measurements;
     let rows: Vec<&robocal_data::Measurement> = (data.rows.iter())
         .filter(|r| r.sample.load <= 40.0)
         .collect();
-    let rigid = robocal_pipeline::calibration::fit_kinematic(
+    let rigid = robocal_calibration::fit_kinematic(
         &twin.nominal,
         &rows,
         &robocal_ident::KinematicSettings::default(),
@@ -951,7 +949,7 @@ fn residual_models_are_skipped_below_the_default_count_of_configurations() {
 }
 
 fn residual_models_skipped_on(file: &str, frames: usize) {
-    use robocal_pipeline::{AutoSettings, automatic};
+    use robocal_calibration::{AutoSettings, automatic};
     let twin = TwinConfig::load(root().join(format!("configs/twin/{file}.toml"))).unwrap();
     let data = twin.generate().unwrap().measurements;
     let mut poses: Vec<&str> = data.rows.iter().map(|r| r.sample.pose.as_str()).collect();
@@ -971,7 +969,7 @@ fn residual_models_skipped_on(file: &str, frames: usize) {
     let built = automatic(&settings, &twin.nominal, &rows, None, &Lines::default()).unwrap();
     assert!(built.residual.is_none());
     let selection = built.selection.as_ref().unwrap();
-    let residual = |c: &&robocal_pipeline::calibration::Candidate| {
+    let residual = |c: &&robocal_calibration::Candidate| {
         ["gp", "somm"].iter().any(|k| {
             c.name.ends_with(&format!(" + {k}"))
                 || c.name.ends_with(&format!(" + {k} (world frame)"))
@@ -1005,9 +1003,9 @@ fn residual_models_skipped_on(file: &str, frames: usize) {
 /// three trained alone on those hold-outs — and the report over every row.
 #[test]
 fn an_averaged_somm_trains_each_member_on_its_own_hold_out() {
+    use robocal_calibration::{RawStages, configured};
+    use robocal_calibration::{hold_out, physical_model};
     use robocal_data::Silent;
-    use robocal_pipeline::calibration::{hold_out, physical_model};
-    use robocal_pipeline::{RawStages, configured};
     use robocal_residual::{Defaults, ResidualModel, Samples};
     let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     twin.poses.count = 30;
@@ -1136,10 +1134,10 @@ fn moderate_bad_shots_on_the_papers_arm_are_found_by_the_refined_search() {
 /// search fits every row, then the rows without the shot.
 #[test]
 fn a_stage_after_the_search_for_bad_shots_takes_its_last_fit() {
+    use robocal_calibration::configured;
+    use robocal_calibration::{configured_with, find_outliers_with};
     use robocal_data::Silent;
     use robocal_ident::{ComplianceSettings, FitMemo};
-    use robocal_pipeline::calibration::{configured_with, find_outliers_with};
-    use robocal_pipeline::configured;
     let mut twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     twin.poses.count = 24;
     let mut data = twin.generate().unwrap().measurements.rows;
@@ -1229,9 +1227,9 @@ fn the_search_for_bad_shots_is_least_squares_under_a_huber_or_bfgs_stage() {
 fn a_residual_in_the_frame_turning_with_joint_1_carries_an_error_that_turns_with_the_arm() {
     use nalgebra::{Rotation3, Vector3};
     use rand::{RngExt, SeedableRng};
+    use robocal_calibration::{train_residual, train_residual_model};
     use robocal_data::{Sample, Silent};
     use robocal_pipeline::CalibratedModel;
-    use robocal_pipeline::calibration::{train_residual, train_residual_model};
     use robocal_residual::{Frame, GpSettings, ResidualSettings, ResidualStage};
 
     let robot = Robot::load(root().join("configs/robots/arm5.toml")).unwrap();

@@ -1,6 +1,6 @@
 //! Python bindings of robocal (`import robocal`): robot tables, calibration, prediction,
 //! compensation and model directories, numpy arrays in and out, in robocal's units (mm, deg,
-//! kg). Every computation is the command line's own (`robocal_pipeline::calibration::calibrate`,
+//! kg). Every computation is the command line's own (`robocal_calibration::calibrate`,
 //! `CalibratedModel::predict_with_sigma`, `robocal_compensate::compensate`), so Python and the
 //! command line give the same numbers from the same rows; errors are `robocal.RobocalError`
 //! (a `ValueError`) with the command line's messages.
@@ -27,11 +27,12 @@ use numpy::ndarray::{Array1, Array2, ArrayView1, ArrayView2};
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
 use pyo3::exceptions::{PyValueError, PyWarning};
 use pyo3::prelude::*;
+use robocal_calibration::{CalibrationInput, Checks, calibrate as run_calibration};
+use robocal_calibration::{Stages, message};
 use robocal_compensate::{CompensationOptions, compensate};
 use robocal_data::{ErrorStats, MeasurementSet, Sample, Silent, samples_from_arrays};
 use robocal_model::{CalibratedModel, REPORT_FILE};
-use robocal_pipeline::calibration::{CalibrationInput, Checks, calibrate as run_calibration};
-use robocal_pipeline::{DataRole, Stages, error::message, write_data_report};
+use robocal_report::{DataRole, write_data_report};
 use robocal_robot::Robot;
 
 pyo3::create_exception!(

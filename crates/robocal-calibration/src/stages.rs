@@ -9,7 +9,7 @@ use robocal_ident::{KinematicSettings, RawComplianceStage, RawJointErrorStage, R
 use robocal_residual::{Defaults, RawResidualStage, ResidualStage};
 use serde::Deserialize;
 
-use crate::error::{PipelineError, Result, read_text};
+use crate::error::{CalibrationError, Result, read_text};
 
 /// A stage config as written.
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -101,8 +101,8 @@ impl Stages {
     pub fn load(path: &Path) -> Result<Self> {
         let text = read_text(path)?;
         let raw: RawStages =
-            toml::from_str(&text).map_err(|e| PipelineError::toml(path, &text, &e))?;
+            toml::from_str(&text).map_err(|e| CalibrationError::toml(path, &text, &e))?;
         raw.validate(None, Defaults::Robocal)
-            .map_err(|e| PipelineError::invalid(path, e))
+            .map_err(|e| CalibrationError::invalid(path, e))
     }
 }

@@ -17,15 +17,15 @@ use robocal_residual::{Frame, ResidualKind, ResidualSettings, ResidualStage};
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::budget::{self, Epochs, Meter, REFERENCE_CORES};
-use super::folds::{Fold, Held, blocks, folds, improves, splits_of};
-use super::outliers::{OutlierSettings, find_outliers};
-use super::spread::{self, SpreadCalibration};
-use super::{
-    Built, configurations, configured, fit_kinematic_with, loads, physical_model,
-    train_residual_model,
+use crate::budget::{self, Epochs, Meter, REFERENCE_CORES};
+use crate::configured::{
+    Built, configured, fit_kinematic_with, physical_model, train_residual_model,
 };
-use crate::error::{PipelineError, Result};
+use crate::error::{CalibrationError, Result};
+use crate::folds::{Fold, Held, blocks, folds, improves, splits_of};
+use crate::outliers::{OutlierSettings, find_outliers};
+use crate::rows::{configurations, loads};
+use crate::spread::{self, SpreadCalibration};
 use crate::stages::Stages;
 
 /// What the default calibration decided about one stage.
@@ -513,7 +513,7 @@ fn counted_folds(
             .collect()
     };
     let stopped = |fits: &[(Result<KinematicCalibration>, u64)]| {
-        (fits.iter()).any(|(f, _)| matches!(f, Err(PipelineError::Ident(IdentError::Deadline))))
+        (fits.iter()).any(|(f, _)| matches!(f, Err(CalibrationError::Ident(IdentError::Deadline))))
     };
     let first = REFERENCE_CORES.min(splits.len());
     let mut fits = fit_range(0..first);
@@ -533,7 +533,9 @@ fn counted_folds(
     meter.charge(cost);
     // A fold stopped at its count is one not fitted, as one never started.
     let mut fits: Vec<_> = (fits.into_iter())
-        .map(|(f, _)| (!matches!(f, Err(PipelineError::Ident(IdentError::Deadline)))).then_some(f))
+        .map(|(f, _)| {
+            (!matches!(f, Err(CalibrationError::Ident(IdentError::Deadline)))).then_some(f)
+        })
         .collect();
     fits.resize_with(splits.len(), || None);
     (fits, abandoned, cost)
@@ -610,7 +612,7 @@ fn score_physics(
                     ..kinematic.clone()
                 };
                 let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
-                if matches!(fit, Err(PipelineError::Ident(IdentError::Deadline))) {
+                if matches!(fit, Err(CalibrationError::Ident(IdentError::Deadline))) {
                     abandoned.store(true, Ordering::SeqCst);
                     return None;
                 }

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use robocal_data::{ErrorStats, Measurement};
 pub use robocal_data::{SIGNIFICANCE, improves};
 
-use super::{configurations, readings_key};
+use crate::rows::{configurations, readings_key};
 
 /// Every pose id's configuration: the smallest pose id whose rows have the same joint readings
 /// (a reference pose measured again under a new id, as a drift check is, is one configuration:

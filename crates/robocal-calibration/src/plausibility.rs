@@ -10,8 +10,9 @@ use robocal_ident::{
 };
 use robocal_robot::Robot;
 
-use super::{configurations, coordinates_and_parameters, fit_kinematic, lightest_load_rows, loads};
+use crate::configured::fit_kinematic;
 use crate::error::Result;
+use crate::rows::{configurations, coordinates_and_parameters, lightest_load_rows, loads};
 
 /// Why a calibration is not plausible, and what probably went wrong.
 #[derive(Debug, Clone, PartialEq)]

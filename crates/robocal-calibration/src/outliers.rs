@@ -14,12 +14,10 @@ use robocal_ident::{
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use super::folds::configuration_groups;
-use super::{
-    coordinates_and_parameters, fit_kinematic, fit_kinematic_with, loads, physical_model,
-    readings_key,
-};
+use crate::configured::{fit_kinematic, fit_kinematic_with, physical_model};
 use crate::error::Result;
+use crate::folds::configuration_groups;
+use crate::rows::{coordinates_and_parameters, loads, readings_key};
 
 /// How bad shots are found.
 #[derive(Debug, Clone, Copy, PartialEq)]

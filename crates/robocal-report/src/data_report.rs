@@ -17,7 +17,7 @@ use robocal_data::{ErrorStats, Measurement, write_dir_atomically, write_text_in}
 use robocal_model::CalibratedModel;
 use serde::Serialize;
 
-use crate::error::{PipelineError, Result};
+use crate::error::{ReportError, Result};
 use crate::plots::{
     ColourPanel, Draw, Panel, Series, colour_figure, cumulative_curves, figure_grid,
 };
@@ -599,7 +599,7 @@ pub fn write_data_report(
     out: &Path,
 ) -> Result<DataReport> {
     if rows.is_empty() {
-        return Err(PipelineError::Stage(format!(
+        return Err(ReportError::Data(format!(
             "{}: no rows to report on",
             data.display()
         )));
@@ -684,10 +684,10 @@ pub fn write_data_report(
             report.figures.push(draw_sigma(dir, out, &after, sigmas)?);
         }
         let json = serde_json::to_string_pretty(&report)
-            .map_err(|e| PipelineError::Stage(format!("statistics.json: {e}")))?;
+            .map_err(|e| ReportError::Data(format!("statistics.json: {e}")))?;
         write_text_in(dir, out, "statistics.json", &(json + "\n"))?;
         write_text_in(dir, out, "report.md", &markdown(&report))?;
-        let html = html(&report, dir).map_err(|(file, e)| PipelineError::Read {
+        let html = html(&report, dir).map_err(|(file, e)| ReportError::Read {
             path: out.join(file),
             source: e,
         })?;

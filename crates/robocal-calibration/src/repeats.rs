@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use robocal_data::Measurement;
 use serde::Serialize;
 
-use super::readings_key;
+use crate::rows::readings_key;
 
 /// `E|e|` for `e ~ N(0, I₃)`: `2 √(2/π)`, the mean length of a three-axis Gaussian error of unit
 /// standard deviation per axis.

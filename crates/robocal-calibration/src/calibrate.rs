@@ -11,15 +11,15 @@ use robocal_residual::Frame;
 use robocal_robot::{JointErrors, Robot};
 use serde::Serialize;
 
-use super::{
+use crate::error::{CalibrationError, Result};
+use crate::stages::Stages;
+use crate::{
     AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, Repeats,
     ResidualReport, Selection, check_plausible, configured_with, find_outliers_with,
     readings::{rounded_joints, rounding_warning},
     repeats::repeats,
     select::automatic,
 };
-use crate::error::{PipelineError, Result};
-use crate::stages::Stages;
 
 /// What `calibrate` checks before it makes a model.
 #[derive(Debug, Clone, Copy, Default)]
@@ -133,32 +133,32 @@ pub struct Calibration {
 /// default calibration, and gives the model with its report.
 pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Calibration> {
     let data = &input.data.source;
-    let failed = |source: PipelineError| PipelineError::Failed {
+    let failed = |source: CalibrationError| CalibrationError::Failed {
         data: data.clone(),
         source: Box::new(source),
     };
     if let Some(b) = input.budget_seconds {
         if !(b.is_finite() && b > 0.0) {
-            return Err(PipelineError::Stage(format!(
+            return Err(CalibrationError::Stage(format!(
                 "the time budget (`--budget`, or `budget=` in Python): {b} is not a positive number of seconds"
             )));
         }
         if let Some((_, file)) = input.stages {
-            return Err(PipelineError::Stage(format!(
+            return Err(CalibrationError::Stage(format!(
                 "the time budget (`--budget`, or `budget=` in Python) is the default calibration's; {} runs the stages it names and takes none",
                 file.display()
             )));
         }
     }
     if let (Some(frame), Some((_, file))) = (input.residual_frame, input.stages) {
-        return Err(PipelineError::Stage(format!(
+        return Err(CalibrationError::Stage(format!(
             "`--residual-frame` (or `residual_frame=` in Python) is the default calibration's; {} runs the stages it names: add `frame = \"{}\"` to its [residual]",
             file.display(),
             frame.name()
         )));
     }
     if let (true, Some((_, file))) = (input.tilt, input.stages) {
-        return Err(PipelineError::Stage(format!(
+        return Err(CalibrationError::Stage(format!(
             "`--tilt` (or `tilt=True` in Python) is the default calibration's; {} runs the stages it names: add `tilt = true` to its [joint_errors]",
             file.display()
         )));
@@ -166,19 +166,19 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
     if let Some(r) = input.runout
         && r > robocal_ident::MAX_HARMONICS
     {
-        return Err(PipelineError::Stage(format!(
+        return Err(CalibrationError::Stage(format!(
             "--runout: {r} orders; at most {}",
             robocal_ident::MAX_HARMONICS
         )));
     }
     if let (Some(_), Some((_, file))) = (input.runout, input.stages) {
-        return Err(PipelineError::Stage(format!(
+        return Err(CalibrationError::Stage(format!(
             "`--runout` is the default calibration's; {} runs the stages it names: add `runout = 2` to its [joint_errors]",
             file.display()
         )));
     }
     if let (true, Some((_, file))) = (input.flank_search, input.stages) {
-        return Err(PipelineError::Stage(format!(
+        return Err(CalibrationError::Stage(format!(
             "`--flank-search` (or `flank_search=True` in Python) is the default calibration's; {} runs the stages it names: add `backlash = true` and `flank_search = true` to its [joint_errors]",
             file.display()
         )));
@@ -196,7 +196,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
     if let Some(why) = &implausible
         && !input.checks.force
     {
-        return Err(PipelineError::Implausible {
+        return Err(CalibrationError::Implausible {
             data: data.clone(),
             why: why.to_string(),
         });

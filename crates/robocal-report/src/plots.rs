@@ -1,27 +1,27 @@
-//! The report's figures, drawn with plotters as PNG and SVG: per-configuration errors (the
-//! paper's Figs. 11–12), error against load (Fig. 13), per-axis error distributions (Figs. 14, 16,
-//! 21) and the histogram comparison of every stage (Fig. 26).
+//! Figures drawn with plotters as PNG and SVG: panels of lines, markers and histograms side by
+//! side or in a grid, and panels of points coloured by a value, each series in a style of its own
+//! with a legend.
 //!
 //! Text is drawn with DejaVu Sans, shipped in `assets/` (its licence beside it), so the plots do
 //! not depend on the fonts of the machine.
 
 use std::error::Error;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 
-use nalgebra::Vector3;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::{ColorMap, ViridisRGB};
 use plotters::style::{FontStyle, register_font};
 
-use crate::error::{PipelineError, Result};
-use crate::run::Outcome;
+use crate::error::{ReportError, Result};
 
 const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-const TWO: (u32, u32) = (1700, 600);
-const WIDE: (u32, u32) = (1840, 500);
+/// The size (pixels) of a figure of two panels side by side.
+pub const TWO: (u32, u32) = (1700, 600);
+/// The size (pixels) of a figure of three panels side by side.
+pub const WIDE: (u32, u32) = (1840, 500);
 
 /// Registers the shipped font once.
 fn font() -> std::result::Result<(), String> {
@@ -85,7 +85,7 @@ fn style(i: usize) -> Style {
 
 /// How a series' points are drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Draw {
+pub enum Draw {
     /// A line, with a marker every few points (a histogram).
     Line,
     /// A line with a marker on every point.
@@ -98,17 +98,24 @@ pub(crate) enum Draw {
 }
 
 /// Named (x, y) points.
-pub(crate) struct Series {
+pub struct Series {
+    /// Its name in the legend.
     pub name: String,
+    /// Its points.
     pub points: Vec<(f64, f64)>,
+    /// How they are drawn.
     pub draw: Draw,
 }
 
 /// One panel of lines.
-pub(crate) struct Panel {
+pub struct Panel {
+    /// Its title.
     pub title: String,
+    /// The x axis' label.
     pub x_label: String,
+    /// The y axis' label.
     pub y_label: String,
+    /// Its series.
     pub series: Vec<Series>,
 }
 
@@ -330,7 +337,7 @@ where
 }
 
 /// Draws `panels` side by side into `<dir>/<stem>.png` and `.svg`; returns the file names.
-fn figure(
+pub fn figure(
     dir: &Path,
     out: &Path,
     stem: &str,
@@ -342,7 +349,7 @@ fn figure(
 
 /// Draws `panels` row by row, `columns` to a row, into `<dir>/<stem>.png` and `.svg` (`out` is
 /// where `dir` will be, for error messages); returns the file names.
-pub(crate) fn figure_grid(
+pub fn figure_grid(
     dir: &Path,
     out: &Path,
     stem: &str,
@@ -350,7 +357,7 @@ pub(crate) fn figure_grid(
     panels: &[Panel],
     columns: usize,
 ) -> Result<Vec<String>> {
-    let fail = |name: &str, message: String| PipelineError::Plot {
+    let fail = |name: &str, message: String| ReportError::Plot {
         path: out.join(name),
         message,
     };
@@ -383,9 +390,12 @@ pub(crate) fn figure_grid(
 }
 
 /// One panel of points coloured by a value.
-pub(crate) struct ColourPanel {
+pub struct ColourPanel {
+    /// Its title.
     pub title: String,
+    /// The x axis' label.
     pub x_label: String,
+    /// The y axis' label.
     pub y_label: String,
     /// (x, y, value).
     pub points: Vec<(f64, f64, f64)>,
@@ -473,7 +483,7 @@ where
 /// Draws `panels` side by side, every point coloured by its value on one colour-blind-safe
 /// (viridis) scale shown in the column at the right, into `<dir>/<stem>.png` and `.svg`;
 /// returns the file names.
-pub(crate) fn colour_figure(
+pub fn colour_figure(
     dir: &Path,
     out: &Path,
     stem: &str,
@@ -481,7 +491,7 @@ pub(crate) fn colour_figure(
     panels: &[ColourPanel],
     value_label: &str,
 ) -> Result<Vec<String>> {
-    let fail = |name: &str, message: String| PipelineError::Plot {
+    let fail = |name: &str, message: String| ReportError::Plot {
         path: out.join(name),
         message,
     };
@@ -523,7 +533,7 @@ pub fn histogram(values: &[f64], lo: f64, hi: f64, bins: usize) -> Vec<(f64, f64
 /// The share of `values` (%) at or below each error: the empirical cumulative distribution as
 /// a staircase from `(0, 0)`, rising by `100 / n` at each sorted value, flat to `top` after the
 /// largest. Non-finite values count in `n` but never rise.
-pub(crate) fn cumulative(values: &[f64], top: f64) -> Vec<(f64, f64)> {
+pub fn cumulative(values: &[f64], top: f64) -> Vec<(f64, f64)> {
     let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
     sorted.sort_by(f64::total_cmp);
     let n = values.len().max(1) as f64;
@@ -539,7 +549,7 @@ pub(crate) fn cumulative(values: &[f64], top: f64) -> Vec<(f64, f64)> {
 
 /// Cumulative distributions ([`cumulative`]) of several named value lists, each flat to the
 /// largest value of them all, drawn as lines without markers.
-pub(crate) fn cumulative_curves(named: &[(String, Vec<f64>)]) -> Vec<Series> {
+pub fn cumulative_curves(named: &[(String, Vec<f64>)]) -> Vec<Series> {
     let top = (named.iter())
         .flat_map(|(_, v)| v.iter().copied())
         .filter(|v| v.is_finite())
@@ -554,11 +564,7 @@ pub(crate) fn cumulative_curves(named: &[(String, Vec<f64>)]) -> Vec<Series> {
 }
 
 /// Histograms of several named value lists over one common range.
-pub(crate) fn histograms(
-    named: &[(String, Vec<f64>)],
-    bins: usize,
-    from_zero: bool,
-) -> Vec<Series> {
+pub fn histograms(named: &[(String, Vec<f64>)], bins: usize, from_zero: bool) -> Vec<Series> {
     let (lo, hi) = range(named.iter().flat_map(|(_, v)| v.iter().copied()), from_zero);
     named
         .iter()
@@ -581,232 +587,6 @@ pub fn slug(name: &str) -> String {
         }
     }
     s.trim_matches('-').to_string()
-}
-
-/// Draws every figure into `dir` (the report's temporary folder; `out` is where it will be, for
-/// error messages). Returns (what it shows, file names).
-pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<String>)>> {
-    let mut made = Vec::new();
-    let norms = |e: &[Vector3<f64>], rows: &[usize]| {
-        rows.iter().map(|&i| e[i].norm()).collect::<Vec<f64>>()
-    };
-
-    // Figs. 11–12: per configuration at the kinematic load, trained then untrained.
-    let rows: Vec<usize> = o
-        .splits
-        .kinematic_rows
-        .iter()
-        .chain(&o.splits.kinematic_held_out_rows)
-        .copied()
-        .collect();
-    let n_fit = o.splits.kinematic_rows.len();
-    let before = vec![Series {
-        name: "before (nominal, base+tool fitted)".into(),
-        points: rows
-            .iter()
-            .enumerate()
-            .map(|(k, &i)| ((k + 1) as f64, o.before[i].norm()))
-            .collect(),
-        draw: Draw::Line,
-    }];
-    let mut series = Vec::new();
-    for k in &o.kinematics {
-        let points = |range: std::ops::Range<usize>| -> Vec<(f64, f64)> {
-            range
-                .map(|k2| ((k2 + 1) as f64, k.errors[rows[k2]].norm()))
-                .collect()
-        };
-        series.push(Series {
-            name: format!("after {} (fitted)", k.label),
-            points: points(0..n_fit),
-            draw: Draw::Marked,
-        });
-        series.push(Series {
-            name: format!("after {} (held out)", k.label),
-            points: points(n_fit..rows.len()),
-            draw: Draw::Marked,
-        });
-    }
-    let load = o.splits.kinematic_load;
-    let stem = "fig11-12-configurations";
-    made.push((
-        format!("Figs. 11–12: error per configuration at {load} kg, before and after kinematic calibration; configurations 1–{n_fit} fitted, the rest held out (cross-validation)"),
-        figure(dir, out, stem, TWO, &[
-            Panel {
-                title: format!("Before calibration, at {load} kg"),
-                x_label: format!("configuration (1–{n_fit} fitted, {}–{} held out)", n_fit + 1, rows.len()),
-                y_label: "error (mm)".into(),
-                series: before,
-            },
-            Panel {
-                title: format!("After kinematic calibration, at {load} kg"),
-                x_label: format!("configuration (1–{n_fit} fitted, {}–{} held out)", n_fit + 1, rows.len()),
-                y_label: "error (mm)".into(),
-                series,
-            },
-        ])?,
-    ));
-
-    // Fig. 13: mean error against load, untrained configurations.
-    let before = vec![Series {
-        name: "before".into(),
-        points: o.mean_by_load(&o.before),
-        draw: Draw::Marked,
-    }];
-    let mut series = Vec::new();
-    for m in &o.models {
-        series.push(Series {
-            name: m.name.clone(),
-            points: o.mean_by_load(&m.errors),
-            draw: Draw::Marked,
-        });
-    }
-    made.push((
-        "Fig. 13: mean error against load over the untrained configurations, before and after each model".into(),
-        figure(dir, out, "fig13-load", TWO, &[
-            Panel {
-                title: "Before calibration (untrained configurations)".into(),
-                x_label: "load (kg)".into(),
-                y_label: "mean error (mm)".into(),
-                series: before,
-            },
-            Panel {
-                title: "After each model (untrained configurations)".into(),
-                x_label: "load (kg)".into(),
-                y_label: "mean error (mm)".into(),
-                series,
-            },
-        ])?,
-    ));
-
-    // Figs. 14, 16, 21: per-axis distributions on the Table 6 rows.
-    let t6 = o.rows("table6");
-    let axis_values =
-        |e: &[Vector3<f64>], a: usize| t6.iter().map(|&i| e[i][a]).collect::<Vec<f64>>();
-    for m in &o.models {
-        let kin = &o.kinematics[m.kinematic];
-        let (first, first_errors, second) = if m.residual.is_some() {
-            (
-                format!("after {}", kin.label),
-                &kin.errors,
-                format!("after {}", m.name),
-            )
-        } else {
-            ("before".to_string(), &o.before, format!("after {}", m.name))
-        };
-        let panels: Vec<Panel> = (0..3)
-            .map(|a| Panel {
-                // The model is in the legend; rows and frame here.
-                title: format!(
-                    "{} error, {} GB10+GB30 rows, world frame",
-                    ["X", "Y", "Z"][a],
-                    t6.len()
-                ),
-                x_label: "signed error (mm)".into(),
-                y_label: "share of rows (%)".into(),
-                series: histograms(
-                    &[
-                        (first.clone(), axis_values(first_errors, a)),
-                        (second.clone(), axis_values(&m.errors, a)),
-                    ],
-                    40,
-                    false,
-                ),
-            })
-            .collect();
-        let stem = format!("axes-{}", slug(&m.name));
-        made.push((
-            format!("Figs. 14/16/21: X, Y, Z error distributions on the {} GB10+GB30 rows, {first} and {second}", t6.len()),
-            figure(dir, out, &stem, WIDE, &panels)?,
-        ));
-    }
-
-    // Figs. 22–25: the bimodal X error of each CA-SOMM model's gate classes, before and after.
-    for m in &o.models {
-        let Some(classes) = o.gate_classes(m, &t6) else {
-            continue;
-        };
-        let kin = &o.kinematics[m.kinematic];
-        let per_class = |e: &[Vector3<f64>]| -> Vec<(String, Vec<f64>)> {
-            (0..2)
-                .map(|k| {
-                    let values: Vec<f64> = (t6.iter().zip(&classes))
-                        .filter(|(_, c)| **c == k)
-                        .map(|(&i, _)| e[i].x)
-                        .collect();
-                    (
-                        format!("class {} ({} rows)", ["A", "B"][k], values.len()),
-                        values,
-                    )
-                })
-                .collect()
-        };
-        let panels = [
-            (format!("after {}", kin.label), &kin.errors),
-            (format!("after {}", m.name), &m.errors),
-        ]
-        .into_iter()
-        .map(|(stage, errors)| Panel {
-            title: format!(
-                "X error {stage}, by the gate's class ({} GB10+GB30 rows)",
-                t6.len()
-            ),
-            x_label: "signed X error, world frame (mm)".into(),
-            y_label: "share of rows (%)".into(),
-            series: histograms(&per_class(errors), 40, false),
-        })
-        .collect::<Vec<Panel>>();
-        let stem = format!("classes-{}", slug(&m.name));
-        made.push((
-            format!(
-                "Figs. 22–25: the X error of the {} GB10+GB30 rows by the class {}'s gate gives them, after {} and after {}",
-                t6.len(),
-                m.name,
-                kin.label,
-                m.name
-            ),
-            figure(dir, out, &stem, WIDE, &panels)?,
-        ));
-    }
-
-    // Fig. 26: every stage's error distribution on the Table 6 rows.
-    let before = vec![("before".to_string(), norms(&o.before, &t6))];
-    let mut named = Vec::new();
-    for m in &o.models {
-        named.push((m.name.clone(), norms(&m.errors, &t6)));
-    }
-    made.push((
-        format!(
-            "Fig. 26: error distributions of every stage on the {} GB10+GB30 rows",
-            t6.len()
-        ),
-        figure(
-            dir,
-            out,
-            "fig26-stages",
-            TWO,
-            &[
-                Panel {
-                    title: "Before calibration (GB10 + GB30)".into(),
-                    x_label: "error (mm)".into(),
-                    y_label: "share of rows (%)".into(),
-                    series: histograms(&before, 60, true),
-                },
-                Panel {
-                    title: "After every model (GB10 + GB30)".into(),
-                    x_label: "error (mm)".into(),
-                    y_label: "share of rows (%)".into(),
-                    series: histograms(&named, 60, true),
-                },
-            ],
-        )?,
-    ));
-    Ok(made)
-}
-
-/// The report folder of an experiment: `<output>/<name>`.
-pub fn report_dir(output: &Path, name: &str) -> PathBuf {
-    output.join(name)
 }
 
 #[cfg(test)]
