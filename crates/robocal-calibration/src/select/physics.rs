@@ -1,0 +1,473 @@
+//! The physical candidates: the effects a candidate holds, the settings and name they give,
+//! and their fits on every fold within the budget.
+
+use super::plan::FoldPlan;
+use super::words::{abandoned_for, report};
+use super::{AutoSettings, Candidate};
+use crate::budget::{self, Meter, REFERENCE_CORES};
+use crate::configured::{fit_kinematic_with, physical_model};
+use crate::error::{CalibrationError, Result};
+use crate::folds::Held;
+use rayon::prelude::*;
+use robocal_data::Observer;
+use robocal_ident::{
+    ComplianceSettings, FLANK_ROUNDS, IdentError, JointErrorSettings, KinematicCalibration,
+    KinematicSettings, SEARCH_FLANK_ROUNDS,
+};
+use robocal_model::CalibratedModel;
+use robocal_robot::Robot;
+use std::time::{Duration, Instant};
+
+/// The physical part of a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Physics {
+    /// Only base and tool fitted to the nominal table.
+    pub(super) aligned: bool,
+    /// Joint compliances under the payload.
+    pub(super) compliance: bool,
+    /// Transmission harmonics up to this order.
+    pub(super) harmonics: u32,
+    /// Self-weight terms.
+    pub(super) self_weight: bool,
+    /// Backlash (each joint on the flank of its approach from home or on the one its torque
+    /// presses).
+    pub(super) backlash: bool,
+    /// Tilting compliances.
+    pub(super) tilt: bool,
+    /// Axis runouts up to this order.
+    pub(super) runout: u32,
+    /// The axis runouts started from the model without them (its first fit's compliances and
+    /// its flanks, which the candidates before made): the cheaper fit the chain tries where the
+    /// budget cut the runouts' own (`JointErrorSettings::runout_from_without`).
+    pub(super) runout_from_without: bool,
+    /// Backlash flanks by the search beyond the joint's own terms (`flank_search`).
+    pub(super) flank_search: bool,
+}
+
+impl Physics {
+    pub(super) const ALIGNED: Self = Self {
+        aligned: true,
+        compliance: false,
+        harmonics: 0,
+        self_weight: false,
+        backlash: false,
+        tilt: false,
+        runout: 0,
+        runout_from_without: false,
+        flank_search: false,
+    };
+    pub(super) const RIGID: Self = Self {
+        aligned: false,
+        ..Self::ALIGNED
+    };
+
+    pub(super) fn name(self) -> String {
+        if self.aligned {
+            return "nominal (base and tool fitted)".into();
+        }
+        let mut name = String::from("kinematic");
+        if self.compliance {
+            name += " + compliance";
+        }
+        if self.harmonics > 0 {
+            name += &format!(" + harmonics {}", self.harmonics);
+        }
+        if self.self_weight {
+            name += " + self-weight";
+        }
+        if self.backlash {
+            name += " + backlash";
+            if self.flank_search {
+                name += " (flank search)";
+            }
+        }
+        if self.runout > 0 {
+            name += &format!(" + runout {}", self.runout);
+            if self.runout_from_without {
+                name += " (from the fit without)";
+            }
+        }
+        if self.tilt {
+            name += " + tilt";
+        }
+        name
+    }
+
+    /// Whether it holds any of the joint-error blocks of the stepwise selection.
+    pub(super) fn has_blocks(self) -> bool {
+        self.harmonics > 0 || self.self_weight || self.backlash
+    }
+
+    /// Whether it holds any joint-error term (a block, the runouts or the tilts).
+    pub(super) fn has_joint_errors(self) -> bool {
+        self.has_blocks() || self.tilt || self.runout > 0
+    }
+
+    /// Every block of `self` and of `other`.
+    pub(super) fn union(self, other: Self) -> Self {
+        Self {
+            harmonics: self.harmonics.max(other.harmonics),
+            self_weight: self.self_weight || other.self_weight,
+            backlash: self.backlash || other.backlash,
+            tilt: self.tilt || other.tilt,
+            runout: self.runout.max(other.runout),
+            runout_from_without: self.runout_from_without || other.runout_from_without,
+            flank_search: self.flank_search || other.flank_search,
+            ..self
+        }
+    }
+
+    /// Its joint-error terms in words, e.g. `transmission harmonics (orders 1 to 2) identified
+    /// with the geometry`.
+    pub(super) fn joint_error_terms(self) -> String {
+        let mut parts = Vec::new();
+        if self.harmonics > 0 {
+            parts.push(format!(
+                "transmission harmonics (orders 1 to {})",
+                self.harmonics
+            ));
+        }
+        if self.self_weight && self.compliance {
+            parts.push("the links' weights and the payload's centre of mass (each joint deflecting by its compliance under their torques)".to_string());
+        } else if self.self_weight {
+            parts.push("self-weight terms".to_string());
+        }
+        if self.backlash {
+            parts.push("backlash (each joint on the flank of its approach from home or on the one its torque presses)".to_string());
+        }
+        if self.runout > 0 {
+            parts.push(format!(
+                "axis runouts ({}: the parts beyond each joint turning across its axis periodically in its angle)",
+                orders_words(self.runout)
+            ));
+        }
+        if self.tilt {
+            parts.push("tilting compliances (the parts beyond each joint turning across its axis under the gravity moment there)".to_string());
+        }
+        let parts = match parts.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => parts.concat(),
+        };
+        format!("{parts} identified with the geometry")
+    }
+
+    /// The kinematic settings of this physics, with `auto`'s 6-DoF probe `angle_weight` (mm per
+    /// deg; `None`: the default) and gravity (`None`: the base's −z, the tracker's tried where
+    /// the base is far from upright).
+    pub(super) fn settings(self, auto: &AutoSettings) -> KinematicSettings {
+        let gravity = auto
+            .gravity
+            .unwrap_or(ComplianceSettings::default().gravity);
+        KinematicSettings {
+            angle_weight: auto.angle_weight,
+            // The payload's centre of mass is rarely known to the millimetre: identified with
+            // the links' weights (the mass properties the compliances meet; both after a first
+            // fit that gives the compliances they start from).
+            compliance: self.compliance.then(|| ComplianceSettings {
+                gravity,
+                plausible_only: true,
+                detect_mounting: auto.gravity.is_none(),
+                identify_payload_com: self.self_weight,
+                ..ComplianceSettings::default()
+            }),
+            // With the compliances identified, the deflection under the links' own weight is
+            // theirs too: the links' weights shared by the joints (a few masses and moments)
+            // rather than a coefficient per joint and link, which the poses determine less
+            // well and which extrapolate worse.
+            joint_errors: self.has_joint_errors().then(|| JointErrorSettings {
+                harmonics: self.harmonics,
+                self_weight: self.self_weight && !self.compliance,
+                link_weights: self.self_weight && self.compliance,
+                backlash: self.backlash,
+                flank_search: self.flank_search,
+                tilt: self.tilt,
+                runout: self.runout,
+                runout_from_without: self.runout_from_without,
+                gravity,
+                ..JointErrorSettings::default()
+            }),
+            ..KinematicSettings::default()
+        }
+    }
+
+    /// The model of this physics from the identification that made it.
+    pub(super) fn model(self, fit: &KinematicCalibration) -> CalibratedModel {
+        if self.aligned {
+            CalibratedModel::kinematic(fit.aligned.clone())
+        } else {
+            physical_model(fit)
+        }
+    }
+}
+
+/// `order 1`, or `orders 1 to N`.
+pub(super) fn orders_words(orders: u32) -> String {
+    if orders == 1 {
+        "order 1".into()
+    } else {
+        format!("orders 1 to {orders}")
+    }
+}
+
+/// A physical candidate scored on every fold.
+pub(super) struct Scored {
+    pub(super) physics: Physics,
+    /// Selection score (none when a fold's fit failed).
+    pub(super) score: Option<f64>,
+    /// Every held-out error ([`Held::all`]; none when a fold's fit failed).
+    pub(super) errors: Option<Vec<f64>>,
+    /// The fitted model of each fold.
+    pub(super) fitted: Vec<Option<CalibratedModel>>,
+    /// Whether the time budget cut it (skipped, or abandoned during its folds).
+    pub(super) budget_cut: bool,
+}
+
+/// The share of the slowest physical candidate's seconds (every fold) set aside for the final
+/// fit of the physics on every row when the residual models are given the rest of the budget.
+/// The candidate's ten fits ran two at a time; the final fit, on a quarter more rows, runs its
+/// rows on both cores: about 0.13 of the candidate's seconds (the paper's arm), 0.25 when it runs
+/// on one core.
+pub(super) const FINAL_FIT_SHARE: f64 = 0.2;
+
+/// The seconds one fold's fit of a candidate may take when `left` seconds of the budget remain
+/// for its `folds` fits, `at_once` at a time, and the final fit after them
+/// ([`FINAL_FIT_SHARE`] of the folds' time): a fold past it leaves too little for the rest
+/// at its pace (each round of folds takes as long as its slowest). Never negative.
+pub(super) fn fold_share(left: f64, folds: usize, at_once: usize) -> f64 {
+    let rounds = folds.div_ceil(at_once.max(1)).max(1);
+    (left / (1.0 + FINAL_FIT_SHARE) / rounds as f64).max(0.0)
+}
+
+/// The fits of `physics` on every fold with the budget kept by counted work ([`budget`]), with
+/// whether the candidate was abandoned and the reference seconds its work came to (charged to
+/// `meter`). Each fold's fit may count up to its share of what the budget has left
+/// ([`fold_share`] among the reference machine's [`REFERENCE_CORES`]), and stops where its count
+/// passes it, at the same evaluation on every machine; the first [`REFERENCE_CORES`] folds are
+/// fitted first, and the rest only if, at those folds' count, they and the final fit would end
+/// within the budget — the decision a 2-core machine's clock makes after its first round, here
+/// from counts. No fit runs past the budget by the clock (the guard).
+#[allow(clippy::type_complexity)]
+pub(super) fn counted_folds(
+    physics: Physics,
+    kinematic: &KinematicSettings,
+    nominal: &Robot,
+    plan: &FoldPlan<'_>,
+    observer: &dyn Observer,
+    meter: &Meter,
+    (over_budget, left): (&(dyn Fn(f64) -> bool + Sync), &(dyn Fn() -> f64 + Sync)),
+) -> (Vec<Option<Result<KinematicCalibration>>>, bool, f64) {
+    let splits = &plan.splits;
+    let limit = physics.has_joint_errors().then(|| {
+        let share = fold_share(left(), splits.len(), REFERENCE_CORES);
+        (share * budget::FIT_UNITS_PER_SECOND) as u64
+    });
+    let fit_range = |range: std::ops::Range<usize>| -> Vec<(Result<KinematicCalibration>, u64)> {
+        (splits[range.clone()].par_iter())
+            .zip(&plan.memos[range])
+            .map(|(fold, memo)| {
+                let work = robocal_ident::Work::new(limit);
+                let until = KinematicSettings {
+                    deadline: physics.has_joint_errors().then(|| meter.end()),
+                    work: Some(work.clone()),
+                    ..kinematic.clone()
+                };
+                let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
+                observer.advance(1);
+                (fit, work.count())
+            })
+            .collect()
+    };
+    let stopped = |fits: &[(Result<KinematicCalibration>, u64)]| {
+        (fits.iter()).any(|(f, _)| matches!(f, Err(CalibrationError::Ident(IdentError::Deadline))))
+    };
+    let first = REFERENCE_CORES.min(splits.len());
+    let mut fits = fit_range(0..first);
+    let mut abandoned = stopped(&fits);
+    if !abandoned && first < splits.len() {
+        let units: u64 = fits.iter().map(|(_, u)| u).sum();
+        let rest = budget::fit_seconds(units) / first as f64 * (splits.len() - first) as f64;
+        if physics.has_joint_errors() && over_budget(rest * (1.0 + FINAL_FIT_SHARE)) {
+            abandoned = true;
+        } else {
+            let more = fit_range(first..splits.len());
+            abandoned = stopped(&more);
+            fits.extend(more);
+        }
+    }
+    let cost = budget::fit_seconds(fits.iter().map(|(_, u)| u).sum());
+    meter.charge(cost);
+    // A fold stopped at its count is one not fitted, as one never started.
+    let mut fits: Vec<_> = (fits.into_iter())
+        .map(|(f, _)| {
+            (!matches!(f, Err(CalibrationError::Ident(IdentError::Deadline)))).then_some(f)
+        })
+        .collect();
+    fits.resize_with(splits.len(), || None);
+    (fits, abandoned, cost)
+}
+
+/// Fits `physics` on every fold and scores it on the fold's held-out rows. A joint-error
+/// candidate is abandoned once its remaining folds, at the pace of those fitted, and the final
+/// fit would run past the time budget (`over_budget`), or once a fold's fit runs past its share
+/// of what the budget has left (`left`, seconds; [`fold_share`]): the folds not yet ended are
+/// not fitted and the candidate has no score. Both closures already hold back `reserve`, the
+/// seconds kept from this candidate for the residual models, which its status then names. Its
+/// start was projected from the candidates before it ([`physics_chain`]); one that unites more
+/// blocks than any before can take twice that, and one with many more unknowns far more (the
+/// axis runouts on the paper's arm: 22–46 s of folds spent before the pace says so).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn score_physics(
+    physics: Physics,
+    auto: &AutoSettings,
+    nominal: &Robot,
+    plan: &FoldPlan<'_>,
+    candidates: &mut Vec<Candidate>,
+    observer: &dyn Observer,
+    meter: &Meter,
+    (over_budget, left, reserve): (
+        &(dyn Fn(f64) -> bool + Sync),
+        &(dyn Fn() -> f64 + Sync),
+        f64,
+    ),
+) -> Scored {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let splits = &plan.splits;
+    let t = std::time::Instant::now();
+    let kinematic = physics.settings(auto);
+    let mut held = Held::default();
+    let mut fitted = Vec::new();
+    let mut failure = None;
+    // Counted work's reference seconds (by the clock, the candidate's seconds below).
+    let (fits, abandoned, counted) = if meter.counts() {
+        let (fits, abandoned, cost) = counted_folds(
+            physics,
+            &kinematic,
+            nominal,
+            plan,
+            observer,
+            meter,
+            (over_budget, left),
+        );
+        (fits, abandoned, Some(cost))
+    } else {
+        let at_once = rayon::current_num_threads().max(1);
+        let share = fold_share(left(), splits.len(), at_once);
+        let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
+        // The folds' fits are independent: on every core at once, taken in fold order (the same
+        // results on any number of cores), each sharing with the candidates before it the fits
+        // of its rows they made. Before a fold starts, once a core's worth are fitted, the rest
+        // are projected at their pace.
+        let fits: Vec<_> = (splits.par_iter())
+            .zip(&plan.memos)
+            .map(|(fold, memo)| {
+                let n = done.load(Ordering::SeqCst);
+                if physics.has_joint_errors() && n >= at_once {
+                    let pace = t.elapsed().as_secs_f64() / n as f64;
+                    let left = pace * (splits.len() - n) as f64;
+                    if over_budget(left * (1.0 + FINAL_FIT_SHARE)) {
+                        abandoned.store(true, Ordering::SeqCst);
+                    }
+                }
+                if abandoned.load(Ordering::SeqCst) {
+                    return None;
+                }
+                let until = KinematicSettings {
+                    deadline: (physics.has_joint_errors())
+                        .then(|| Instant::now() + Duration::from_secs_f64(share)),
+                    ..kinematic.clone()
+                };
+                let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
+                if matches!(fit, Err(CalibrationError::Ident(IdentError::Deadline))) {
+                    abandoned.store(true, Ordering::SeqCst);
+                    return None;
+                }
+                done.fetch_add(1, Ordering::SeqCst);
+                observer.advance(1);
+                Some(fit)
+            })
+            .collect();
+        let abandoned = abandoned.load(Ordering::SeqCst);
+        (fits, abandoned, None)
+    };
+    let mut budget_cut = abandoned;
+    if budget_cut {
+        failure = Some(abandoned_for(auto.budget_seconds, reserve));
+    }
+    for (fold, fit) in splits.iter().zip(fits) {
+        // A fold not fitted (the candidate abandoned).
+        let Some(fit) = fit else {
+            fitted.push(None);
+            continue;
+        };
+        match fit {
+            Ok(fit) => {
+                let model = physics.model(&fit);
+                held.add(fold, model.errors(&fold.test));
+                fitted.push(Some(model));
+            }
+            Err(e) => {
+                failure = Some(format!("skipped: {e}"));
+                budget_cut = false;
+                fitted.push(None);
+            }
+        }
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    let mut c = Candidate {
+        name: physics.name(),
+        held_out: None,
+        held_out_blocks: None,
+        score: None,
+        seconds,
+        cost: counted.unwrap_or(seconds),
+        status: failure.clone().unwrap_or_else(|| "evaluated".into()),
+        budget_cut,
+    };
+    if failure.is_none() {
+        let (random, blocked, score) = held.summary();
+        (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
+    }
+    report(&c, observer);
+    let score = c.score;
+    let budget_cut = c.budget_cut;
+    candidates.push(c);
+    Scored {
+        physics,
+        score,
+        errors: score.map(|_| held.all()),
+        fitted,
+        budget_cut,
+    }
+}
+
+/// The seconds (by the budget's measure, [`Candidate::cost`]) a physical candidate's folds and
+/// the final fit of its physics are projected to take from the candidates scored before it,
+/// with what the projection is taken from and its seconds: the slowest candidate so far (a new
+/// one holds at least as many terms), × (1 + [`FINAL_FIT_SHARE`]). The flank search fits the physics it extends, choosing the flanks up to
+/// [`SEARCH_FLANK_ROUNDS`] times where that candidate chose them [`FLANK_ROUNDS`] times: projected
+/// from that candidate where it was scored, × their ratio (a slower one before it — the axis
+/// runouts the chain dropped — holds terms the search does not fit: on ARM7 it took 38 s against
+/// 2.6 s), from the slowest elsewhere.
+pub(super) fn projection(physics: Physics, candidates: &[Candidate]) -> (&'static str, f64, f64) {
+    let rounds = if physics.flank_search {
+        SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
+    } else {
+        1.0
+    };
+    let extended = (physics.flank_search).then(|| {
+        let name = Physics {
+            flank_search: false,
+            ..physics
+        }
+        .name();
+        (candidates.iter().rev()).find(|c| c.name == name && c.score.is_some())
+    });
+    let (from, seconds) = match extended.flatten() {
+        Some(c) => ("the candidate it extends", c.cost),
+        None => (
+            "the slowest candidate",
+            candidates.iter().map(|c| c.cost).fold(0.0, f64::max),
+        ),
+    };
+    (from, seconds, seconds * rounds * (1.0 + FINAL_FIT_SHARE))
+}
