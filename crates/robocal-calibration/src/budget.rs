@@ -119,6 +119,59 @@ impl Meter {
     }
 }
 
+/// What one candidate may spend: the selection's budget ([`Meter`]) less the seconds kept from
+/// it for what comes after (the residual models, the final fit). Every decision of the budget
+/// about a candidate — skipped before its folds, abandoned during them, a fold's fit stopped —
+/// reads it.
+#[derive(Clone, Copy)]
+pub(crate) struct Allowance<'m> {
+    meter: &'m Meter,
+    reserve: f64,
+}
+
+impl<'m> Allowance<'m> {
+    /// The whole budget `meter` keeps.
+    pub(crate) fn new(meter: &'m Meter) -> Self {
+        Self {
+            meter,
+            reserve: 0.0,
+        }
+    }
+
+    /// This allowance with `seconds` more kept back.
+    pub(crate) fn keeping(self, seconds: f64) -> Self {
+        Self {
+            reserve: self.reserve + seconds,
+            ..self
+        }
+    }
+
+    /// The meter it is kept by.
+    pub(crate) fn meter(&self) -> &'m Meter {
+        self.meter
+    }
+
+    /// The seconds kept back from it.
+    pub(crate) fn reserve(&self) -> f64 {
+        self.reserve
+    }
+
+    /// The budget itself, s.
+    pub(crate) fn budget(&self) -> f64 {
+        self.meter.budget
+    }
+
+    /// Whether `more` seconds (by the budget's measure) would run past it.
+    pub(crate) fn over(&self, more: f64) -> bool {
+        self.meter.over(more + self.reserve)
+    }
+
+    /// Seconds it has left, by the budget's measure.
+    pub(crate) fn left(&self) -> f64 {
+        self.meter.left() - self.reserve
+    }
+}
+
 /// The reference machine's seconds for identification work of `units`, its folds on every one
 /// of its cores.
 pub(crate) fn fit_seconds(units: u64) -> f64 {

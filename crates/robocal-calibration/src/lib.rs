@@ -40,8 +40,8 @@ pub use plausibility::{Implausible, check_plausible};
 pub use repeats::{Repeats, repeats};
 pub use select::{
     AutoSettings, Candidate, DEFAULT_BUDGET_SECONDS, DEFAULT_FOLDS, Decision,
-    JOINT1_GRAVITY_ANGLE_DEG, REACH_GAIN, Selection, automatic, joint1_gravity_angle,
-    residual_stages,
+    JOINT1_GRAVITY_ANGLE_DEG, REACH_GAIN, Selection, Stage, Status, automatic,
+    joint1_gravity_angle, residual_stages,
 };
 
 pub use configured::{

@@ -24,7 +24,7 @@ pub mod stage;
 
 pub use calibrate::{
     BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceReport, ComplianceSettings, ErrorTermReport,
-    FAR_FROM_NOMINAL, FLANK_ROUNDS, FitMemo, FixedParameter, HARMONIC_BOUND_DEG, HUBER_K,
+    FAR_FROM_NOMINAL, FLANK_ROUNDS, FitMemo, Fixed, FixedParameter, HARMONIC_BOUND_DEG, HUBER_K,
     ILL_CONDITIONED, IRLS_ROUNDS, JointCompliance, JointErrorSettings, KinematicCalibration,
     KinematicReport, KinematicSettings, Loss, MOUNTING_ANGLE_DEG, OrientationReport,
     PAYLOAD_COM_BOUND, POOR_FIT, ParameterReport, SEARCH_FLANK_ROUNDS, SolverKind, TORQUE_SHARE,

@@ -699,7 +699,7 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
                     let choice = built
                         .selection
                         .as_ref()
-                        .and_then(|s| s.candidates.iter().find(|c| c.status == "chosen"))
+                        .and_then(|s| s.chosen())
                         .map_or("?".to_string(), |c| c.name.clone());
                     // The choice's name is what the model holds.
                     let terms = |kind: &str| {

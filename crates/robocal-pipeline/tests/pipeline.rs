@@ -4,8 +4,8 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use robocal_calibration::Stages;
 use robocal_calibration::{OutlierSettings, find_outliers};
+use robocal_calibration::{Stage, Stages, Status};
 use robocal_data::{Lines, Measurement, MeasurementSet};
 use robocal_ident::KinematicSettings;
 use robocal_pipeline::{Experiment, PipelineError, RawExperiment, Set, Splits};
@@ -344,7 +344,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         .count();
     let physical = names.len() - 2 - table;
     let significant = (selection.candidates[physical..physical + 2].iter())
-        .filter(|c| c.status == "evaluated" || c.status == "chosen")
+        .filter(|c| matches!(c.status, Status::Evaluated | Status::Chosen))
         .min_by(|a, b| a.score.unwrap().total_cmp(&b.score.unwrap()));
     match significant {
         Some(lower) => {
@@ -381,7 +381,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     // The runouts are tried on the physics the blocks reached, and their decision holds both
     // candidates' scores.
     let runout_decision = (selection.decisions.iter())
-        .find(|d| d.stage == "runout")
+        .find(|d| d.stage == Stage::Runout)
         .unwrap();
     assert_eq!(
         runout_decision.held_out_with, selection.candidates[runout].score,
@@ -398,7 +398,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     // The tilt is tried on the physics the chain had chosen without it.
     let before = names[tilt].trim_end_matches(" + tilt");
     let tilt_decision = (selection.decisions.iter())
-        .find(|d| d.stage == "tilt")
+        .find(|d| d.stage == Stage::Tilt)
         .unwrap();
     assert_eq!(
         tilt_decision.held_out_with, selection.candidates[tilt].score,
@@ -460,7 +460,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         assert!((c.score.unwrap() - 0.5 * (r + b)).abs() < 1e-12, "{c:?}");
     }
     let chosen: Vec<_> = (selection.candidates.iter())
-        .filter(|c| c.status == "chosen")
+        .filter(|c| c.status == Status::Chosen)
         .collect();
     assert_eq!(chosen.len(), 1);
     // A stage in the model lowered the score; the chosen model scores no worse than the
@@ -478,7 +478,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         );
     }
     // Each decision compares the candidate the stage was added to with the one with it.
-    let decision = |stage: &str| {
+    let decision = |stage: Stage| {
         (selection.decisions.iter())
             .find(|d| d.stage == stage)
             .unwrap()
@@ -489,20 +489,20 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
             .unwrap()
             .score
     };
-    let kinematic = decision("kinematic");
+    let kinematic = decision(Stage::Kinematic);
     assert_eq!(
         kinematic.held_out_without,
         score("nominal (base and tool fitted)")
     );
     assert_eq!(kinematic.held_out_with, score("kinematic"));
-    let compliance = decision("compliance");
+    let compliance = decision(Stage::Compliance);
     assert_eq!(compliance.held_out_with, score("kinematic + compliance"));
     assert!(
         [score("nominal (base and tool fitted)"), score("kinematic")]
             .contains(&compliance.held_out_without),
         "{compliance:?}"
     );
-    let errors = decision("joint_errors");
+    let errors = decision(Stage::JointErrors);
     assert!(
         (selection.candidates[3..tilt].iter()).any(|c| c.score == errors.held_out_with),
         "{errors:?}"
@@ -540,28 +540,28 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     // A residual model, in either frame (`… + gp (world frame)` where both are tried).
     let residual = chosen[0].name.contains(" + gp") || chosen[0].name.contains(" + somm");
     assert_eq!(built.residual.is_some(), residual);
-    let kept = |stage: &str| {
+    let kept = |stage: Stage| {
         (selection.decisions.iter())
             .find(|d| d.stage == stage)
             .unwrap()
             .kept
     };
-    assert_eq!(kept("residual"), residual);
+    assert_eq!(kept(Stage::Residual), residual);
     // The blocks are the stage's, or backlash alone that the flank search added where the stage
     // kept none.
-    let added = !kept("joint_errors") && kept("flank_search");
-    assert_eq!(kept("joint_errors") || added, with_errors);
+    let added = !kept(Stage::JointErrors) && kept(Stage::FlankSearch);
+    assert_eq!(kept(Stage::JointErrors) || added, with_errors);
     if added {
         assert_eq!(blocks(&chosen[0].name), 1);
         assert!(chosen[0].name.contains("backlash (flank search)"));
     }
-    assert_eq!(kept("tilt"), with_tilt);
-    assert_eq!(kept("runout"), with_runout);
-    assert_eq!(kept("compliance"), with_compliance);
+    assert_eq!(kept(Stage::Tilt), with_tilt);
+    assert_eq!(kept(Stage::Runout), with_runout);
+    assert_eq!(kept(Stage::Compliance), with_compliance);
     // The flank search is tried on a chosen physics with backlash (or, asked, with backlash
     // added where it had none), and its decision holds that candidate's score.
     let searched = (selection.candidates.iter()).find(|c| c.name.contains("(flank search)"));
-    match (selection.decisions.iter()).find(|d| d.stage == "flank_search") {
+    match (selection.decisions.iter()).find(|d| d.stage == Stage::FlankSearch) {
         Some(d) => {
             assert_eq!(d.held_out_with, searched.unwrap().score, "{d:?}");
             assert_eq!(d.kept, chosen[0].name.contains("(flank search)"));
@@ -573,7 +573,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let joint1 = (built.kinematic.compliance.iter())
         .flat_map(|e| e.harmonics.iter())
         .filter(|h| h.joint == 0 && (h.sin != 0.0 || h.cos != 0.0));
-    let reach = (selection.decisions.iter()).find(|d| d.stage == "harmonic_reach");
+    let reach = (selection.decisions.iter()).find(|d| d.stage == Stage::HarmonicReach);
     for h in joint1 {
         assert_eq!(
             h.reach.is_none(),
@@ -632,7 +632,7 @@ fn assert_searched_torque_play_chosen(built: &robocal_calibration::Built) {
     use robocal_robot::Flank;
     let selection = built.selection.as_ref().unwrap();
     let chosen = (selection.candidates.iter())
-        .find(|c| c.status == "chosen")
+        .find(|c| c.status == Status::Chosen)
         .unwrap();
     assert_eq!(
         chosen.name,
@@ -672,7 +672,7 @@ fn the_default_keeps_the_flank_search_where_a_torque_flank_turns_away_from_the_m
     let selection = built.selection.as_ref().unwrap();
     let score = |name: &str| candidate_score(selection, name);
     let d = (selection.decisions.iter())
-        .find(|d| d.stage == "flank_search")
+        .find(|d| d.stage == Stage::FlankSearch)
         .expect("the flank search tried");
     assert_eq!(
         d.held_out_without,
@@ -715,10 +715,10 @@ fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions
         "{:?}",
         unasked.candidates
     );
-    assert!(!(unasked.decisions.iter()).any(|d| d.stage == "flank_search"));
+    assert!(!(unasked.decisions.iter()).any(|d| d.stage == Stage::FlankSearch));
     assert!(
         (unasked.candidates.iter())
-            .any(|c| c.status == "chosen" && c.name == "kinematic + compliance"),
+            .any(|c| c.status == Status::Chosen && c.name == "kinematic + compliance"),
         "{:?}",
         unasked.candidates
     );
@@ -729,18 +729,18 @@ fn the_default_asked_adds_searched_backlash_where_the_block_with_the_regressions
     let built = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
     let selection = built.selection.as_ref().unwrap();
     let score = |name: &str| candidate_score(selection, name);
-    let decision = |stage: &str| {
+    let decision = |stage: Stage| {
         (selection.decisions.iter())
             .find(|d| d.stage == stage)
             .unwrap_or_else(|| panic!("{stage}: {:?}", selection.decisions))
     };
-    let errors = decision("joint_errors");
+    let errors = decision(Stage::JointErrors);
     assert!(!errors.kept, "{errors:?}");
     assert_eq!(
         errors.held_out_with,
         score("kinematic + compliance + backlash")
     );
-    let d = decision("flank_search");
+    let d = decision(Stage::FlankSearch);
     assert!(d.kept, "{d:?}");
     assert_eq!(d.held_out_without, score("kinematic + compliance"));
     assert_eq!(
@@ -790,7 +790,7 @@ fn the_default_continues_joint_1s_harmonics_where_the_blocks_say_they_extrapolat
     let built = automatic(&settings, &twin.nominal, &rows, None, &lines).unwrap();
     let selection = built.selection.as_ref().unwrap();
     let d = (selection.decisions.iter())
-        .find(|d| d.stage == "harmonic_reach")
+        .find(|d| d.stage == Stage::HarmonicReach)
         .expect("the reach decided");
     assert!(d.kept, "{d:?}");
     assert!(d.held_out_with < d.held_out_without, "{d:?}");
@@ -845,7 +845,7 @@ fn the_default_keeps_the_quarter_reach_where_continued_only_just_beats_held() {
     let built = automatic(&settings, &twin.nominal, &rows, None, &Lines::default()).unwrap();
     let selection = built.selection.as_ref().unwrap();
     let d = (selection.decisions.iter())
-        .find(|d| d.stage == "harmonic_reach")
+        .find(|d| d.stage == Stage::HarmonicReach)
         .expect("the reach decided");
     let (held, continued) = (d.held_out_without.unwrap(), d.held_out_with.unwrap());
     assert!(continued < held, "{d:?}");
@@ -976,9 +976,9 @@ fn residual_models_skipped_on(file: &str, frames: usize) {
                 || c.name.ends_with(&format!(" + {k} (joint-1 frame)"))
         })
     };
-    let skipped: Vec<&str> = (selection.candidates.iter())
+    let skipped: Vec<&Status> = (selection.candidates.iter())
         .filter(residual)
-        .map(|c| c.status.as_str())
+        .map(|c| &c.status)
         .collect();
     assert_eq!(
         skipped.len(),
@@ -992,8 +992,11 @@ fn residual_models_skipped_on(file: &str, frames: usize) {
     assert_eq!(world, 2 * (frames - 1), "{file}");
     for status in skipped {
         assert_eq!(
-            status,
-            "skipped: 9 configurations to train on; a residual model needs at least 10"
+            *status,
+            Status::TooFewConfigurations {
+                fewest: 9,
+                needed: 10
+            }
         );
     }
 }

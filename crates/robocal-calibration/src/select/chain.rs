@@ -1,11 +1,11 @@
 //! The chain of physical candidates: each richer model taken only where it lowers the held-out
 //! errors significantly.
 
-use super::physics::{Physics, Scored, projection, score_physics};
+use super::physics::{Physics, Scored, score_physics, skipped};
 use super::plan::FoldPlan;
-use super::words::{leaving, report, the_budget};
+use super::status::{Stage, report};
 use super::{AutoSettings, Candidate};
-use crate::budget::Meter;
+use crate::budget::Allowance;
 use crate::folds::improves;
 use crate::rows::loads;
 use robocal_data::{Measurement, Observer};
@@ -14,7 +14,7 @@ use robocal_robot::Robot;
 /// One step of the chain: a richer physical model tried on the current one.
 pub(super) struct Step {
     /// The decision it belongs to.
-    pub(super) stage: &'static str,
+    pub(super) stage: Stage,
     /// The model it was compared with (index into [`Chain::scored`]).
     pub(super) base: usize,
     /// The richer model.
@@ -29,11 +29,39 @@ pub(super) struct Chain {
     pub(super) steps: Vec<Step>,
     /// The model the chain ended on.
     pub(super) current: usize,
-    /// Why compliance was not tried, if it was not.
-    pub(super) compliance_skip: Option<String>,
+    /// The links not tried, and why, where the chain says so.
+    pub(super) skipped: Vec<(Stage, String)>,
 }
 
 impl Chain {
+    /// Why `stage` was not tried, where the chain says so.
+    pub(super) fn skip_of(&self, stage: Stage) -> Option<&str> {
+        (self.skipped.iter())
+            .find(|(s, _)| *s == stage)
+            .map(|(_, why)| why.as_str())
+    }
+
+    /// The steps of `stage`, in order.
+    pub(super) fn steps_of(&self, stage: Stage) -> Vec<&Step> {
+        self.steps.iter().filter(|s| s.stage == stage).collect()
+    }
+
+    /// The physics of the model the chain is on.
+    fn physics(&self) -> Physics {
+        self.scored[self.current].physics
+    }
+
+    /// The order of two scored candidates (indices into `scored`) by their score: the lower
+    /// first, unscored last.
+    fn by_score(&self, a: usize, b: usize) -> std::cmp::Ordering {
+        match (self.scored[a].score, self.scored[b].score) {
+            (Some(x), Some(y)) => x.total_cmp(&y),
+            (Some(_), None) => std::cmp::Ordering::Less,
+            (None, Some(_)) => std::cmp::Ordering::Greater,
+            (None, None) => std::cmp::Ordering::Equal,
+        }
+    }
+
     /// The model residual models are trained on: the chain's, or the identified table when the
     /// chain ended on the nominal one (a residual model learns what an identified model
     /// leaves).
@@ -47,14 +75,14 @@ impl Chain {
 
     /// Scores `next`, compares it with the current model and takes it if it is significantly
     /// better.
-    pub(super) fn step(&mut self, stage: &'static str, next: Scored, groups: &[usize]) {
+    pub(super) fn step(&mut self, stage: Stage, next: Scored, groups: &[usize]) {
         self.scored.push(next);
         self.take(stage, self.scored.len() - 1, groups);
     }
 
     /// Compares the scored candidate `next` (already in the chain) with the current model and
     /// takes it if it is significantly better.
-    pub(super) fn take(&mut self, stage: &'static str, next: usize, groups: &[usize]) {
+    pub(super) fn take(&mut self, stage: Stage, next: usize, groups: &[usize]) {
         let better = match (&self.scored[self.current].errors, &self.scored[next].errors) {
             (Some(c), Some(n)) => improves(c, n, groups),
             (None, Some(_)) => true,
@@ -72,104 +100,232 @@ impl Chain {
     }
 }
 
-/// The physical models, each scored on every fold: the nominal table, the identified one, with
-/// compliances (two or more loads); then, on the current identified one, transmission
-/// harmonics and self-weight terms by forward stepwise selection — each kept only if it lowers
-/// the held-out errors significantly.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn physics_chain(
-    settings: &AutoSettings,
-    nominal: &Robot,
-    rows: &[&Measurement],
-    plan: &FoldPlan<'_>,
-    groups: &[usize],
-    candidates: &mut Vec<Candidate>,
-    observer: &dyn Observer,
-    meter: &Meter,
-    (over_budget, left, residual_share): (
-        &(dyn Fn(f64) -> bool + Sync),
-        &(dyn Fn() -> f64 + Sync),
-        f64,
-    ),
-) -> Chain {
-    // A candidate scored with `reserve` seconds of the budget kept from it: the axis runouts'
-    // candidate, the one with the most unknowns and the slowest (its pace known only after a
-    // core's worth of folds), leaves `residual_share` of the budget to the residual models
-    // ([`RESIDUAL_SHARE`]); every other (the flank search and the tilt after it too, on physics
-    // that may hold the runouts) has the whole budget.
-    let mut score = |physics: Physics, reserve: f64| {
-        let over_budget = |spent: f64| over_budget(spent + reserve);
-        let left = || left() - reserve;
-        let leaving = match leaving(reserve) {
-            words if words.is_empty() => words,
-            words => words + ",",
+/// What a link of the chain tries on the physics the chain is on.
+enum Try {
+    /// One candidate.
+    One(Physics),
+    /// Nothing: the settings or the physics leave it out.
+    Not,
+    /// Nothing, and the decision says why.
+    Skipped(String),
+}
+
+/// One link of the chain: the stage it decides and what it tries, in the chain's order. The
+/// joint-error blocks are not a link: they are chosen by forward stepwise selection
+/// ([`stepwise`]) between the compliances and the runouts.
+struct Link {
+    stage: Stage,
+    /// The candidate it tries on the current physics under the settings, given the data's
+    /// loads.
+    tries: fn(&AutoSettings, Physics, &[f64]) -> Try,
+    /// Whether its candidate leaves the residual models their share of the budget
+    /// ([`super::residual::RESIDUAL_SHARE`]).
+    keeps_residual_share: bool,
+    /// Where the budget cut its candidate, a cheaper one of the same stage tried instead.
+    cheaper: Option<fn(&AutoSettings, Physics) -> Option<Physics>>,
+}
+
+/// The links before the joint-error blocks: the identified table, then its compliances (two or
+/// more loads).
+const BEFORE_BLOCKS: [Link; 2] = [
+    Link {
+        stage: Stage::Kinematic,
+        tries: |_, _, _| Try::One(Physics::RIGID),
+        keeps_residual_share: false,
+        cheaper: None,
+    },
+    Link {
+        stage: Stage::Compliance,
+        tries: |_, _, loads| {
+            if loads.len() >= 2 {
+                Try::One(Physics {
+                    compliance: true,
+                    ..Physics::RIGID
+                })
+            } else {
+                Try::Skipped(format!(
+                    "skipped: the data hold one load ({} kg); compliance needs two or more",
+                    loads.first().copied().unwrap_or(0.0)
+                ))
+            }
+        },
+        keeps_residual_share: false,
+        cheaper: None,
+    },
+];
+
+/// The links after the joint-error blocks, each one candidate more on the physics the chain is
+/// on, kept only if it lowers the held-out errors significantly: the axis runouts; the backlash
+/// flanks searched beyond each joint's own terms; last, the bearings' tilt.
+const AFTER_BLOCKS: [Link; 3] = [
+    // The axis runouts on the physics the blocks reached. Where the budget cut their fits
+    // (skipped, or abandoned during their folds), the cheaper fit that starts them from the
+    // model without them, whose first fit and flanks the candidates before made (a third of the
+    // work on the paper's arm, whose twin beyond the model, at 75 s, goes from 0.101 to
+    // 0.022 mm on its joint-1 extrapolation with it). Other fits than the full one, so tried
+    // only where that one has no score; and only where the compliances' first fit would hold
+    // the runouts (elsewhere the two are the same fits).
+    Link {
+        stage: Stage::Runout,
+        tries: |settings, current, _| {
+            if settings.runout > 0 && !current.aligned {
+                Try::One(Physics {
+                    runout: settings.runout,
+                    ..current
+                })
+            } else {
+                Try::Not
+            }
+        },
+        keeps_residual_share: true,
+        cheaper: Some(|settings, wobbling| {
+            (wobbling.settings(settings).runouts_in_first_fit()).then_some(Physics {
+                runout_from_without: true,
+                ..wobbling
+            })
+        }),
+    },
+    // On chosen physics with backlash, or, where asked, with backlash added where the block was
+    // not kept.
+    Link {
+        stage: Stage::FlankSearch,
+        tries: |settings, current, _| {
+            let added = settings.flank_search && settings.backlash && !current.backlash;
+            if (current.backlash || added) && !current.aligned {
+                Try::One(Physics {
+                    backlash: true,
+                    flank_search: true,
+                    ..current
+                })
+            } else {
+                Try::Not
+            }
+        },
+        keeps_residual_share: false,
+        cheaper: None,
+    },
+    // With the compliances: the payload's moment and, where the links' weights were kept,
+    // theirs.
+    Link {
+        stage: Stage::Tilt,
+        tries: |settings, current, _| {
+            if settings.tilt && current.compliance && !current.aligned {
+                Try::One(Physics {
+                    tilt: true,
+                    ..current
+                })
+            } else {
+                Try::Not
+            }
+        },
+        keeps_residual_share: false,
+        cheaper: None,
+    },
+];
+
+/// What scores the physical candidates: the settings, the table, the folds, the budget; and
+/// the candidates scored so far, in order (the chain's indices are theirs).
+pub(super) struct Scorer<'s, 'p> {
+    pub(super) settings: &'s AutoSettings,
+    pub(super) nominal: &'s Robot,
+    pub(super) plan: &'s FoldPlan<'p>,
+    pub(super) observer: &'s dyn Observer,
+    pub(super) budget: Allowance<'s>,
+    /// The seconds of the budget the candidates that keep it leave to the residual models.
+    pub(super) residual_share: f64,
+    pub(super) candidates: Vec<Candidate>,
+}
+
+impl Scorer<'_, '_> {
+    /// Scores `physics` on every fold, with the residual models' share of the budget kept from
+    /// it where `keep`; a joint-error candidate does not start when the budget would be spent
+    /// before it and the final fit of its physics end ([`skipped`]).
+    fn score(&mut self, physics: Physics, keep: bool) -> Scored {
+        let budget = if keep {
+            self.budget.keeping(self.residual_share)
+        } else {
+            self.budget
         };
-        // A joint-error candidate does not start when the budget would be spent before it and the
-        // final fit of its physics end (`projection`).
-        let (from, seconds, projected) = projection(physics, candidates);
-        if physics.has_joint_errors() && over_budget(projected) {
-            let c = Candidate {
-                name: physics.name(),
-                held_out: None,
-                held_out_blocks: None,
-                score: None,
-                seconds: 0.0,
-                cost: 0.0,
-                status: format!(
-                    "skipped: {}{leaving} would be spent before its folds and the final fit end (projected from {from}, {seconds:.1} s: {projected:.1} s)",
-                    the_budget(settings.budget_seconds)
-                ),
-                budget_cut: true,
-            };
-            report(&c, observer);
-            candidates.push(c);
-            return Scored {
+        let (c, scored) = match skipped(physics, &self.candidates, &budget) {
+            Some(c) => {
+                report(&c, self.observer);
+                let scored = Scored {
+                    physics,
+                    score: None,
+                    errors: None,
+                    fitted: vec![None; self.plan.splits.len()],
+                    budget_cut: true,
+                };
+                (c, scored)
+            }
+            None => score_physics(
                 physics,
-                score: None,
-                errors: None,
-                fitted: vec![None; plan.splits.len()],
-                budget_cut: true,
-            };
-        }
-        score_physics(
-            physics,
-            settings,
-            nominal,
-            plan,
-            candidates,
-            observer,
-            meter,
-            (&over_budget, &left, reserve),
-        )
-    };
+                self.settings,
+                self.nominal,
+                self.plan,
+                self.observer,
+                &budget,
+            ),
+        };
+        self.candidates.push(c);
+        scored
+    }
+}
+
+/// The physical models, each scored on every fold: the nominal table, then the links of the
+/// chain in order ([`BEFORE_BLOCKS`], the joint-error blocks by [`stepwise`] selection,
+/// [`AFTER_BLOCKS`]), each kept only if it lowers the held-out errors significantly.
+pub(super) fn physics_chain(
+    scorer: &mut Scorer<'_, '_>,
+    rows: &[&Measurement],
+    groups: &[usize],
+) -> Chain {
+    let loads = loads(rows);
     let mut chain = Chain {
-        scored: vec![score(Physics::ALIGNED, 0.0)],
+        scored: vec![scorer.score(Physics::ALIGNED, false)],
         steps: Vec::new(),
         current: 0,
-        compliance_skip: None,
+        skipped: Vec::new(),
     };
-    chain.step("kinematic", score(Physics::RIGID, 0.0), groups);
-    let loads = loads(rows);
-    if loads.len() >= 2 {
-        let elastic = Physics {
-            compliance: true,
-            ..Physics::RIGID
-        };
-        chain.step("compliance", score(elastic, 0.0), groups);
-    } else {
-        chain.compliance_skip = Some(format!(
-            "skipped: the data hold one load ({} kg); compliance needs two or more",
-            loads.first().copied().unwrap_or(0.0)
-        ));
+    let follow = |chain: &mut Chain, scorer: &mut Scorer<'_, '_>, link: &Link| match (link.tries)(
+        scorer.settings,
+        chain.physics(),
+        &loads,
+    ) {
+        Try::One(physics) => {
+            chain.step(
+                link.stage,
+                scorer.score(physics, link.keeps_residual_share),
+                groups,
+            );
+            let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
+            if let Some(cheaper) = link.cheaper.filter(|_| cut)
+                && let Some(physics) = cheaper(scorer.settings, physics)
+            {
+                let scored = scorer.score(physics, link.keeps_residual_share);
+                chain.step(link.stage, scored, groups);
+            }
+        }
+        Try::Skipped(why) => chain.skipped.push((link.stage, why)),
+        Try::Not => {}
+    };
+    for link in &BEFORE_BLOCKS {
+        follow(&mut chain, scorer, link);
     }
-    // The joint-error blocks by forward stepwise selection: each block alone on the identified
-    // model, in the order of their held-out scores, until one is kept (significantly better);
-    // then each remaining block added to the kept ones, the best of them taken if it is
-    // significantly better, until none is or none remains. A flexible block cannot take the place
-    // of the block whose form the effect has only because it was tried first (harmonics of the
-    // joint angles absorb part of a self-weight deflection or of a backlash step, and extrapolate
-    // them badly).
-    let base = chain.scored[chain.identified()].physics;
+    stepwise(&mut chain, scorer, groups);
+    for link in &AFTER_BLOCKS {
+        follow(&mut chain, scorer, link);
+    }
+    debug_assert!(
+        (chain.scored.iter().zip(&scorer.candidates)).all(|(s, c)| c.physics == Some(s.physics))
+            && chain.scored.len() == scorer.candidates.len()
+    );
+    chain
+}
+
+/// The joint-error blocks the settings ask for (harmonics, self-weight, backlash), each alone
+/// on `base` without any block.
+fn blocks(settings: &AutoSettings, base: Physics) -> Vec<Physics> {
     let none = Physics {
         harmonics: 0,
         self_weight: false,
@@ -178,7 +334,7 @@ pub(super) fn physics_chain(
         runout: 0,
         ..base
     };
-    let blocks: Vec<Physics> = [
+    [
         (settings.harmonics > 0).then_some(Physics {
             harmonics: settings.harmonics,
             ..none
@@ -194,30 +350,33 @@ pub(super) fn physics_chain(
     ]
     .into_iter()
     .flatten()
-    .collect();
+    .collect()
+}
+
+/// The joint-error blocks by forward stepwise selection: each block alone on the identified
+/// model, in the order of their held-out scores, until one is kept (significantly better);
+/// then each remaining block added to the kept ones, the best of them taken if it is
+/// significantly better, until none is or none remains. A flexible block cannot take the place
+/// of the block whose form the effect has only because it was tried first (harmonics of the
+/// joint angles absorb part of a self-weight deflection or of a backlash step, and extrapolate
+/// them badly).
+fn stepwise(chain: &mut Chain, scorer: &mut Scorer<'_, '_>, groups: &[usize]) {
+    let base = chain.scored[chain.identified()].physics;
+    let blocks = blocks(scorer.settings, base);
     // Every scored candidate joins the chain in the order it was scored, so that the chain's
     // indices stay those of the candidates.
     let singles: Vec<usize> = (blocks.iter())
         .map(|&b| {
-            chain.scored.push(score(base.union(b), 0.0));
+            chain.scored.push(scorer.score(base.union(b), false));
             chain.scored.len() - 1
         })
         .collect();
-    let by_score = |chain: &Chain, a: &usize, b: &usize| match (
-        chain.scored[*a].score,
-        chain.scored[*b].score,
-    ) {
-        (Some(x), Some(y)) => x.total_cmp(&y),
-        (Some(_), None) => std::cmp::Ordering::Less,
-        (None, Some(_)) => std::cmp::Ordering::Greater,
-        (None, None) => std::cmp::Ordering::Equal,
-    };
     let mut order: Vec<usize> = (0..blocks.len()).collect();
-    order.sort_by(|a, b| by_score(&chain, &singles[*a], &singles[*b]));
+    order.sort_by(|a, b| chain.by_score(singles[*a], singles[*b]));
     let mut remaining: Vec<usize> = Vec::new();
     let mut kept = None;
     for (k, &b) in order.iter().enumerate() {
-        chain.take("joint_errors", singles[b], groups);
+        chain.take(Stage::JointErrors, singles[b], groups);
         if chain.current == singles[b] {
             kept = Some(chain.scored[singles[b]].physics);
             remaining = order[k + 1..].to_vec();
@@ -229,69 +388,17 @@ pub(super) fn physics_chain(
     {
         let tried: Vec<usize> = (remaining.iter())
             .map(|&b| {
-                chain.scored.push(score(current.union(blocks[b]), 0.0));
+                chain
+                    .scored
+                    .push(scorer.score(current.union(blocks[b]), false));
                 chain.scored.len() - 1
             })
             .collect();
         let best = (0..tried.len())
-            .min_by(|a, b| by_score(&chain, &tried[*a], &tried[*b]))
+            .min_by(|a, b| chain.by_score(tried[*a], tried[*b]))
             .expect("a block remains");
-        chain.take("joint_errors", tried[best], groups);
+        chain.take(Stage::JointErrors, tried[best], groups);
         kept = (chain.current == tried[best]).then(|| chain.scored[tried[best]].physics);
         remaining.remove(best);
     }
-    // The axis runouts on the physics the blocks reached: one candidate more, kept only if it
-    // lowers the held-out errors significantly.
-    let current = chain.scored[chain.current].physics;
-    if settings.runout > 0 && !current.aligned {
-        let wobbling = Physics {
-            runout: settings.runout,
-            ..current
-        };
-        chain.step("runout", score(wobbling, residual_share), groups);
-        // Where the budget cut the runouts' fits (skipped, or abandoned during their folds), the
-        // cheaper fit that starts them from the model without them, whose first fit and flanks
-        // the candidates before made (a third of the work on the paper's arm, whose twin beyond
-        // the model, at 75 s, goes from 0.101 to 0.022 mm on its joint-1 extrapolation with it).
-        // Other fits than the full one, so tried only where that one has no score; and only
-        // where the compliances' first fit would hold the runouts (elsewhere the two are the
-        // same fits).
-        let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
-        if cut && wobbling.settings(settings).runouts_in_first_fit() {
-            let cheaper = Physics {
-                runout_from_without: true,
-                ..wobbling
-            };
-            chain.step("runout", score(cheaper, residual_share), groups);
-        }
-    }
-    // The backlash flanks searched beyond each joint's own terms, on chosen physics with
-    // backlash (or, where asked, with backlash added where the block was not kept): one
-    // candidate more, kept only if it lowers the held-out errors significantly.
-    let current = chain.scored[chain.current].physics;
-    let added = settings.flank_search && settings.backlash && !current.backlash;
-    if (current.backlash || added) && !current.aligned {
-        let searched = Physics {
-            backlash: true,
-            flank_search: true,
-            ..current
-        };
-        chain.step("flank_search", score(searched, 0.0), groups);
-    }
-    // Last, the bearings' tilt on the chosen physics (with the compliances: the payload's moment
-    // and, where the links' weights were kept, theirs): one candidate more, kept only if it
-    // lowers the held-out errors significantly.
-    let current = chain.scored[chain.current].physics;
-    if settings.tilt && current.compliance && !current.aligned {
-        let tilted = Physics {
-            tilt: true,
-            ..current
-        };
-        chain.step("tilt", score(tilted, 0.0), groups);
-    }
-    debug_assert!(
-        (chain.scored.iter().zip(candidates.iter())).all(|(s, c)| s.physics.name() == c.name)
-            && chain.scored.len() == candidates.len()
-    );
-    chain
 }

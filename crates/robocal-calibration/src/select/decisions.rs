@@ -1,9 +1,10 @@
 //! The decisions the selection reports, one per stage, and the reach of joint 1's harmonics.
 
-use super::chain::{Chain, Step};
+use super::chain::Chain;
 use super::physics::{Physics, Scored, orders_words};
 use super::plan::FoldPlan;
 use super::residual::ResidualScore;
+use super::status::Stage;
 use super::{AutoSettings, Candidate, Decision};
 use crate::folds::improves;
 use robocal_data::Measurement;
@@ -69,12 +70,12 @@ pub(super) fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Dec
     let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
     let (without, with) = (mean(&held), mean(&continued));
     let kept = improves(&held, &continued, &groups) && with < (1.0 - REACH_GAIN) * without;
-    Some(Decision {
-        stage: "harmonic_reach",
+    Some(Decision::said(
+        Stage::HarmonicReach,
         kept,
-        held_out_without: Some(without),
-        held_out_with: Some(with),
-        reason: format!(
+        Some(without),
+        Some(with),
+        format!(
             "{}: {without:.4} mm held at the readings' nearer end, {with:.4} mm with joint 1's harmonics continued periodically, on the {} rows of the blocks of joint 1 beyond their folds' readings{}",
             if kept { "kept" } else { "dropped" },
             held.len(),
@@ -87,42 +88,78 @@ pub(super) fn harmonic_reach(scored: &Scored, plan: &FoldPlan<'_>) -> Option<Dec
                 )
             }
         ),
-    })
+    ))
 }
 
-/// A decision with its reason: `kept`/`dropped`, the scores without and with the stage.
-pub(super) fn decision(
-    stage: &'static str,
-    kept: bool,
-    without: Option<f64>,
-    with: Option<f64>,
-    what: &str,
-) -> Decision {
-    let reason = match (without, with) {
-        (Some(w), Some(x)) => format!(
-            "{}: held-out score {w:.4} mm without, {x:.4} mm with {what}{}",
-            if kept { "kept" } else { "dropped" },
-            if !kept && x < w {
-                " (lower, but not by more than twice its standard error)"
-            } else if kept && x >= w {
-                " (the chosen residual model is trained on it)"
-            } else {
-                ""
-            }
-        ),
-        _ => what.to_string(),
-    };
-    Decision {
-        stage,
-        kept,
-        held_out_without: without,
-        held_out_with: with,
-        reason,
+impl Decision {
+    /// A decision in the words `reason`, which say no verdict of their own.
+    pub(super) fn said(
+        stage: Stage,
+        kept: bool,
+        without: Option<f64>,
+        with: Option<f64>,
+        reason: String,
+    ) -> Self {
+        Self {
+            stage,
+            kept,
+            held_out_without: without,
+            held_out_with: with,
+            after_verdict: reason.clone(),
+            reason,
+        }
+    }
+
+    /// A decision comparing the scores without and with the stage (`what` it adds), its reason
+    /// `kept` or `dropped` and the two scores; without both scores, `what` alone.
+    pub(super) fn compared(
+        stage: Stage,
+        kept: bool,
+        without: Option<f64>,
+        with: Option<f64>,
+        what: &str,
+    ) -> Self {
+        let (verdict, after_verdict) = match (without, with) {
+            (Some(w), Some(x)) => (
+                if kept { "kept" } else { "dropped" },
+                format!(
+                    ": held-out score {w:.4} mm without, {x:.4} mm with {what}{}",
+                    if !kept && x < w {
+                        " (lower, but not by more than twice its standard error)"
+                    } else if kept && x >= w {
+                        " (the chosen residual model is trained on it)"
+                    } else {
+                        ""
+                    }
+                ),
+            ),
+            _ => ("", what.to_string()),
+        };
+        Self {
+            stage,
+            kept,
+            held_out_without: without,
+            held_out_with: with,
+            reason: format!("{verdict}{after_verdict}"),
+            after_verdict,
+        }
+    }
+
+    /// The decision of a stage the chain kept, dropped from the chosen model: a residual model
+    /// on the identified table alone scored lower than the physical models that hold it.
+    pub(super) fn not_in_chosen(&mut self) {
+        self.kept = false;
+        self.reason = format!(
+            "not in the chosen model: a residual model on the identified table alone scored lower than the physical models that hold it (kept by the chain of physical models{})",
+            self.after_verdict
+        );
     }
 }
 
-/// One decision per stage — kinematic, compliance, joint errors, tilt, residual — each comparing the
-/// model the stage was tried on with the model with it.
+/// One decision per stage — kinematic, compliance, joint errors, runout, flank search, tilt,
+/// residual — each comparing the model the stage was tried on with the model with it (`chosen`:
+/// the physics of the chosen model, `residual`: the residual model chosen, or the best scored,
+/// with its score).
 pub(super) fn decisions(
     settings: &AutoSettings,
     chain: &Chain,
@@ -132,43 +169,62 @@ pub(super) fn decisions(
     residual: Option<(usize, f64)>,
     residual_wins: bool,
 ) -> Vec<Decision> {
-    let score = |i: usize| chain.scored[i].score;
-    let steps =
-        |stage: &str| -> Vec<&Step> { chain.steps.iter().filter(|s| s.stage == stage).collect() };
     let mut out = Vec::new();
-    for step in steps("kinematic") {
-        out.push(decision(
-            "kinematic",
+    let score = |i: usize| chain.scored[i].score;
+    for step in chain.steps_of(Stage::Kinematic) {
+        out.push(Decision::compared(
+            Stage::Kinematic,
             !chosen.aligned,
             score(step.base),
             score(step.next),
             "the identified table (LM, identifiable parameters)",
         ));
     }
-    out.push(
-        match (&chain.compliance_skip, steps("compliance").first()) {
-            (Some(why), _) => decision("compliance", false, None, None, why),
-            (None, Some(step)) if score(step.next).is_some() => decision(
-                "compliance",
-                chosen.compliance,
-                score(step.base),
-                score(step.next),
-                "joint compliances identified with the geometry on every load",
-            ),
-            (None, _) => decision(
-                "compliance",
-                false,
-                None,
-                None,
-                &candidates
-                    .iter()
-                    .find(|c| c.name == "kinematic + compliance")
-                    .map_or("skipped".to_string(), |c| c.status.clone()),
-            ),
-        },
-    );
-    let joint_errors = steps("joint_errors");
-    // With the stage: the last step the chain kept, else the best one tried.
+    out.push(compliance(chain, candidates, chosen));
+    out.push(joint_errors(chain));
+    out.extend(after_blocks(settings, chain, chosen));
+    out.push(residual_decision(
+        chain,
+        candidates,
+        residuals,
+        residual,
+        residual_wins,
+    ));
+    out
+}
+
+/// The compliances' decision: skipped with one load, else the step's comparison, else why its
+/// candidate has no score.
+fn compliance(chain: &Chain, candidates: &[Candidate], chosen: Physics) -> Decision {
+    let score = |i: usize| chain.scored[i].score;
+    let step = chain.steps_of(Stage::Compliance).into_iter().next();
+    match (chain.skip_of(Stage::Compliance), step) {
+        (Some(why), _) => Decision::compared(Stage::Compliance, false, None, None, why),
+        (None, Some(step)) if score(step.next).is_some() => Decision::compared(
+            Stage::Compliance,
+            chosen.compliance,
+            score(step.base),
+            score(step.next),
+            "joint compliances identified with the geometry on every load",
+        ),
+        (None, step) => Decision::compared(
+            Stage::Compliance,
+            false,
+            None,
+            None,
+            &step.map_or("skipped".to_string(), |s| {
+                candidates[s.next].status.to_string()
+            }),
+        ),
+    }
+}
+
+/// The joint-error blocks' decision: kept where the stage kept a block, named by the blocks of
+/// the model it scored (backlash the flank search added and the tilts are their own decisions);
+/// with the stage, the last step the chain kept, else the best one tried.
+fn joint_errors(chain: &Chain) -> Decision {
+    let score = |i: usize| chain.scored[i].score;
+    let joint_errors = chain.steps_of(Stage::JointErrors);
     let with = (joint_errors.iter().rev().find(|s| s.kept))
         .or_else(|| {
             (joint_errors.iter())
@@ -180,29 +236,33 @@ pub(super) fn decisions(
                 })
         })
         .copied();
-    // Kept where the stage kept a block, named by the blocks of the model it scored: backlash the
-    // flank search added and the tilts are their own decisions.
     let has_errors = joint_errors.iter().any(|s| s.kept);
-    out.push(match (joint_errors.first(), with) {
-        (Some(first), Some(step)) => decision(
-            "joint_errors",
+    match (joint_errors.first(), with) {
+        (Some(first), Some(step)) => Decision::compared(
+            Stage::JointErrors,
             has_errors,
             score(first.base),
             score(step.next),
             &chain.scored[step.next].physics.joint_error_terms(),
         ),
-        _ => decision(
-            "joint_errors",
+        _ => Decision::compared(
+            Stage::JointErrors,
             false,
             None,
             None,
             "not tried (no harmonics, self-weight or backlash in the settings), or every fit failed",
         ),
-    });
-    // The last runouts' step: the cheaper fit's where the budget cut the full one.
-    if let Some(step) = steps("runout").last() {
-        out.push(decision(
-            "runout",
+    }
+}
+
+/// The decisions of the links after the blocks: the runouts (the last step: the cheaper fit's
+/// where the budget cut the full one), the flank search, the tilts.
+fn after_blocks(settings: &AutoSettings, chain: &Chain, chosen: Physics) -> Vec<Decision> {
+    let score = |i: usize| chain.scored[i].score;
+    let mut out = Vec::new();
+    if let Some(step) = chain.steps_of(Stage::Runout).last() {
+        out.push(Decision::compared(
+            Stage::Runout,
             chosen.runout > 0,
             score(step.base),
             score(step.next),
@@ -212,9 +272,9 @@ pub(super) fn decisions(
             ),
         ));
     }
-    if let Some(step) = steps("flank_search").first() {
-        out.push(decision(
-            "flank_search",
+    if let Some(step) = chain.steps_of(Stage::FlankSearch).first() {
+        out.push(Decision::compared(
+            Stage::FlankSearch,
             chosen.flank_search,
             score(step.base),
             score(step.next),
@@ -225,16 +285,16 @@ pub(super) fn decisions(
             },
         ));
     }
-    out.push(match steps("tilt").first() {
-        Some(step) => decision(
-            "tilt",
+    out.push(match chain.steps_of(Stage::Tilt).first() {
+        Some(step) => Decision::compared(
+            Stage::Tilt,
             chosen.tilt,
             score(step.base),
             score(step.next),
             "tilting compliances identified with the geometry: the parts beyond each joint turning across its axis under the gravity moment of the payload and of the links' weights",
         ),
-        None => decision(
-            "tilt",
+        None => Decision::compared(
+            Stage::Tilt,
             false,
             None,
             None,
@@ -245,10 +305,22 @@ pub(super) fn decisions(
             },
         ),
     });
-    let physics_mean = score(chain.current).unwrap_or(f64::INFINITY);
-    out.push(match residual {
-        Some((r, mean)) => decision(
-            "residual",
+    out
+}
+
+/// The residual model's decision against the physics the chain ended on: the model chosen (or
+/// the best scored, `residual`), or why none was scored.
+fn residual_decision(
+    chain: &Chain,
+    candidates: &[Candidate],
+    residuals: &[ResidualScore],
+    residual: Option<(usize, f64)>,
+    residual_wins: bool,
+) -> Decision {
+    let physics_mean = chain.scored[chain.current].score.unwrap_or(f64::INFINITY);
+    match residual {
+        Some((r, mean)) => Decision::compared(
+            Stage::Residual,
             residual_wins,
             Some(physics_mean),
             Some(mean),
@@ -266,17 +338,16 @@ pub(super) fn decisions(
                 residuals.len()
             ),
         ),
-        None => decision(
-            "residual",
+        None => Decision::compared(
+            Stage::Residual,
             false,
             Some(physics_mean),
             None,
             &candidates
                 .get(chain.scored.len())
                 .map_or("skipped: no residual model configured".to_string(), |c| {
-                    c.status.clone()
+                    c.status.to_string()
                 }),
         ),
-    });
-    out
+    }
 }

@@ -7,38 +7,41 @@ mod gravity;
 mod physics;
 mod plan;
 mod residual;
-mod words;
+mod status;
 
-use crate::budget::{self, Meter};
+use crate::budget::{self, Allowance, Meter};
 use crate::configured::{Built, configured};
 use crate::error::Result;
-use crate::outliers::{OutlierSettings, find_outliers};
+use crate::outliers::{OutlierReport, OutlierSettings, find_outliers};
 use crate::rows::configurations;
 use crate::stages::Stages;
 use nalgebra::Vector3;
 use robocal_data::{ErrorStats, Measurement, Observer, Silent};
-use robocal_ident::{ComplianceSettings, KinematicSettings};
+use robocal_ident::{ComplianceSettings, Fixed, KinematicSettings};
 use robocal_residual::{Frame, ResidualKind, ResidualSettings, ResidualStage};
 use robocal_robot::Robot;
 use serde::Serialize;
 use std::time::Instant;
 
-use chain::physics_chain;
+use chain::{Chain, Scorer, physics_chain};
 pub use decisions::REACH_GAIN;
 use decisions::{decisions, harmonic_reach};
 use gravity::mounting;
 pub use gravity::{JOINT1_GRAVITY_ANGLE_DEG, joint1_gravity_angle, residual_stages};
-use physics::FINAL_FIT_SHARE;
+use physics::{FINAL_FIT_SHARE, Physics};
 use plan::FoldPlan;
-use residual::{TABLE_FRAMES, pick_residual, residual_candidates, residual_share};
-use words::budget_warning;
+use residual::{
+    ResidualScore, TABLE_FRAMES, Trainer, pick_residual, residual_candidates, residual_share,
+};
+use status::budget_warning;
+pub use status::{Stage, Status};
 
 /// What the default calibration decided about one stage.
 #[derive(Debug, Clone, Serialize)]
 pub struct Decision {
-    /// `kinematic`, `compliance`, `joint_errors`, `flank_search`, `runout`, `tilt`, `residual`
-    /// or `harmonic_reach`.
-    pub stage: &'static str,
+    /// The stage: `kinematic`, `compliance`, `joint_errors`, `flank_search`, `runout`, `tilt`,
+    /// `residual` or `harmonic_reach` in the report.
+    pub stage: Stage,
     /// Whether the stage is in the model.
     pub kept: bool,
     /// Held-out score (see [`Candidate::score`]) of the model the stage was added to, mm
@@ -48,6 +51,10 @@ pub struct Decision {
     pub held_out_with: Option<f64>,
     /// Why.
     pub reason: String,
+    /// The reason's words after its verdict (`kept`, `dropped`): what the decision says again
+    /// when the verdict changes.
+    #[serde(skip)]
+    after_verdict: String,
 }
 
 /// One candidate model of the default calibration and its held-out error.
@@ -70,12 +77,12 @@ pub struct Candidate {
     /// reference machine's seconds for its counted work with `reproducible` ([`budget`]).
     #[serde(skip)]
     pub(crate) cost: f64,
-    /// `chosen`, `evaluated`, or why it was skipped.
-    pub status: String,
-    /// Whether the time budget cut it: skipped before its folds, or abandoned during them
-    /// (what [`budget_warning`] lists; its status says so in words).
+    /// Chosen, evaluated, or why it was skipped (in the report: `chosen`, `evaluated`, or the
+    /// reason in words).
+    pub status: Status,
+    /// The physics of a physical candidate (none for a residual model).
     #[serde(skip)]
-    pub(crate) budget_cut: bool,
+    pub(crate) physics: Option<Physics>,
 }
 
 /// How the default calibration chose its stages.
@@ -113,7 +120,7 @@ pub struct Selection {
 impl Selection {
     /// The candidate the selection chose, if it chose one.
     pub fn chosen(&self) -> Option<&Candidate> {
-        self.candidates.iter().find(|c| c.status == "chosen")
+        self.candidates.iter().find(|c| c.status == Status::Chosen)
     }
 
     /// The warning that the time budget ended the search before some candidates were scored
@@ -185,6 +192,8 @@ pub struct AutoSettings {
     /// [`REFERENCE_CORES`] cores takes for it, so a seed gives the same model on every machine
     /// as fast as the reference or faster (the clock stays a guard: never past the budget).
     /// Off by default.
+    ///
+    /// [`REFERENCE_CORES`]: crate::budget::REFERENCE_CORES
     pub reproducible: bool,
     /// The search for bad shots before everything else (none: every row is used).
     pub outliers: Option<OutlierSettings>,
@@ -255,6 +264,8 @@ impl Default for AutoSettings {
 /// the best residual model — each step taken only if it lowers the held-out errors significantly
 /// ([`improves`]); the model it ends on is fitted again on every row. `observer` hears a line
 /// per candidate and per decision, and counts the fits.
+///
+/// [`improves`]: crate::folds::improves
 pub fn automatic(
     settings: &AutoSettings,
     nominal: &Robot,
@@ -276,42 +287,14 @@ fn automatic_metered(
     meter: &Meter,
 ) -> Result<Built> {
     let start = Instant::now();
-    // What the fits before the candidates count (the bad shots' search, the mounting), charged
-    // to a counted budget.
-    let before = robocal_ident::Work::new(None);
-    let (outliers, kept) = match &settings.outliers {
-        Some(o) if configurations(rows).len() >= 4 => {
-            let search = KinematicSettings {
-                work: Some(before.clone()),
-                ..KinematicSettings::default()
-            };
-            let (report, kept) = find_outliers(nominal, rows, &search, o)?;
-            (Some(report), kept)
-        }
-        _ => (None, rows.to_vec()),
-    };
-    let rows = kept.as_slice();
-    // An arm on a wall or a ceiling: gravity decided once, for every candidate and fold (each
-    // fit deciding it again would identify every candidate three times).
-    let mut settings = settings.clone();
-    let mut mounting_warning = None;
-    if settings.gravity.is_none()
-        && let Some((gravity, warning)) = mounting(&settings, nominal, rows, &before)
-    {
-        settings.gravity = Some(gravity);
-        mounting_warning = warning;
-    }
-    let gravity = (settings.gravity).unwrap_or(ComplianceSettings::default().gravity);
-    settings.residuals = residual_stages(&settings, nominal, &gravity);
-    let settings = &settings;
+    let prepared = prepare(settings, nominal, rows)?;
+    let (settings, rows) = (&prepared.settings, prepared.rows.as_slice());
     let Some(plan) = FoldPlan::new(settings, rows, validation.as_ref()) else {
         let mut built = kinematic_only(settings, nominal, rows, observer, start)?;
-        built.outliers = outliers;
+        built.outliers = prepared.outliers;
         return Ok(built);
     };
-    meter.charge(budget::fit_seconds(before.count()));
-    let over_budget = |spent: f64| meter.over(spent);
-    let left = || meter.left();
+    meter.charge(budget::fit_seconds(prepared.work.count()));
     // The progress bar counts fits: every candidate on every fold, and the final one. Physical
     // candidates: nominal, identified, compliance, and at most n + (n − 1) + … + 1 of the n
     // joint-error blocks' stepwise selection.
@@ -324,148 +307,51 @@ fn automatic_metered(
         (plan.splits.len() * (physical + settings.residuals.len() + TABLE_FRAMES.len()) + 1) as u64,
     );
     let groups = plan.groups();
-    let mut candidates: Vec<Candidate> = Vec::new();
-    let residual_share = residual_share(settings, plan.fewest_configurations());
-    let chain = physics_chain(
+    let mut scorer = Scorer {
         settings,
         nominal,
-        rows,
-        &plan,
-        &groups,
-        &mut candidates,
+        plan: &plan,
         observer,
-        meter,
-        (&over_budget, &left, residual_share),
-    );
+        budget: Allowance::new(meter),
+        residual_share: residual_share(settings, plan.fewest_configurations()),
+        candidates: Vec::new(),
+    };
+    let chain = physics_chain(&mut scorer, rows, &groups);
+    let mut candidates = scorer.candidates;
     // The final fit of the chosen physics on every row, kept out of the residual models'
     // budget: about a fold's fit of the slowest physical candidate (its folds ran two at a time)
     // on a quarter more rows and both cores, with room to spare.
     let reserve = FINAL_FIT_SHARE * (candidates.iter()).map(|c| c.cost).fold(0.0, f64::max);
-    let residual_budget = |spent: f64| over_budget(spent + reserve);
-    let residuals = residual_candidates(
+    let budget = Allowance::new(meter).keeping(reserve);
+    let mut trainer = Trainer::new(settings, &chain, &plan, &groups, observer, budget);
+    let residuals = residual_candidates(&mut trainer, &mut candidates)?;
+    let choice = choose(
         settings,
         &chain,
         &plan,
-        &groups,
         &mut candidates,
-        observer,
-        (meter, &residual_budget),
-    )?;
-
-    // The winner: a residual model significantly better than the physical model, else the
-    // physical model the chain ended on.
-    let best_residual = (residuals.iter().enumerate())
-        .filter_map(|(r, s)| s.score.map(|m| (r, m)))
-        .min_by(|a, b| a.1.total_cmp(&b.1));
-    let physics_mean = chain.scored[chain.current].score.unwrap_or(f64::INFINITY);
-    let residual_wins = pick_residual(&residuals, physics_mean);
-    // The winner, and the physical candidate it holds (a residual model's is the one it was
-    // trained on).
-    let (winner, chosen_scored) = match residual_wins {
-        Some((r, _)) => (chain.scored.len() + r, residuals[r].base),
-        None => (chain.current, chain.current),
-    };
-    let chosen_physics = chain.scored[chosen_scored].physics;
-    candidates[winner].status = "chosen".into();
-    // The decisions are the chain's; a residual model chosen on the identified table alone
-    // drops what the chain kept, and says so.
-    let on_table = residual_wins.is_some_and(|(r, _)| residuals[r].base != chain.identified());
-    let chain_physics = if on_table {
-        chain.scored[chain.identified()].physics
-    } else {
-        chosen_physics
-    };
-    let mut decisions = decisions(
-        settings,
-        &chain,
-        &candidates,
-        chain_physics,
         &residuals,
-        residual_wins.or(best_residual),
-        residual_wins.is_some(),
+        observer,
     );
-    if on_table {
-        for d in (decisions.iter_mut())
-            .filter(|d| d.kept && !["kinematic", "residual"].contains(&d.stage))
-        {
-            d.kept = false;
-            d.reason = format!(
-                "not in the chosen model: a residual model on the identified table alone scored lower than the physical models that hold it (kept by the chain of physical models{})",
-                d.reason.strip_prefix("kept").unwrap_or(&d.reason)
-            );
-        }
-    }
-    let reach = harmonic_reach(&chain.scored[chosen_scored], &plan);
-    decisions.extend(reach.clone());
-    for d in &decisions {
-        observer.message(&format!("stage {}: {}", d.stage, d.reason));
-    }
-    observer.message(&format!(
-        "chosen: {} (held-out score {:.4} mm)",
-        candidates[winner].name,
-        candidates[winner].score.unwrap_or(f64::NAN)
-    ));
-
-    // Fit the winner on every row (with a validation file: on the data file's rows, the
-    // validation file early-stopping the networks as it always has).
-    let stages = Stages {
-        kinematic: chosen_physics.settings(settings),
-        residual: residual_wins.map(|(r, _)| residuals[r].stage.clone()),
-    };
-    if plan.refit {
-        observer.message("fitting the chosen model again on every row");
-    }
-    let mut built = configured(&stages, nominal, rows, validation.clone(), &Silent)?;
-    observer.advance(1);
-    // The chosen residual model's deviations, scaled as its folds found.
-    if let (Some((r, _)), Some((model, report))) = (residual_wins, built.residual.as_mut()) {
-        if let Some(s) = residuals[r].spread {
-            model.set_std_scale(s.scale);
-            report.spread = Some(s);
-        }
-        // A network's spread beside the physics' deviation.
-        if let Some(b) = residuals[r].beside {
-            model.spread_mm = Some(b.spread);
-            report.spread_beside = Some(b);
-        }
-    }
+    let mut built = final_fit(
+        settings,
+        nominal,
+        rows,
+        validation,
+        &plan,
+        (&choice, &residuals),
+        observer,
+    )?;
     observer.finish();
-    if chosen_physics.aligned {
-        built.kinematic.robot = built.kinematic.aligned.clone();
-        built.kinematic.compliance = None;
-        built.kinematic.covariance = None;
-    }
-    if reach.is_some_and(|d| d.kept)
-        && let Some(errors) = built.kinematic.compliance.as_mut()
-    {
-        for h in errors.waves_mut().filter(|h| h.joint == 0) {
-            h.reach = None;
-        }
-    }
-    // Compliances the final fit found impossible and held (rigid, or at the value of its first
-    // fit without the links' weights and backlash), in the decision.
-    let implausible: Vec<&str> = (built.kinematic.report.fixed.iter())
-        .filter(|f| f.reason.starts_with("implausible"))
-        .map(|f| f.name.as_str())
-        .collect();
-    if let Some(d) = decisions.iter_mut().find(|d| d.stage == "compliance")
-        && !implausible.is_empty()
-    {
-        let note = format!(
-            "; held (rigid, or at the first fit's value) as implausible in the final fit (negative, beyond {} deg/kN·m, or within their own uncertainty): {}",
-            robocal_ident::COMPLIANCE_BOUND,
-            implausible.join(", ")
-        );
-        d.reason.push_str(&note);
-        observer.message(&format!("stage compliance: {}", d.reason));
-    }
-    if let Some(w) = mounting_warning {
+    let mut decisions = choice.decisions;
+    note_implausible(&mut decisions, &built, observer);
+    if let Some(w) = prepared.mounting_warning {
         built.kinematic.report.warnings.push(w);
     }
     if let Some(w) = budget_warning(&candidates, settings.budget_seconds) {
         built.kinematic.report.warnings.push(w);
     }
-    built.outliers = outliers;
+    built.outliers = prepared.outliers;
     built.selection = Some(Selection {
         held_out: plan.held_out.clone(),
         folds: plan.splits.len(),
@@ -480,6 +366,202 @@ fn automatic_metered(
         counted_seconds: meter.counts().then(|| meter.spent()),
     });
     Ok(built)
+}
+
+/// What the selection works on once the data are looked at: the bad shots found and the rows
+/// kept, the settings with gravity decided (and the warning of a mounting decided from the
+/// data) and every residual model to try, and the work those fits counted.
+struct Prepared<'a> {
+    outliers: Option<OutlierReport>,
+    rows: Vec<&'a Measurement>,
+    settings: AutoSettings,
+    mounting_warning: Option<String>,
+    work: robocal_ident::Work,
+}
+
+/// The bad shots' search, then gravity decided once for an arm on a wall or a ceiling (for
+/// every candidate and fold: each fit deciding it again would identify every candidate three
+/// times), and the residual models in both frames where joint 1 lies off gravity.
+fn prepare<'a>(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&'a Measurement],
+) -> Result<Prepared<'a>> {
+    // What the fits before the candidates count (the bad shots' search, the mounting), charged
+    // to a counted budget.
+    let work = robocal_ident::Work::new(None);
+    let (outliers, kept) = match &settings.outliers {
+        Some(o) if configurations(rows).len() >= 4 => {
+            let search = KinematicSettings {
+                work: Some(work.clone()),
+                ..KinematicSettings::default()
+            };
+            let (report, kept) = find_outliers(nominal, rows, &search, o)?;
+            (Some(report), kept)
+        }
+        _ => (None, rows.to_vec()),
+    };
+    let mut settings = settings.clone();
+    let mut mounting_warning = None;
+    if settings.gravity.is_none()
+        && let Some((gravity, warning)) = mounting(&settings, nominal, &kept, &work)
+    {
+        settings.gravity = Some(gravity);
+        mounting_warning = warning;
+    }
+    let gravity = (settings.gravity).unwrap_or(ComplianceSettings::default().gravity);
+    settings.residuals = residual_stages(&settings, nominal, &gravity);
+    Ok(Prepared {
+        outliers,
+        rows: kept,
+        settings,
+        mounting_warning,
+        work,
+    })
+}
+
+/// What the selection chose: the residual model that won (index into the residual candidates,
+/// with its score), the physics the chosen model holds, the decisions, and the reach of joint
+/// 1's harmonics.
+struct Choice {
+    residual_wins: Option<(usize, f64)>,
+    chosen_physics: Physics,
+    decisions: Vec<Decision>,
+    reach: Option<Decision>,
+}
+
+/// The winner: a residual model significantly better than the physical model, else the
+/// physical model the chain ended on; marked chosen among `candidates`, with the decisions
+/// (said to `observer`).
+fn choose(
+    settings: &AutoSettings,
+    chain: &Chain,
+    plan: &FoldPlan<'_>,
+    candidates: &mut [Candidate],
+    residuals: &[ResidualScore],
+    observer: &dyn Observer,
+) -> Choice {
+    let best_residual = (residuals.iter().enumerate())
+        .filter_map(|(r, s)| s.score.map(|m| (r, m)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let physics_mean = chain.scored[chain.current].score.unwrap_or(f64::INFINITY);
+    let residual_wins = pick_residual(residuals, physics_mean);
+    // The winner, and the physical candidate it holds (a residual model's is the one it was
+    // trained on).
+    let (winner, chosen_scored) = match residual_wins {
+        Some((r, _)) => (chain.scored.len() + r, residuals[r].base),
+        None => (chain.current, chain.current),
+    };
+    let chosen_physics = chain.scored[chosen_scored].physics;
+    candidates[winner].status = Status::Chosen;
+    // The decisions are the chain's; a residual model chosen on the identified table alone
+    // drops what the chain kept, and says so.
+    let on_table = residual_wins.is_some_and(|(r, _)| residuals[r].base != chain.identified());
+    let chain_physics = if on_table {
+        chain.scored[chain.identified()].physics
+    } else {
+        chosen_physics
+    };
+    let mut decisions = decisions(
+        settings,
+        chain,
+        candidates,
+        chain_physics,
+        residuals,
+        residual_wins.or(best_residual),
+        residual_wins.is_some(),
+    );
+    if on_table {
+        for d in (decisions.iter_mut())
+            .filter(|d| d.kept && ![Stage::Kinematic, Stage::Residual].contains(&d.stage))
+        {
+            d.not_in_chosen();
+        }
+    }
+    let reach = harmonic_reach(&chain.scored[chosen_scored], plan);
+    decisions.extend(reach.clone());
+    for d in &decisions {
+        observer.message(&format!("stage {}: {}", d.stage, d.reason));
+    }
+    observer.message(&format!(
+        "chosen: {} (held-out score {:.4} mm)",
+        candidates[winner].name,
+        candidates[winner].score.unwrap_or(f64::NAN)
+    ));
+    Choice {
+        residual_wins,
+        chosen_physics,
+        decisions,
+        reach,
+    }
+}
+
+/// The chosen model fitted on every row (with a validation file: on the data file's rows, the
+/// validation file early-stopping the networks as it always has): the chosen residual model's
+/// deviations scaled as its folds found, the nominal table where the chain chose it, and joint
+/// 1's harmonics continued where the reach decision says so.
+fn final_fit(
+    settings: &AutoSettings,
+    nominal: &Robot,
+    rows: &[&Measurement],
+    validation: Option<(&[&Measurement], String)>,
+    plan: &FoldPlan<'_>,
+    (choice, residuals): (&Choice, &[ResidualScore]),
+    observer: &dyn Observer,
+) -> Result<Built> {
+    let stages = Stages {
+        kinematic: choice.chosen_physics.settings(settings),
+        residual: (choice.residual_wins).map(|(r, _)| residuals[r].stage.clone()),
+    };
+    if plan.refit {
+        observer.message("fitting the chosen model again on every row");
+    }
+    let mut built = configured(&stages, nominal, rows, validation, &Silent)?;
+    observer.advance(1);
+    if let (Some((r, _)), Some((model, report))) = (choice.residual_wins, built.residual.as_mut()) {
+        if let Some(s) = residuals[r].spread {
+            model.set_std_scale(s.scale);
+            report.spread = Some(s);
+        }
+        // A network's spread beside the physics' deviation.
+        if let Some(b) = residuals[r].beside {
+            model.spread_mm = Some(b.spread);
+            report.spread_beside = Some(b);
+        }
+    }
+    if choice.chosen_physics.aligned {
+        built.kinematic.robot = built.kinematic.aligned.clone();
+        built.kinematic.compliance = None;
+        built.kinematic.covariance = None;
+    }
+    if (choice.reach.as_ref()).is_some_and(|d| d.kept)
+        && let Some(errors) = built.kinematic.compliance.as_mut()
+    {
+        for h in errors.waves_mut().filter(|h| h.joint == 0) {
+            h.reach = None;
+        }
+    }
+    Ok(built)
+}
+
+/// Compliances the final fit found impossible and held (rigid, or at the value of its first
+/// fit without the links' weights and backlash), in the compliances' decision.
+fn note_implausible(decisions: &mut [Decision], built: &Built, observer: &dyn Observer) {
+    let implausible: Vec<&str> = (built.kinematic.report.fixed.iter())
+        .filter(|f| f.why == Fixed::Implausible)
+        .map(|f| f.name.as_str())
+        .collect();
+    if let Some(d) = decisions.iter_mut().find(|d| d.stage == Stage::Compliance)
+        && !implausible.is_empty()
+    {
+        let note = format!(
+            "; held (rigid, or at the first fit's value) as implausible in the final fit (negative, beyond {} deg/kN·m, or within their own uncertainty): {}",
+            robocal_ident::COMPLIANCE_BOUND,
+            implausible.join(", ")
+        );
+        d.reason.push_str(&note);
+        observer.message(&format!("stage compliance: {}", d.reason));
+    }
 }
 
 /// Too few poses to hold any out: the kinematic stage alone, on everything.
@@ -498,13 +580,13 @@ fn kinematic_only(
         fitted_rows: rows.len(),
         held_out_rows: 0,
         candidates: Vec::new(),
-        decisions: vec![Decision {
-            stage: "kinematic",
-            kept: true,
-            held_out_without: None,
-            held_out_with: None,
-            reason: "kept untested: too few configurations to hold any out".into(),
-        }],
+        decisions: vec![Decision::said(
+            Stage::Kinematic,
+            true,
+            None,
+            None,
+            "kept untested: too few configurations to hold any out".into(),
+        )],
         refitted_on_every_row: false,
         budget_seconds: settings.budget_seconds,
         seconds: start.elapsed().as_secs_f64(),

@@ -2,9 +2,9 @@
 //! and their fits on every fold within the budget.
 
 use super::plan::FoldPlan;
-use super::words::{abandoned_for, report};
+use super::status::{Status, report};
 use super::{AutoSettings, Candidate};
-use crate::budget::{self, Meter, REFERENCE_CORES};
+use crate::budget::{self, Allowance, REFERENCE_CORES};
 use crate::configured::{fit_kinematic_with, physical_model};
 use crate::error::{CalibrationError, Result};
 use crate::folds::Held;
@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 /// The physical part of a candidate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Physics {
+pub(crate) struct Physics {
     /// Only base and tool fitted to the nominal table.
     pub(super) aligned: bool,
     /// Joint compliances under the payload.
@@ -246,19 +246,18 @@ pub(super) fn fold_share(left: f64, folds: usize, at_once: usize) -> f64 {
 /// fitted first, and the rest only if, at those folds' count, they and the final fit would end
 /// within the budget — the decision a 2-core machine's clock makes after its first round, here
 /// from counts. No fit runs past the budget by the clock (the guard).
-#[allow(clippy::type_complexity)]
-pub(super) fn counted_folds(
+fn counted_folds(
     physics: Physics,
     kinematic: &KinematicSettings,
     nominal: &Robot,
     plan: &FoldPlan<'_>,
     observer: &dyn Observer,
-    meter: &Meter,
-    (over_budget, left): (&(dyn Fn(f64) -> bool + Sync), &(dyn Fn() -> f64 + Sync)),
+    budget: &Allowance<'_>,
 ) -> (Vec<Option<Result<KinematicCalibration>>>, bool, f64) {
     let splits = &plan.splits;
+    let meter = budget.meter();
     let limit = physics.has_joint_errors().then(|| {
-        let share = fold_share(left(), splits.len(), REFERENCE_CORES);
+        let share = fold_share(budget.left(), splits.len(), REFERENCE_CORES);
         (share * budget::FIT_UNITS_PER_SECOND) as u64
     });
     let fit_range = |range: std::ops::Range<usize>| -> Vec<(Result<KinematicCalibration>, u64)> {
@@ -286,7 +285,7 @@ pub(super) fn counted_folds(
     if !abandoned && first < splits.len() {
         let units: u64 = fits.iter().map(|(_, u)| u).sum();
         let rest = budget::fit_seconds(units) / first as f64 * (splits.len() - first) as f64;
-        if physics.has_joint_errors() && over_budget(rest * (1.0 + FINAL_FIT_SHARE)) {
+        if physics.has_joint_errors() && budget.over(rest * (1.0 + FINAL_FIT_SHARE)) {
             abandoned = true;
         } else {
             let more = fit_range(first..splits.len());
@@ -308,91 +307,39 @@ pub(super) fn counted_folds(
 
 /// Fits `physics` on every fold and scores it on the fold's held-out rows. A joint-error
 /// candidate is abandoned once its remaining folds, at the pace of those fitted, and the final
-/// fit would run past the time budget (`over_budget`), or once a fold's fit runs past its share
-/// of what the budget has left (`left`, seconds; [`fold_share`]): the folds not yet ended are
-/// not fitted and the candidate has no score. Both closures already hold back `reserve`, the
-/// seconds kept from this candidate for the residual models, which its status then names. Its
-/// start was projected from the candidates before it ([`physics_chain`]); one that unites more
-/// blocks than any before can take twice that, and one with many more unknowns far more (the
-/// axis runouts on the paper's arm: 22–46 s of folds spent before the pace says so).
-#[allow(clippy::too_many_arguments)]
+/// fit would run past its allowance (`budget`: the time budget less the seconds kept from this
+/// candidate for the residual models, which its status then names), or once a fold's fit runs
+/// past its share of what the allowance has left ([`fold_share`]): the folds not yet ended are
+/// not fitted and the candidate has no score. Its start was projected from the candidates
+/// before it ([`projection`]); one that unites more blocks than any before can take twice
+/// that, and one with many more unknowns far more (the axis runouts on the paper's arm: 22–46 s
+/// of folds spent before the pace says so).
 pub(super) fn score_physics(
     physics: Physics,
     auto: &AutoSettings,
     nominal: &Robot,
     plan: &FoldPlan<'_>,
-    candidates: &mut Vec<Candidate>,
     observer: &dyn Observer,
-    meter: &Meter,
-    (over_budget, left, reserve): (
-        &(dyn Fn(f64) -> bool + Sync),
-        &(dyn Fn() -> f64 + Sync),
-        f64,
-    ),
-) -> Scored {
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    budget: &Allowance<'_>,
+) -> (Candidate, Scored) {
     let splits = &plan.splits;
     let t = std::time::Instant::now();
     let kinematic = physics.settings(auto);
     let mut held = Held::default();
     let mut fitted = Vec::new();
-    let mut failure = None;
     // Counted work's reference seconds (by the clock, the candidate's seconds below).
-    let (fits, abandoned, counted) = if meter.counts() {
-        let (fits, abandoned, cost) = counted_folds(
-            physics,
-            &kinematic,
-            nominal,
-            plan,
-            observer,
-            meter,
-            (over_budget, left),
-        );
+    let (fits, abandoned, counted) = if budget.meter().counts() {
+        let (fits, abandoned, cost) =
+            counted_folds(physics, &kinematic, nominal, plan, observer, budget);
         (fits, abandoned, Some(cost))
     } else {
-        let at_once = rayon::current_num_threads().max(1);
-        let share = fold_share(left(), splits.len(), at_once);
-        let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
-        // The folds' fits are independent: on every core at once, taken in fold order (the same
-        // results on any number of cores), each sharing with the candidates before it the fits
-        // of its rows they made. Before a fold starts, once a core's worth are fitted, the rest
-        // are projected at their pace.
-        let fits: Vec<_> = (splits.par_iter())
-            .zip(&plan.memos)
-            .map(|(fold, memo)| {
-                let n = done.load(Ordering::SeqCst);
-                if physics.has_joint_errors() && n >= at_once {
-                    let pace = t.elapsed().as_secs_f64() / n as f64;
-                    let left = pace * (splits.len() - n) as f64;
-                    if over_budget(left * (1.0 + FINAL_FIT_SHARE)) {
-                        abandoned.store(true, Ordering::SeqCst);
-                    }
-                }
-                if abandoned.load(Ordering::SeqCst) {
-                    return None;
-                }
-                let until = KinematicSettings {
-                    deadline: (physics.has_joint_errors())
-                        .then(|| Instant::now() + Duration::from_secs_f64(share)),
-                    ..kinematic.clone()
-                };
-                let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
-                if matches!(fit, Err(CalibrationError::Ident(IdentError::Deadline))) {
-                    abandoned.store(true, Ordering::SeqCst);
-                    return None;
-                }
-                done.fetch_add(1, Ordering::SeqCst);
-                observer.advance(1);
-                Some(fit)
-            })
-            .collect();
-        let abandoned = abandoned.load(Ordering::SeqCst);
+        let (fits, abandoned) = clocked_folds(physics, &kinematic, nominal, plan, observer, budget);
         (fits, abandoned, None)
     };
-    let mut budget_cut = abandoned;
-    if budget_cut {
-        failure = Some(abandoned_for(auto.budget_seconds, reserve));
-    }
+    let mut status = abandoned.then(|| Status::Abandoned {
+        budget: budget.budget(),
+        reserve: budget.reserve(),
+    });
     for (fold, fit) in splits.iter().zip(fits) {
         // A fold not fitted (the candidate abandoned).
         let Some(fit) = fit else {
@@ -406,8 +353,7 @@ pub(super) fn score_physics(
                 fitted.push(Some(model));
             }
             Err(e) => {
-                failure = Some(format!("skipped: {e}"));
-                budget_cut = false;
+                status = Some(Status::Failed(e.to_string()));
                 fitted.push(None);
             }
         }
@@ -415,29 +361,105 @@ pub(super) fn score_physics(
     let seconds = t.elapsed().as_secs_f64();
     let mut c = Candidate {
         name: physics.name(),
+        physics: Some(physics),
         held_out: None,
         held_out_blocks: None,
         score: None,
         seconds,
         cost: counted.unwrap_or(seconds),
-        status: failure.clone().unwrap_or_else(|| "evaluated".into()),
-        budget_cut,
+        status: status.unwrap_or(Status::Evaluated),
     };
-    if failure.is_none() {
+    if c.status == Status::Evaluated {
         let (random, blocked, score) = held.summary();
         (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
     }
     report(&c, observer);
-    let score = c.score;
-    let budget_cut = c.budget_cut;
-    candidates.push(c);
-    Scored {
+    let scored = Scored {
         physics,
-        score,
-        errors: score.map(|_| held.all()),
+        score: c.score,
+        errors: c.score.map(|_| held.all()),
         fitted,
-        budget_cut,
-    }
+        budget_cut: c.status.budget_cut(),
+    };
+    (c, scored)
+}
+
+/// The fits of `physics` on every fold with the budget kept by the clock, with whether the
+/// candidate was abandoned. The folds' fits are independent: on every core at once, taken in
+/// fold order (the same results on any number of cores), each sharing with the candidates
+/// before it the fits of its rows they made. Before a fold starts, once a core's worth are
+/// fitted, the rest are projected at their pace; a fold's fit stops at its share of what the
+/// allowance has left ([`fold_share`]).
+fn clocked_folds(
+    physics: Physics,
+    kinematic: &KinematicSettings,
+    nominal: &Robot,
+    plan: &FoldPlan<'_>,
+    observer: &dyn Observer,
+    budget: &Allowance<'_>,
+) -> (Vec<Option<Result<KinematicCalibration>>>, bool) {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let splits = &plan.splits;
+    let t = std::time::Instant::now();
+    let at_once = rayon::current_num_threads().max(1);
+    let share = fold_share(budget.left(), splits.len(), at_once);
+    let (done, abandoned) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let fits: Vec<_> = (splits.par_iter())
+        .zip(&plan.memos)
+        .map(|(fold, memo)| {
+            let n = done.load(Ordering::SeqCst);
+            if physics.has_joint_errors() && n >= at_once {
+                let pace = t.elapsed().as_secs_f64() / n as f64;
+                let left = pace * (splits.len() - n) as f64;
+                if budget.over(left * (1.0 + FINAL_FIT_SHARE)) {
+                    abandoned.store(true, Ordering::SeqCst);
+                }
+            }
+            if abandoned.load(Ordering::SeqCst) {
+                return None;
+            }
+            let until = KinematicSettings {
+                deadline: (physics.has_joint_errors())
+                    .then(|| Instant::now() + Duration::from_secs_f64(share)),
+                ..kinematic.clone()
+            };
+            let fit = fit_kinematic_with(nominal, &fold.train, &until, memo);
+            if matches!(fit, Err(CalibrationError::Ident(IdentError::Deadline))) {
+                abandoned.store(true, Ordering::SeqCst);
+                return None;
+            }
+            done.fetch_add(1, Ordering::SeqCst);
+            observer.advance(1);
+            Some(fit)
+        })
+        .collect();
+    (fits, abandoned.load(Ordering::SeqCst))
+}
+
+/// The candidate of `physics` skipped before its folds when, with joint-error terms, its
+/// projection ([`projection`] from the `candidates` before it) would run past its allowance.
+pub(super) fn skipped(
+    physics: Physics,
+    candidates: &[Candidate],
+    budget: &Allowance<'_>,
+) -> Option<Candidate> {
+    let (from, seconds, projected) = projection(physics, candidates);
+    (physics.has_joint_errors() && budget.over(projected)).then(|| Candidate {
+        name: physics.name(),
+        physics: Some(physics),
+        held_out: None,
+        held_out_blocks: None,
+        score: None,
+        seconds: 0.0,
+        cost: 0.0,
+        status: Status::Projected {
+            budget: budget.budget(),
+            reserve: budget.reserve(),
+            from,
+            seconds,
+            projected,
+        },
+    })
 }
 
 /// The seconds (by the budget's measure, [`Candidate::cost`]) a physical candidate's folds and
@@ -455,12 +477,11 @@ pub(super) fn projection(physics: Physics, candidates: &[Candidate]) -> (&'stati
         1.0
     };
     let extended = (physics.flank_search).then(|| {
-        let name = Physics {
+        let without = Physics {
             flank_search: false,
             ..physics
-        }
-        .name();
-        (candidates.iter().rev()).find(|c| c.name == name && c.score.is_some())
+        };
+        (candidates.iter().rev()).find(|c| c.physics == Some(without) && c.score.is_some())
     });
     let (from, seconds) = match extended.flatten() {
         Some(c) => ("the candidate it extends", c.cost),

@@ -3,9 +3,9 @@
 
 use super::chain::Chain;
 use super::plan::FoldPlan;
-use super::words::{abandoned_for, report, the_budget};
+use super::status::{Status, report};
 use super::{AutoSettings, Candidate};
-use crate::budget::{self, Epochs, Meter, REFERENCE_CORES};
+use crate::budget::{self, Allowance, Epochs, REFERENCE_CORES};
 use crate::configured::train_residual_model;
 use crate::error::Result;
 use crate::folds::{Held, improves};
@@ -56,44 +56,18 @@ pub(super) struct ResidualScore {
 /// it again on the identified table alone, in each frame: a large error of no physical form can
 /// bend the physics' terms (a backlash step, a harmonic) into shapes a residual model must then
 /// undo, where on the table alone it learns the error and the physics' effects together.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn residual_candidates(
-    settings: &AutoSettings,
-    chain: &Chain,
-    plan: &FoldPlan<'_>,
-    groups: &[usize],
+    trainer: &mut Trainer<'_, '_>,
     candidates: &mut Vec<Candidate>,
-    observer: &dyn Observer,
-    (meter, over_budget): (&Meter, &dyn Fn(f64) -> bool),
 ) -> Result<Vec<ResidualScore>> {
-    let base_physics = chain.identified();
-    let mut pace = Pace::default();
+    let settings = trainer.settings;
+    let base_physics = trainer.chain.identified();
     // With the models in both frames, each one's name says its frame.
     let frames = |f: Frame| settings.residuals.iter().any(|s| s.settings.frame == f);
     let both = frames(Frame::World) && frames(Frame::Joint1);
-    // Each residual model `stage` on the physical candidate `base`, its name saying its frame
-    // where `named`, in order.
-    let mut score_each = |jobs: Vec<(ResidualStage, usize, bool)>| -> Result<Vec<_>> {
-        (jobs.iter())
-            .map(|(stage, base, named)| {
-                score_residual(
-                    settings,
-                    chain,
-                    (stage, *base, *named),
-                    plan,
-                    groups,
-                    observer,
-                    (meter, over_budget),
-                    &mut pace,
-                )
-            })
-            .collect()
-    };
-    let mut scored = score_each(
-        (settings.residuals.iter())
-            .map(|s| (s.clone(), base_physics, both))
-            .collect(),
-    )?;
+    let mut scored = (settings.residuals.iter())
+        .map(|s| trainer.score(s, base_physics, both))
+        .collect::<Result<Vec<_>>>()?;
     // Only where a residual model beat the chain's physics significantly: the data then hold
     // an error the physics misses (where none did, a model on the table alone, which must learn
     // the physics' effects too, has never won on the accuracy suite).
@@ -103,12 +77,11 @@ pub(super) fn residual_candidates(
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(s, _)| s.stage.clone());
     if let Some(best) = best.filter(|_| base_physics != KINEMATIC) {
-        let table = TABLE_FRAMES.map(|frame| {
+        for frame in TABLE_FRAMES {
             let mut stage = best.clone();
             stage.settings.frame = frame;
-            (stage, KINEMATIC, true)
-        });
-        scored.extend(score_each(table.into())?);
+            scored.push(trainer.score(&stage, KINEMATIC, true)?);
+        }
     }
     let mut scores = Vec::new();
     for (c, score) in scored {
@@ -133,73 +106,150 @@ pub(super) const TABLE_FRAMES: [Frame; 2] = [Frame::World, Frame::Joint1];
 /// one on every row with the axes on the cores); and the pace of the last candidate's chunks,
 /// which a new one is expected to take for its first.
 #[derive(Default)]
-pub(super) struct Pace {
-    pub(super) pending_final: f64,
-    pub(super) last_pace: f64,
+struct Pace {
+    pending_final: f64,
+    last_pace: f64,
 }
 
-/// One residual model `stage` trained on every fold on what the physical candidate `base`
-/// (index into [`Chain::scored`]) leaves, scored, its name saying its frame where `named` (the
-/// same model is tried in the other frame too: `… (world frame)`, `… (joint-1 frame)`).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn score_residual(
-    settings: &AutoSettings,
-    chain: &Chain,
-    (stage, base_physics, named): (&ResidualStage, usize, bool),
-    plan: &FoldPlan<'_>,
-    groups: &[usize],
-    observer: &dyn Observer,
-    (meter, over_budget): (&Meter, &dyn Fn(f64) -> bool),
-    pace: &mut Pace,
-) -> Result<(Candidate, ResidualScore)> {
-    let splits = &plan.splits;
-    let fewest = plan.fewest_configurations();
-    let Pace {
-        pending_final,
-        last_pace,
-    } = pace;
-    let mut c = Candidate {
-        name: format!(
-            "{} + {}{}",
-            chain.scored[base_physics].physics.name(),
-            stage.settings.kind.name(),
-            match (named, stage.settings.frame) {
-                (false, _) => "",
-                (true, Frame::World) => " (world frame)",
-                (true, Frame::Joint1) => " (joint-1 frame)",
+/// What trains and scores the residual candidates: the settings, the chain of physical
+/// candidates they are trained on, the folds and the paired test's groups, the budget (less the
+/// final fit of the physics), and the pace of those trained so far.
+pub(super) struct Trainer<'s, 'p> {
+    pub(super) settings: &'s AutoSettings,
+    pub(super) chain: &'s Chain,
+    pub(super) plan: &'s FoldPlan<'p>,
+    pub(super) groups: &'s [usize],
+    pub(super) observer: &'s dyn Observer,
+    pub(super) budget: Allowance<'s>,
+    pace: Pace,
+}
+
+/// One residual model's folds, trained: their held-out errors, the pairs its spread is
+/// calibrated on, and the seconds they took on the clock and by the budget's measure; or the
+/// status of the candidate abandoned for the budget.
+struct Trained {
+    held: Held,
+    pairs: Vec<(f64, f64)>,
+    slowest: f64,
+    abandoned: Option<Status>,
+}
+
+impl<'s, 'p> Trainer<'s, 'p> {
+    /// A trainer on `chain`'s candidates, within `budget`.
+    pub(super) fn new(
+        settings: &'s AutoSettings,
+        chain: &'s Chain,
+        plan: &'s FoldPlan<'p>,
+        groups: &'s [usize],
+        observer: &'s dyn Observer,
+        budget: Allowance<'s>,
+    ) -> Self {
+        Self {
+            settings,
+            chain,
+            plan,
+            groups,
+            observer,
+            budget,
+            pace: Pace::default(),
+        }
+    }
+
+    /// One residual model `stage` trained on every fold on what the physical candidate `base`
+    /// (index into [`Chain::scored`]) leaves, scored, its name saying its frame where `named`
+    /// (the same model is tried in the other frame too: `… (world frame)`, `… (joint-1 frame)`).
+    fn score(
+        &mut self,
+        stage: &ResidualStage,
+        base: usize,
+        named: bool,
+    ) -> Result<(Candidate, ResidualScore)> {
+        let settings = self.settings;
+        let fewest = self.plan.fewest_configurations();
+        let mut c = Candidate {
+            name: format!(
+                "{} + {}{}",
+                self.chain.scored[base].physics.name(),
+                stage.settings.kind.name(),
+                match (named, stage.settings.frame) {
+                    (false, _) => "",
+                    (true, Frame::World) => " (world frame)",
+                    (true, Frame::Joint1) => " (joint-1 frame)",
+                }
+            ),
+            physics: None,
+            held_out: None,
+            held_out_blocks: None,
+            score: None,
+            seconds: 0.0,
+            cost: 0.0,
+            status: Status::Evaluated,
+        };
+        let mut score = ResidualScore {
+            stage: stage.clone(),
+            base,
+            score: None,
+            significant: false,
+            spread: None,
+            beside: None,
+        };
+        if fewest < settings.min_residual_configurations {
+            c.status = Status::TooFewConfigurations {
+                fewest,
+                needed: settings.min_residual_configurations,
+            };
+        } else if (self.budget).over(self.pace.pending_final + self.pace.last_pace) {
+            c.status = Status::Spent {
+                budget: self.budget.budget(),
+            };
+        } else {
+            let trained = self.train(stage, base, &mut c)?;
+            match trained.abandoned {
+                Some(why) => c.status = why,
+                None => {
+                    let (random, blocked, mean) = trained.held.summary();
+                    (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(mean));
+                    self.pace.pending_final = self.pace.pending_final.max(trained.slowest);
+                    if stage.settings.kind.gives_std() {
+                        score.spread = spread::calibrate(&trained.pairs);
+                    } else {
+                        score.beside = spread::spread_beside(&trained.pairs);
+                    }
+                    score.significant = (self.chain.scored[self.chain.current].errors.as_ref())
+                        .is_some_and(|physics| improves(physics, &trained.held.all(), self.groups));
+                    c.status = if score.significant {
+                        Status::Evaluated
+                    } else {
+                        Status::NotSignificant
+                    };
+                }
             }
-        ),
-        held_out: None,
-        held_out_blocks: None,
-        score: None,
-        seconds: 0.0,
-        cost: 0.0,
-        status: String::new(),
-        budget_cut: false,
-    };
-    let mut significant = false;
-    let mut spread_pairs: Vec<(f64, f64)> = Vec::new();
-    let mut spread = None;
-    let mut beside = None;
-    if fewest < settings.min_residual_configurations {
-        c.status = format!(
-            "skipped: {fewest} configurations to train on; a residual model needs at least {}",
-            settings.min_residual_configurations
-        );
-    } else if over_budget(*pending_final + *last_pace) {
-        c.status = format!("skipped: {} is spent", the_budget(settings.budget_seconds));
-        c.budget_cut = true;
-    } else {
-        let mut held = Held::default();
-        let mut abandoned = None;
-        let fitted: Option<Vec<&CalibratedModel>> = (chain.scored[base_physics].fitted)
+        }
+        report(&c, self.observer);
+        score.score = c.score;
+        Ok((c, score))
+    }
+
+    /// Trains `stage` on every fold on what the physical candidate `base` left there, a chunk of
+    /// folds at a time, adding to `c`'s seconds and cost; abandoned once the remaining folds at
+    /// the pace of the chunks before, and the final training, would run past the budget.
+    fn train(&mut self, stage: &ResidualStage, base: usize, c: &mut Candidate) -> Result<Trained> {
+        let splits = &self.plan.splits;
+        let meter = self.budget.meter();
+        let mut trained = Trained {
+            held: Held::default(),
+            pairs: Vec::new(),
+            slowest: 0.0,
+            abandoned: None,
+        };
+        let fitted: Option<Vec<&CalibratedModel>> = (self.chain.scored[base].fitted)
             .iter()
             .map(Option::as_ref)
             .collect();
-        let fitted = fitted.unwrap_or_else(|| {
-            abandoned = Some("skipped: its physical model failed on a fold".to_string());
-            Vec::new()
-        });
+        let Some(fitted) = fitted else {
+            trained.abandoned = Some(Status::PhysicsFailed);
+            return Ok(trained);
+        };
         // The folds' trainings are independent and seeded: as many at once as there are
         // cores, taken in fold order (the same models on any number of cores); with the budget
         // counted, as many as the reference machine has, so that its decisions after each
@@ -210,47 +260,10 @@ pub(super) fn score_residual(
             rayon::current_num_threads().max(1)
         };
         let mut done = 0;
-        // This candidate's slowest chunk.
-        let mut slowest: f64 = 0.0;
-        while abandoned.is_none() && done < splits.len() {
+        while trained.abandoned.is_none() && done < splits.len() {
             let t = Instant::now();
             let chunk = done..(done + at_once).min(splits.len());
-            let trained: Vec<_> = (splits[chunk.clone()].par_iter())
-                .zip(&fitted[chunk.clone()])
-                .zip(chunk.clone())
-                .map(|((fold, &base), k)| {
-                    observer.advance(1);
-                    let epochs = Epochs::default();
-                    let trained = train_residual_model(stage, base, &fold.train, &epochs);
-                    let joints = fold.train.first().map_or(0, |m| m.sample.joints.len());
-                    let seconds =
-                        budget::training_seconds(stage, fold.train.len(), joints, epochs.count());
-                    trained.map(|model| {
-                        let model = CalibratedModel {
-                            residual: Some(model),
-                            ..base.clone()
-                        };
-                        // A model that says how sure it is: its deviations on (some of)
-                        // the held-out rows, against the errors there.
-                        // A network: the physics' deviations there, beside which its
-                        // own spread is estimated.
-                        let seed = settings.seed + k as u64;
-                        let pairs = if stage.settings.kind.gives_std() {
-                            spread::held_out_pairs(&model, &fold.test, seed)
-                        } else {
-                            spread::held_out_pairs_beside(&model, &fold.test, seed)
-                        };
-                        (model.errors(&fold.test), pairs, seconds)
-                    })
-                })
-                .collect();
-            let mut counted = 0.0;
-            for (fold, candidate) in splits[chunk.clone()].iter().zip(trained) {
-                let (errors, pairs, seconds) = candidate?;
-                held.add(fold, errors);
-                spread_pairs.extend(pairs);
-                counted += seconds;
-            }
+            let counted = self.train_chunk(stage, &fitted, chunk.clone(), &mut trained)?;
             let wall = t.elapsed().as_secs_f64();
             c.seconds += wall;
             // What the chunk spent by the budget's measure: the clock's seconds, or its counted
@@ -266,44 +279,68 @@ pub(super) fn score_residual(
             // The remaining folds at this chunk's pace, and the final fit (one training,
             // as long as one of the chunk's).
             let left = took * ((splits.len() - done) as f64 / chunk.len() as f64 + 1.0);
-            slowest = slowest.max(took);
-            *last_pace = slowest;
-            if done < splits.len() && over_budget(left + *pending_final) {
-                abandoned = Some(abandoned_for(settings.budget_seconds, 0.0));
-                c.budget_cut = true;
+            trained.slowest = trained.slowest.max(took);
+            self.pace.last_pace = trained.slowest;
+            if done < splits.len() && self.budget.over(left + self.pace.pending_final) {
+                trained.abandoned = Some(Status::Abandoned {
+                    budget: self.budget.budget(),
+                    reserve: 0.0,
+                });
             }
         }
-        match abandoned {
-            Some(why) => c.status = why,
-            None => {
-                let (random, blocked, score) = held.summary();
-                (c.held_out, c.held_out_blocks, c.score) = (Some(random), blocked, Some(score));
-                *pending_final = pending_final.max(slowest);
-                if stage.settings.kind.gives_std() {
-                    spread = spread::calibrate(&spread_pairs);
-                } else {
-                    beside = spread::spread_beside(&spread_pairs);
-                }
-                significant = (chain.scored[chain.current].errors.as_ref())
-                    .is_some_and(|base| improves(base, &held.all(), groups));
-                c.status = if significant {
-                    "evaluated".into()
-                } else {
-                    "evaluated: not significantly better than the physical model".into()
-                };
-            }
-        }
+        Ok(trained)
     }
-    report(&c, observer);
-    let score = ResidualScore {
-        stage: stage.clone(),
-        base: base_physics,
-        score: c.score,
-        significant,
-        spread,
-        beside,
-    };
-    Ok((c, score))
+
+    /// Trains `stage` on the folds of `chunk` at once, each on what its physical model
+    /// (`fitted`) leaves, adding their held-out errors and spread pairs to `trained`; returns the
+    /// reference seconds their counted trainings came to.
+    fn train_chunk(
+        &self,
+        stage: &ResidualStage,
+        fitted: &[&CalibratedModel],
+        chunk: std::ops::Range<usize>,
+        trained: &mut Trained,
+    ) -> Result<f64> {
+        let splits = &self.plan.splits;
+        let seed = self.settings.seed;
+        let observer = self.observer;
+        let results: Vec<_> = (splits[chunk.clone()].par_iter())
+            .zip(&fitted[chunk.clone()])
+            .zip(chunk.clone())
+            .map(|((fold, &base), k)| {
+                observer.advance(1);
+                let epochs = Epochs::default();
+                let model = train_residual_model(stage, base, &fold.train, &epochs);
+                let joints = fold.train.first().map_or(0, |m| m.sample.joints.len());
+                let seconds =
+                    budget::training_seconds(stage, fold.train.len(), joints, epochs.count());
+                model.map(|model| {
+                    let model = CalibratedModel {
+                        residual: Some(model),
+                        ..base.clone()
+                    };
+                    // A model that says how sure it is: its deviations on (some of) the
+                    // held-out rows, against the errors there. A network: the physics'
+                    // deviations there, beside which its own spread is estimated.
+                    let seed = seed + k as u64;
+                    let pairs = if stage.settings.kind.gives_std() {
+                        spread::held_out_pairs(&model, &fold.test, seed)
+                    } else {
+                        spread::held_out_pairs_beside(&model, &fold.test, seed)
+                    };
+                    (model.errors(&fold.test), pairs, seconds)
+                })
+            })
+            .collect();
+        let mut counted = 0.0;
+        for (fold, result) in splits[chunk].iter().zip(results) {
+            let (errors, pairs, seconds) = result?;
+            trained.held.add(fold, errors);
+            trained.pairs.extend(pairs);
+            counted += seconds;
+        }
+        Ok(counted)
+    }
 }
 
 /// The residual model the default keeps, with its score: of those whose held-out errors are

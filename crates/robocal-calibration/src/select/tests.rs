@@ -7,7 +7,6 @@ use robocal_model::CalibratedModel;
 
 use super::physics::{Physics, fold_share, projection};
 use super::residual::{KINEMATIC, ResidualScore};
-use super::words::abandoned_for;
 use super::*;
 use crate::spread;
 
@@ -73,32 +72,36 @@ fn residual_models_are_tried_in_both_frames_only_off_gravity() {
 /// cut, no warning.
 #[test]
 fn the_budget_warning_names_the_candidates_it_cut() {
-    let candidate = |name: &str, score: Option<f64>, status: &str, budget_cut| Candidate {
+    let candidate = |name: &str, score: Option<f64>, status: Status| Candidate {
         name: name.into(),
+        physics: None,
         held_out: None,
         held_out_blocks: None,
         score,
         seconds: 0.0,
         cost: 0.0,
-        status: status.into(),
-        budget_cut,
+        status,
     };
     let mut candidates = vec![
-        candidate("kinematic", Some(0.1), "evaluated", false),
-        candidate("kinematic + compliance", Some(0.05), "chosen", false),
+        candidate("kinematic", Some(0.1), Status::Evaluated),
+        candidate("kinematic + compliance", Some(0.05), Status::Chosen),
         candidate(
             "kinematic + gp",
             None,
-            "skipped: 20 configurations to train on; a residual model needs at least 30",
-            false,
+            Status::TooFewConfigurations {
+                fewest: 20,
+                needed: 30,
+            },
         ),
     ];
     assert_eq!(budget_warning(&candidates, 120.0), None);
     candidates.push(candidate(
         "kinematic + compliance + runout 2",
         None,
-        "abandoned: its folds would run past the time budget (120 s)",
-        true,
+        Status::Abandoned {
+            budget: 120.0,
+            reserve: 0.0,
+        },
     ));
     let one = budget_warning(&candidates, 120.0).unwrap();
     assert!(
@@ -108,8 +111,7 @@ fn the_budget_warning_names_the_candidates_it_cut() {
     candidates.push(candidate(
         "kinematic + compliance + somm",
         None,
-        "skipped: the time budget (120 s) is spent",
-        true,
+        Status::Spent { budget: 120.0 },
     ));
     let two = budget_warning(&candidates, 120.0).unwrap();
     assert!(
@@ -126,13 +128,13 @@ fn the_budget_warning_names_the_candidates_it_cut() {
 fn the_flank_search_is_projected_from_the_candidate_it_extends() {
     let scored = |physics: Physics, seconds: f64| Candidate {
         name: physics.name(),
+        physics: Some(physics),
         held_out: None,
         held_out_blocks: None,
         score: Some(0.03),
         seconds,
         cost: seconds,
-        status: "evaluated".into(),
-        budget_cut: false,
+        status: Status::Evaluated,
     };
     let base = Physics {
         compliance: true,
@@ -208,11 +210,19 @@ fn the_runouts_leave_a_share_of_the_budget_to_the_residual_models() {
     assert_eq!(residual_share(&none, needed), 0.0);
     // A candidate cut for the share says so; one cut for the whole budget names none.
     assert_eq!(
-        abandoned_for(120.0, 30.0),
+        Status::Abandoned {
+            budget: 120.0,
+            reserve: 30.0
+        }
+        .to_string(),
         "abandoned: its folds would run past the time budget (120 s), less the 30 s left to the residual models"
     );
     assert_eq!(
-        abandoned_for(120.0, 0.0),
+        Status::Abandoned {
+            budget: 120.0,
+            reserve: 0.0
+        }
+        .to_string(),
         "abandoned: its folds would run past the time budget (120 s)"
     );
 }
@@ -324,7 +334,7 @@ fn a_counted_budget_cuts_the_search_alike_on_any_number_of_cores() {
         let scored = cut.0.iter().filter(|(_, _, score)| score.is_some()).count();
         assert!(scored < all.len(), "nothing cut at {share}: {:?}", cut.0);
         assert!(
-            (cut.0.iter()).any(|(_, status, _)| status.contains("time budget")),
+            (cut.0.iter()).any(|(_, status, _)| status.budget_cut()),
             "{:?}",
             cut.0
         );
@@ -332,7 +342,8 @@ fn a_counted_budget_cuts_the_search_alike_on_any_number_of_cores() {
     let abandoned = summary(&run(1, counted * 0.2)).0;
     assert!(
         (abandoned.iter())
-            .any(|(name, status, _)| name.contains("+ gp") && status.starts_with("abandoned")),
+            .any(|(name, status, _)| name.contains("+ gp")
+                && matches!(status, Status::Abandoned { .. })),
         "{abandoned:?}"
     );
 }
@@ -439,10 +450,10 @@ fn a_residual_model_is_scored_on_the_identified_table_alone_too() {
     let world = named("kinematic + gp (world frame)");
     let joint1 = named("kinematic + gp (joint-1 frame)");
     let compliance = (selection.decisions.iter())
-        .find(|d| d.stage == "compliance")
+        .find(|d| d.stage == Stage::Compliance)
         .unwrap();
     assert!(physics.score.is_some() && world.score.is_some() && joint1.score.is_some());
-    assert_eq!(on_chain.status, "evaluated", "{on_chain:?}");
+    assert_eq!(on_chain.status, Status::Evaluated, "{on_chain:?}");
     // The lowest-scoring residual candidate (each one here lowers the physics' held-out
     // errors by far more than their spread).
     let lowest = [on_chain, world, joint1]
@@ -450,7 +461,7 @@ fn a_residual_model_is_scored_on_the_identified_table_alone_too() {
         .min_by(|a, b| a.score.unwrap().total_cmp(&b.score.unwrap()))
         .unwrap();
     assert!(lowest.score.unwrap() < 0.8 * physics.score.unwrap());
-    assert_eq!(lowest.status, "chosen");
+    assert_eq!(lowest.status, Status::Chosen);
     assert!(
         !std::ptr::eq(lowest, on_chain),
         "the GP on the compliances chosen: {:?}",

@@ -2,7 +2,7 @@
 //! and the solve that holds back what the poses cannot separate.
 
 use super::priors::harmonic_prior;
-use super::report::FixedParameter;
+use super::report::{Fixed, FixedParameter};
 use super::settings::{
     BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceSettings, HARMONIC_BOUND_DEG,
     KinematicSettings, PAYLOAD_COM_BOUND, SolverKind, TILT_START_SHARE, TORQUE_SHARE,
@@ -320,6 +320,10 @@ pub(super) fn solve_gated(
             fixed.push(FixedParameter {
                 name: kept[*p].to_string(),
                 independent_fraction: 1.0,
+                why: match why {
+                    Held::Implausible(_) => Fixed::Implausible,
+                    _ => Fixed::Bound,
+                },
                 reason: why.reason(problem, kept[*p]),
             });
         }

@@ -25,7 +25,7 @@ use joint_errors::{choose_compliance, joint_error_start, solve_gated};
 pub use memo::FitMemo;
 pub use priors::prior_spread;
 pub use report::{
-    ComplianceReport, ErrorTermReport, FixedParameter, JointCompliance, KinematicReport,
+    ComplianceReport, ErrorTermReport, Fixed, FixedParameter, JointCompliance, KinematicReport,
     OrientationReport, ParameterReport,
 };
 use report::{compliance_report, joint_error_reports};
@@ -257,14 +257,12 @@ fn identify_mounting(
     match (upright, tracker) {
         (Ok(u), Ok(mut t)) if t.report.after.rms < u.report.after.rms => {
             let g = t.compliance.as_ref().map_or(down, |c| c.gravity);
-            t.report.warnings.push(format!(
-                    "gravity taken along the tracker's -z, [{:.3}, {:.3}, {:.3}] m/s² in the robot base frame: the registered base is {angle:.0}° from upright (an arm on a wall or a ceiling), and the fit with gravity along the base's -z was worse (RMS {:.4} against {:.4} mm); give gravity in a stage config's [compliance] if neither is right",
-                    g.x,
-                    g.y,
-                    g.z,
-                    u.report.after.rms,
-                    t.report.after.rms
-                ));
+            let warning = format!(
+                "gravity taken along the tracker's -z, [{:.3}, {:.3}, {:.3}] m/s² in the robot base frame: the registered base is {angle:.0}° from upright (an arm on a wall or a ceiling), and the fit with gravity along the base's -z was worse (RMS {:.4} against {:.4} mm); give gravity in a stage config's [compliance] if neither is right",
+                g.x, g.y, g.z, u.report.after.rms, t.report.after.rms
+            );
+            t.report.warnings.push(warning.clone());
+            t.report.mounting_warning = Some(warning);
             Ok(t)
         }
         (Ok(u), _) => Ok(u),
@@ -403,6 +401,7 @@ fn fit(
         .map(|&(p, fraction)| FixedParameter {
             name: columns[p].to_string(),
             independent_fraction: fraction,
+            why: Fixed::Unidentifiable,
             reason: if fraction == 0.0 {
                 "no effect on the measured points with these poses".into()
             } else {
@@ -506,6 +505,7 @@ fn fit(
             harmonic_prior_deg: spread.harmonics.map(f64::to_degrees),
             runout_prior_deg: spread.runouts.map(f64::to_degrees),
             warnings,
+            mounting_warning: None,
         },
     })
 }

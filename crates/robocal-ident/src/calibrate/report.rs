@@ -96,8 +96,25 @@ pub struct FixedParameter {
     pub name: String,
     /// Fraction of its Jacobian column not explained by the identified parameters.
     pub independent_fraction: f64,
+    /// Why it is held.
+    #[serde(skip)]
+    pub why: Fixed,
     /// Human-readable reason.
     pub reason: String,
+}
+
+/// Why a parameter is held fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fixed {
+    /// The poses cannot determine it: no effect on the measured points, or redundant with the
+    /// identified parameters.
+    Unidentifiable,
+    /// It came out beyond what its effect can be (a harmonic or a backlash beyond a gear's, a
+    /// payload's centre of mass beyond reach), or the data cannot tell it from an offset.
+    Bound,
+    /// A compliance or tilting compliance no joint can have (negative, beyond the bound, or
+    /// within its own uncertainty).
+    Implausible,
 }
 
 /// What a kinematic identification did and found.
@@ -151,6 +168,10 @@ pub struct KinematicReport {
     pub runout_prior_deg: Option<f64>,
     /// What the user should know about the data's ability to determine the parameters.
     pub warnings: Vec<String>,
+    /// The warning among `warnings` that gravity was taken along the tracker's −z (an arm on a
+    /// wall or a ceiling), when it was.
+    #[serde(skip)]
+    pub mounting_warning: Option<String>,
 }
 
 /// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
