@@ -30,6 +30,7 @@ pub mod rows;
 pub mod select;
 pub mod spread;
 pub mod stages;
+pub mod summary;
 
 pub use calibrate::{
     Calibration, CalibrationInput, CalibrationReport, Checks, Validation, calibrate,
@@ -55,3 +56,4 @@ pub use rows::hold_out;
 
 pub use error::{CalibrationError, Result, message};
 pub use stages::{RawStages, Stages};
+pub use summary::{Summary, fit_lines, repeats_line};

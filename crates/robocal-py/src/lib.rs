@@ -28,7 +28,7 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyAr
 use pyo3::exceptions::{PyValueError, PyWarning};
 use pyo3::prelude::*;
 use robocal_calibration::{CalibrationInput, Checks, calibrate as run_calibration};
-use robocal_calibration::{Stages, message};
+use robocal_calibration::{Stages, Summary, message};
 use robocal_compensate::{CompensationOptions, compensate};
 use robocal_data::{ErrorStats, MeasurementSet, Sample, Silent, samples_from_arrays};
 use robocal_model::{CalibratedModel, REPORT_FILE};
@@ -336,6 +336,8 @@ struct PyModel {
     inner: CalibratedModel,
     /// `report.json` without its layout stamp (what `save` writes back).
     report: serde_json::Value,
+    /// The calibration's summary, for a model `calibrate` made.
+    summary: Option<String>,
 }
 
 /// `report.json` of a model directory without the two keys `save` stamps.
@@ -406,7 +408,11 @@ impl PyModel {
     fn load(dir: PathBuf) -> PyResult<Self> {
         let inner = CalibratedModel::load(&dir).map_err(fail)?;
         let report = read_report(&dir)?;
-        Ok(Self { inner, report })
+        Ok(Self {
+            inner,
+            report,
+            summary: None,
+        })
     }
 
     /// Writes the model directory (atomically: a complete new directory, or nothing).
@@ -434,6 +440,14 @@ impl PyModel {
     #[getter]
     fn domain(&self) -> Option<(Vec<[f64; 2]>, [f64; 2])> {
         (self.inner.domain.as_ref()).map(|d| (d.joints.clone(), d.load))
+    }
+
+    /// The summary `robocal calibrate` ends with (the model chosen, its held-out error, the fit,
+    /// the time, the warnings that matter most), for a model `calibrate` made; `None` for one
+    /// read from a directory (its `report.json` holds the same).
+    #[getter]
+    fn summary(&self) -> Option<String> {
+        self.summary.clone()
     }
 
     /// `report.json` as text (JSON): what ran, the statistics, every parameter with σ.
@@ -722,6 +736,7 @@ fn calibrate<'py>(
     runout: Option<u32>,
     residual_frame: Option<String>,
 ) -> PyResult<PyModel> {
+    let started = std::time::Instant::now();
     let residual_frame = residual_frame
         .map(|f| {
             robocal_residual::Frame::parse(&f).map_err(|e| bad(format!("residual_frame: {e}")))
@@ -794,9 +809,11 @@ fn calibrate<'py>(
         PyErr::warn(py, &py.get_type::<PyWarning>(), &text, 1)?;
     }
     let report = serde_json::to_value(&calibration.report).map_err(|e| bad(e.to_string()))?;
+    let summary = Summary::new(&calibration.report, None, started.elapsed().as_secs_f64());
     Ok(PyModel {
         inner: calibration.model,
         report,
+        summary: Some(summary.to_string()),
     })
 }
 

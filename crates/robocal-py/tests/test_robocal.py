@@ -103,7 +103,9 @@ def test_calibrate_equals_the_cli_on_the_same_rows(tmp_path, config):
     test = write_csv(tmp_path / "test.csv", TEST)
     model_dir = tmp_path / "cli-model"
     extra = ["--config", STAGES / config] if config else []
-    cli("calibrate", "--robot", ROBOT, "--data", train, "--out", model_dir, *extra)
+    printed = cli(
+        "calibrate", "--robot", ROBOT, "--data", train, "--out", model_dir, *extra
+    ).stdout
     out = tmp_path / "pred.csv"
     cli("predict", "--model", model_dir, "--data", test, "--out", out)
 
@@ -132,6 +134,15 @@ def test_calibrate_equals_the_cli_on_the_same_rows(tmp_path, config):
         assert stats[key] == pytest.approx(evaluated[key], abs=1e-6)
     report = json.loads(model.report)
     assert report["kinematic"]["after"]["mean"] < report["kinematic"]["before"]["mean"]
+    # The summary the command line ends with, but for the time and where the files are.
+    timeless = lambda text: [  # noqa: E731
+        line
+        for line in text.splitlines()
+        if not line.startswith(("  time ", "  files "))
+    ]
+    assert model.summary.startswith("calibration summary\n")
+    assert timeless(model.summary) == timeless(printed)
+    assert robocal.Model.load(model_dir).summary is None
 
 
 def test_a_budget_kept_by_counted_work_says_so_and_far_under_it_changes_nothing():
