@@ -54,27 +54,9 @@ pub enum Command {
         /// Also write `robocal report`'s pictures of the fit on the training rows into DIR.
         #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
-        /// Weight of a 6-DoF probe's orientation rows, mm per degree [default: 2].
-        #[arg(long, value_name = "MM_PER_DEG")]
-        angle_weight: Option<f64>,
-        /// Time budget of the default calibration, s [default: 120].
-        #[arg(long, value_name = "SECONDS")]
-        budget: Option<f64>,
-        /// Keep the budget by counted work instead of the clock: the same model on any machine.
-        #[arg(long)]
-        reproducible: bool,
-        /// Also try the bearings' tilt under the gravity moment (kept where it pays).
-        #[arg(long)]
-        tilt: bool,
-        /// Also try backlash with searched torque flanks where the chosen physics has none.
-        #[arg(long)]
-        flank_search: bool,
-        /// Highest order of the axis runouts tried [default: 2; 0: none].
-        #[arg(long, value_name = "ORDERS")]
-        runout: Option<u32>,
-        /// Frame the residual models learn in: `joint1` or `world` [default: chosen by the folds].
-        #[arg(long, value_name = "FRAME")]
-        residual_frame: Option<String>,
+        /// The default calibration's options.
+        #[command(flatten)]
+        options: robocal_calibration::DefaultOptions,
     },
     /// Predict the target point (world frame) for every row of a CSV.
     Predict {

@@ -8,8 +8,8 @@ use std::path::Path;
 
 use anyhow::Result;
 use robocal_calibration::{
-    Calibration, CalibrationInput, Checks, OutlierReport, Stages, Summary, calibrate, fit_lines,
-    repeats_line,
+    Calibration, CalibrationInput, Checks, DefaultOptions, OutlierReport, Stages, Summary,
+    calibrate, fit_lines, repeats_line,
 };
 use robocal_data::{Measurement, MeasurementSet};
 use robocal_report::{DataRole, write_data_report};
@@ -18,12 +18,7 @@ use robocal_robot::Robot;
 use super::terminal::Terminal;
 
 /// Runs the calibration and writes `out` atomically (and the pictures of the fit into
-/// `pictures` when given); `angle_weight` (mm per deg) weighs a 6-DoF probe's orientations;
-/// `budget` (s) bounds the default calibration's time (by counted work where `reproducible`);
-/// `tilt` has it try the bearings' tilt,
-/// `flank_search` backlash with its flanks searched where the physics it chose holds none;
-/// `runout` the highest order of the axis runouts it tries (0: none; `None`: its default);
-/// `residual_frame` (`world` or `joint1`) is the frame its residual models learn in.
+/// `pictures` when given), with the default calibration's `options`.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     robot: &Path,
@@ -33,25 +28,9 @@ pub fn run(
     config: Option<&Path>,
     checks: Checks,
     pictures: Option<&Path>,
-    angle_weight: Option<f64>,
-    budget: Option<f64>,
-    reproducible: bool,
-    tilt: bool,
-    flank_search: bool,
-    runout: Option<u32>,
-    residual_frame: Option<&str>,
+    options: &DefaultOptions,
 ) -> Result<()> {
     let started = std::time::Instant::now();
-    let residual_frame = residual_frame
-        .map(|f| {
-            robocal_residual::Frame::parse(f).map_err(|e| anyhow::anyhow!("--residual-frame: {e}"))
-        })
-        .transpose()?;
-    if let Some(w) = angle_weight
-        && !(w.is_finite() && w > 0.0)
-    {
-        anyhow::bail!("--angle-weight: {w} is not a positive number of mm per degree");
-    }
     let stages = config.map(Stages::load).transpose()?;
     let nominal = Robot::load(robot)?;
     let set = MeasurementSet::read(data, nominal.dof())?;
@@ -65,13 +44,7 @@ pub fn run(
         validation: validation.as_ref(),
         stages: stages.as_ref().zip(config),
         checks,
-        angle_weight,
-        budget_seconds: budget,
-        reproducible,
-        tilt,
-        flank_search,
-        runout,
-        residual_frame,
+        options,
     };
     let calibration = calibrate(&input, &Terminal::default())?;
     let Calibration {

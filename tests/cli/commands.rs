@@ -993,6 +993,32 @@ fn default_calibrate_on_one_load_of_a_five_axis_twin_skips_compliance_and_says_w
     assert!(seconds > 0.0 && seconds <= 90.0, "{seconds}");
     let table = |m: &Path| std::fs::read_to_string(m.join("kinematics.toml")).unwrap();
     assert_eq!(table(&counted), table(&model));
+    // The same options in a stage file's [default]: the same model, and the report says where
+    // the options came from.
+    let options = dir.path().join("default.toml");
+    std::fs::write(&options, "[default]\nbudget = 90\nreproducible = true\n").unwrap();
+    let from_file = dir.path().join("from-file");
+    let o = robocal(&[
+        "calibrate",
+        "--robot",
+        "configs/robots/arm5.toml",
+        "--data",
+        s(&unloaded),
+        "--out",
+        s(&from_file),
+        "--config",
+        s(&options),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let f = report(&from_file);
+    assert_eq!(table(&from_file), table(&counted));
+    assert_eq!(f["selection"]["reproducible"], true);
+    assert_eq!(f["selection"]["budget_seconds"], 90.0);
+    assert!(
+        (f["stages_from"].as_str().unwrap()).starts_with("default with the options of config"),
+        "{}",
+        f["stages_from"]
+    );
     assert_eq!(r["selection"]["refitted_on_every_row"], true);
     assert!(
         r["selection"]["held_out"]

@@ -288,7 +288,9 @@ fn orientation_columns_partly_given_or_out_of_range_write_nothing() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("--angle-weight: -1 is not a positive number"),
+        err.contains(
+            "`--angle-weight` (or `angle_weight=` in Python): -1 is not a positive number"
+        ),
         "{err}"
     );
     assert!(!out.exists());

@@ -7,15 +7,15 @@ use std::path::{Path, PathBuf};
 use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, check_targets};
 use robocal_ident::{FitMemo, KinematicReport};
 use robocal_model::CalibratedModel;
-use robocal_residual::Frame;
 use robocal_robot::{JointErrors, Robot};
 use serde::Serialize;
 
 use crate::error::{CalibrationError, Result};
+use crate::options::DefaultOptions;
 use crate::stages::Stages;
 use crate::{
-    AutoSettings, Built, DEFAULT_BUDGET_SECONDS, OutlierReport, OutlierSettings, Repeats,
-    ResidualReport, Selection, check_plausible, configured_with, find_outliers_with,
+    AutoSettings, Built, OutlierReport, OutlierSettings, Repeats, ResidualReport, Selection,
+    check_plausible, configured_with, find_outliers_with,
     readings::{rounded_joints, rounding_warning},
     repeats::repeats,
     select::automatic,
@@ -88,30 +88,9 @@ pub struct CalibrationInput<'a> {
     pub stages: Option<(&'a Stages, &'a Path)>,
     /// What to check.
     pub checks: Checks,
-    /// Weight of a 6-DoF probe's orientation residuals, mm per deg (over a stage config's
-    /// `[kinematic] angle_weight`); `None`: the settings' own (default `noise_mm / noise_deg`).
-    pub angle_weight: Option<f64>,
-    /// The default calibration's time budget, s (`None`: [`DEFAULT_BUDGET_SECONDS`]); a stage
-    /// config runs what it asks for and takes none.
-    pub budget_seconds: Option<f64>,
-    /// Whether the default calibration keeps its budget by counted work instead of the clock
-    /// ([`AutoSettings::reproducible`]).
-    pub reproducible: bool,
-    /// Whether the default calibration also tries the bearings' tilt, last, on the physics it
-    /// chose ([`AutoSettings::tilt`]); a stage config asks for it in `[joint_errors]`.
-    pub tilt: bool,
-    /// Whether the default calibration also tries backlash with its flanks searched where the
-    /// physics it chose holds none ([`AutoSettings::flank_search`]); a stage config asks for
-    /// it with `backlash` and `flank_search` in `[joint_errors]`.
-    pub flank_search: bool,
-    /// The highest order of the axis runouts the default calibration tries (0: none;
-    /// [`AutoSettings::runout`]; `None`: its default); a stage config asks for them with
-    /// `runout` in `[joint_errors]`.
-    pub runout: Option<u32>,
-    /// The frame the default calibration's residual models learn in (`None`: each candidate's
-    /// own, [`AutoSettings::residuals`]); a stage config asks for it with `frame` in
-    /// `[residual]`.
-    pub residual_frame: Option<Frame>,
+    /// The default calibration's options (the orientations' weight applies to a stage config's
+    /// stages too, over its `[kinematic] angle_weight`).
+    pub options: &'a DefaultOptions,
 }
 
 /// A calibration's result.
@@ -137,52 +116,16 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         data: data.clone(),
         source: Box::new(source),
     };
-    if let Some(b) = input.budget_seconds {
-        if !(b.is_finite() && b > 0.0) {
-            return Err(CalibrationError::Stage(format!(
-                "the time budget (`--budget`, or `budget=` in Python): {b} is not a positive number of seconds"
-            )));
+    // A stage file's `[default]`: the default calibration with its options, under the ones given
+    // here.
+    let (stages, options, default_from) = match input.stages {
+        Some((stages, file)) if stages.default.is_some() => {
+            let from_file = stages.default.as_ref().expect("a [default] table");
+            (None, input.options.or(from_file), Some(file))
         }
-        if let Some((_, file)) = input.stages {
-            return Err(CalibrationError::Stage(format!(
-                "the time budget (`--budget`, or `budget=` in Python) is the default calibration's; {} runs the stages it names and takes none",
-                file.display()
-            )));
-        }
-    }
-    if let (Some(frame), Some((_, file))) = (input.residual_frame, input.stages) {
-        return Err(CalibrationError::Stage(format!(
-            "`--residual-frame` (or `residual_frame=` in Python) is the default calibration's; {} runs the stages it names: add `frame = \"{}\"` to its [residual]",
-            file.display(),
-            frame.name()
-        )));
-    }
-    if let (true, Some((_, file))) = (input.tilt, input.stages) {
-        return Err(CalibrationError::Stage(format!(
-            "`--tilt` (or `tilt=True` in Python) is the default calibration's; {} runs the stages it names: add `tilt = true` to its [joint_errors]",
-            file.display()
-        )));
-    }
-    if let Some(r) = input.runout
-        && r > robocal_ident::MAX_HARMONICS
-    {
-        return Err(CalibrationError::Stage(format!(
-            "--runout: {r} orders; at most {}",
-            robocal_ident::MAX_HARMONICS
-        )));
-    }
-    if let (Some(_), Some((_, file))) = (input.runout, input.stages) {
-        return Err(CalibrationError::Stage(format!(
-            "`--runout` is the default calibration's; {} runs the stages it names: add `runout = 2` to its [joint_errors]",
-            file.display()
-        )));
-    }
-    if let (true, Some((_, file))) = (input.flank_search, input.stages) {
-        return Err(CalibrationError::Stage(format!(
-            "`--flank-search` (or `flank_search=True` in Python) is the default calibration's; {} runs the stages it names: add `backlash = true` and `flank_search = true` to its [joint_errors]",
-            file.display()
-        )));
-    }
+        stages => (stages, input.options.clone(), None),
+    };
+    options.check(stages.map(|(_, file)| file))?;
     let names = input.nominal.point_names();
     for set in std::iter::once(input.data).chain(input.validation) {
         check_targets(&set.source, set.rows.iter().map(|m| &m.sample), &names)?;
@@ -205,11 +148,11 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         keep: input.checks.keep_outliers,
         ..OutlierSettings::default()
     };
-    let mut built = match input.stages {
+    let mut built = match stages {
         Some((stages, _)) => {
             let mut stages = stages.clone();
-            if input.angle_weight.is_some() {
-                stages.kinematic.angle_weight = input.angle_weight;
+            if options.angle_weight.is_some() {
+                stages.kinematic.angle_weight = options.angle_weight;
             }
             // Where the search fits the stage's physics (least squares, compliances where the
             // rows hold several loads), its last round is the stage's fit of the rows kept:
@@ -224,24 +167,10 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
             built
         }
         None => {
-            let mut auto = AutoSettings {
+            let auto = options.apply(AutoSettings {
                 outliers: Some(outliers),
-                angle_weight: input.angle_weight,
-                budget_seconds: input.budget_seconds.unwrap_or(DEFAULT_BUDGET_SECONDS),
-                reproducible: input.reproducible,
-                tilt: input.tilt,
-                flank_search: input.flank_search,
                 ..AutoSettings::default()
-            };
-            if let Some(orders) = input.runout {
-                auto.runout = orders;
-            }
-            if let Some(frame) = input.residual_frame {
-                for stage in &mut auto.residuals {
-                    stage.settings.frame = frame;
-                }
-                auto.both_frames_off_gravity = false;
-            }
+            })?;
             automatic(&auto, input.nominal, &rows, val, observer).map_err(failed)?
         }
     };
@@ -302,9 +231,13 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
     let report = CalibrationReport {
         robot_file: input.robot_file.to_path_buf(),
         data_file: data.clone(),
-        stages_from: match input.stages {
-            Some((_, file)) => format!("config {}", file.display()),
-            None => {
+        stages_from: match (stages, default_from) {
+            (Some((_, file)), _) => format!("config {}", file.display()),
+            (None, Some(file)) => format!(
+                "default with the options of config {}: the candidate with the lowest held-out error (cross-validated)",
+                file.display()
+            ),
+            (None, None) => {
                 "default: the candidate with the lowest held-out error (cross-validated)".into()
             }
         },

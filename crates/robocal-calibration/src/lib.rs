@@ -21,6 +21,7 @@ pub mod calibrate;
 pub mod configured;
 pub mod error;
 pub mod folds;
+pub mod options;
 pub mod outliers;
 pub mod plausibility;
 pub mod readings;
@@ -55,5 +56,6 @@ pub use residual_report::{
 pub use rows::hold_out;
 
 pub use error::{CalibrationError, Result, message};
+pub use options::DefaultOptions;
 pub use stages::{RawStages, Stages};
 pub use summary::{Summary, fit_lines, repeats_line};

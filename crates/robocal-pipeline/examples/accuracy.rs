@@ -628,6 +628,7 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
                             settings,
                             holdout: 0.2,
                         }),
+                        default: None,
                     };
                     let score = |stages: &Stages| -> String {
                         match configured(stages, &twin.nominal, &train, None, &Silent) {

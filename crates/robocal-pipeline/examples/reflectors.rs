@@ -22,7 +22,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use robocal_calibration::Stages;
-use robocal_calibration::{CalibrationInput, Checks, calibrate};
+use robocal_calibration::{CalibrationInput, Checks, DefaultOptions, calibrate};
 use robocal_data::{Measurement, MeasurementSet, Silent};
 use robocal_twin::TwinConfig;
 
@@ -118,13 +118,7 @@ fn run(
                             force: true,
                             keep_outliers: true,
                         },
-                        angle_weight: None,
-                        budget_seconds: None,
-                        reproducible: false,
-                        tilt: false,
-                        flank_search: false,
-                        runout: None,
-                        residual_frame: None,
+                        options: &DefaultOptions::default(),
                     },
                     &Silent,
                 )?;

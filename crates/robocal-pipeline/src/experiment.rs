@@ -351,6 +351,7 @@ impl RawExperiment {
                 compliance: m.compliance.clone(),
                 joint_errors: m.joint_errors.clone(),
                 residual: m.residual.clone(),
+                default: None,
             }
             .validate(Some(seed), robocal_residual::Defaults::Paper)
             .map_err(|e| PipelineError::invalid(path, e.within(&at)))?;

@@ -1152,6 +1152,7 @@ fn a_stage_after_the_search_for_bad_shots_takes_its_last_fit() {
             ..KinematicSettings::default()
         },
         residual: None,
+        default: None,
     };
     let memo = FitMemo::default();
     let search = OutlierSettings::default();

@@ -27,8 +27,9 @@ use numpy::ndarray::{Array1, Array2, ArrayView1, ArrayView2};
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
 use pyo3::exceptions::{PyValueError, PyWarning};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use robocal_calibration::{CalibrationInput, Checks, calibrate as run_calibration};
-use robocal_calibration::{Stages, Summary, message};
+use robocal_calibration::{DefaultOptions, Stages, Summary, message};
 use robocal_compensate::{CompensationOptions, compensate};
 use robocal_data::{ErrorStats, MeasurementSet, Sample, Silent, samples_from_arrays};
 use robocal_model::{CalibratedModel, REPORT_FILE};
@@ -701,19 +702,19 @@ impl PyModel {
 /// do not fit the robot file; `keep_outliers` keeps the bad shots. Rows with the same joint
 /// readings are one configuration (or give `pose`, one id per row, as the CSV's `pose` column);
 /// with several reflectors, `target` names each row's point (`[tool.points]`; empty: default);
-/// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg),
-/// weighted by `angle_weight` (mm per deg; default 2); `budget` bounds the default
-/// calibration's time (s; default 120), by counted work instead of the clock with
-/// `reproducible` (the same model on every machine as fast as the reference or faster); `tilt`
-/// has the default also try the bearings' tilt,
-/// `flank_search` backlash with its flanks searched where the physics it chose holds none;
-/// `runout` the highest order of the axis runouts it tries (default 2; 0: none);
-/// `residual_frame` (`"joint1"` or `"world"`) is the frame its residual models learn in (by
-/// default `"joint1"`, and both, the held-out poses choosing, where joint 1 lies more than 10°
-/// off the line of gravity).
+/// a 6-DoF probe's orientations go in `rpy` (rows × 3, fixed-axis roll, pitch, yaw, deg).
+/// The default calibration's options are keyword arguments named as the command line's
+/// (`robocal calibrate --help`) and a stage file's `[default]`: `angle_weight` (mm per deg,
+/// default 2: a 6-DoF probe's orientations), `budget` (s, default 120), `reproducible` (the
+/// budget kept by counted work instead of the clock: the same model on every machine as fast as
+/// the reference or faster), `tilt` (also try the bearings' tilt), `flank_search` (backlash
+/// with its flanks searched where the physics it chose holds none), `runout` (the highest order
+/// of the axis runouts tried; default 2, 0: none), `residual_frame` (`"joint1"` or `"world"`:
+/// the frame its residual models learn in; by default `"joint1"`, and both, the held-out poses
+/// choosing, where joint 1 lies more than 10° off the line of gravity).
 /// The interpreter is free to run other threads meanwhile.
 #[pyfunction]
-#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, angle_weight=None, budget=None, reproducible=false, tilt=false, flank_search=false, runout=None, residual_frame=None))]
+#[pyo3(signature = (robot, q, load, xyz, *, config=None, validate=None, force=false, keep_outliers=false, pose=None, target=None, rpy=None, **options))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -728,27 +729,10 @@ fn calibrate<'py>(
     pose: Option<Vec<String>>,
     target: Option<Vec<String>>,
     rpy: Option<Matrix<'py>>,
-    angle_weight: Option<f64>,
-    budget: Option<f64>,
-    reproducible: bool,
-    tilt: bool,
-    flank_search: bool,
-    runout: Option<u32>,
-    residual_frame: Option<String>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<PyModel> {
     let started = std::time::Instant::now();
-    let residual_frame = residual_frame
-        .map(|f| {
-            robocal_residual::Frame::parse(&f).map_err(|e| bad(format!("residual_frame: {e}")))
-        })
-        .transpose()?;
-    if let Some(w) = angle_weight
-        && !(w.is_finite() && w > 0.0)
-    {
-        return Err(bad(format!(
-            "angle_weight: {w} is not a positive number of mm per degree"
-        )));
-    }
+    let options = default_options(py, options)?;
     let dof = robot.inner.dof();
     let data = with_rpy(
         measurements(
@@ -792,13 +776,7 @@ fn calibrate<'py>(
                     force,
                     keep_outliers,
                 },
-                angle_weight,
-                budget_seconds: budget,
-                reproducible,
-                tilt,
-                flank_search,
-                runout,
-                residual_frame,
+                options: &options,
             };
             run_calibration(&input, &Silent)
         })
@@ -815,6 +793,21 @@ fn calibrate<'py>(
         report,
         summary: Some(summary.to_string()),
     })
+}
+
+/// The default calibration's options from `calibrate`'s keyword arguments, read as the stage
+/// file's `[default]` table is (an unknown name or a value of the wrong kind is refused, named).
+fn default_options(
+    py: Python<'_>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<DefaultOptions> {
+    let Some(options) = options else {
+        return Ok(DefaultOptions::default());
+    };
+    let json: String = (py.import("json")?)
+        .call_method1("dumps", (options,))?
+        .extract()?;
+    serde_json::from_str(&json).map_err(|e| bad(format!("calibrate: {e}")))
 }
 
 /// robocal: calibrate industrial robots from laser-tracker measurements (mm, deg, kg).

@@ -271,6 +271,9 @@ def test_errors_carry_the_cli_s_messages():
         robocal.calibrate(robot, q, load, xyz, residual_frame="joint1", config=ROOT / "configs/stages/kinematic-lm.toml")
     with pytest.raises(robocal.RobocalError, match="`tool` is not a frame"):
         robocal.calibrate(robot, q, load, xyz, residual_frame="tool")
+    # The options are the command line's and a stage file's [default]: a misspelt one is named.
+    with pytest.raises(robocal.RobocalError, match="unknown field `budgett`"):
+        robocal.calibrate(robot, q, load, xyz, budgett=30.0)
     # RobocalError is a ValueError.
     assert issubclass(robocal.RobocalError, ValueError)
 

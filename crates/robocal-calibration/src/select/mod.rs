@@ -512,6 +512,7 @@ fn final_fit(
     let stages = Stages {
         kinematic: choice.chosen_physics.settings(settings),
         residual: (choice.residual_wins).map(|(r, _)| residuals[r].stage.clone()),
+        default: None,
     };
     if plan.refit {
         observer.message("fitting the chosen model again on every row");
