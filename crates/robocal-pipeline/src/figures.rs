@@ -14,11 +14,21 @@ use crate::run::Outcome;
 /// error messages). Returns (what it shows, file names).
 pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<String>)>> {
     let mut made = Vec::new();
-    let norms = |e: &[Vector3<f64>], rows: &[usize]| {
-        rows.iter().map(|&i| e[i].norm()).collect::<Vec<f64>>()
-    };
+    configurations_figure(o, dir, out, &mut made)?;
+    load_figure(o, dir, out, &mut made)?;
+    axes_figures(o, dir, out, &mut made)?;
+    class_figures(o, dir, out, &mut made)?;
+    stages_figure(o, dir, out, &mut made)?;
+    Ok(made)
+}
 
-    // Figs. 11–12: per configuration at the kinematic load, trained then untrained.
+/// Figs. 11–12: per configuration at the kinematic load, trained then untrained.
+fn configurations_figure(
+    o: &Outcome,
+    dir: &Path,
+    out: &Path,
+    made: &mut Vec<(String, Vec<String>)>,
+) -> Result<()> {
     let rows: Vec<usize> = o
         .splits
         .kinematic_rows
@@ -73,8 +83,16 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             },
         ])?,
     ));
+    Ok(())
+}
 
-    // Fig. 13: mean error against load, untrained configurations.
+/// Fig. 13: mean error against load, untrained configurations.
+fn load_figure(
+    o: &Outcome,
+    dir: &Path,
+    out: &Path,
+    made: &mut Vec<(String, Vec<String>)>,
+) -> Result<()> {
     let before = vec![Series {
         name: "before".into(),
         points: o.mean_by_load(&o.before),
@@ -105,8 +123,16 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             },
         ])?,
     ));
+    Ok(())
+}
 
-    // Figs. 14, 16, 21: per-axis distributions on the Table 6 rows.
+/// Figs. 14, 16, 21: per-axis distributions on the Table 6 rows.
+fn axes_figures(
+    o: &Outcome,
+    dir: &Path,
+    out: &Path,
+    made: &mut Vec<(String, Vec<String>)>,
+) -> Result<()> {
     let t6 = o.rows("table6");
     let axis_values =
         |e: &[Vector3<f64>], a: usize| t6.iter().map(|&i| e[i][a]).collect::<Vec<f64>>();
@@ -147,8 +173,17 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             figure(dir, out, &stem, WIDE, &panels)?,
         ));
     }
+    Ok(())
+}
 
-    // Figs. 22–25: the bimodal X error of each CA-SOMM model's gate classes, before and after.
+/// Figs. 22–25: the bimodal X error of each CA-SOMM model's gate classes, before and after.
+fn class_figures(
+    o: &Outcome,
+    dir: &Path,
+    out: &Path,
+    made: &mut Vec<(String, Vec<String>)>,
+) -> Result<()> {
+    let t6 = o.rows("table6");
     for m in &o.models {
         let Some(classes) = o.gate_classes(m, &t6) else {
             continue;
@@ -195,8 +230,20 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             figure(dir, out, &stem, WIDE, &panels)?,
         ));
     }
+    Ok(())
+}
 
-    // Fig. 26: every stage's error distribution on the Table 6 rows.
+/// Fig. 26: every stage's error distribution on the Table 6 rows.
+fn stages_figure(
+    o: &Outcome,
+    dir: &Path,
+    out: &Path,
+    made: &mut Vec<(String, Vec<String>)>,
+) -> Result<()> {
+    let t6 = o.rows("table6");
+    let norms = |e: &[Vector3<f64>], rows: &[usize]| {
+        rows.iter().map(|&i| e[i].norm()).collect::<Vec<f64>>()
+    };
     let before = vec![("before".to_string(), norms(&o.before, &t6))];
     let mut named = Vec::new();
     for m in &o.models {
@@ -228,7 +275,7 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
             ],
         )?,
     ));
-    Ok(made)
+    Ok(())
 }
 
 /// The report folder of an experiment: `<output>/<name>`.
