@@ -180,20 +180,7 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
     if let Some(w) = rounding_warning(&rounded, built.kinematic.report.after.rms) {
         built.kinematic.report.warnings.push(w);
     }
-    let mut model = built.model();
-    // The model as its files hold it: the files give angles in degrees and compliances in
-    // deg/kN·m, and some doubles (about one in ten) have no such number that reads back onto
-    // them exactly; they are taken as a reload takes them (a unit in the last place off), so
-    // that a saved model predicts exactly as the one calibrated, reported and validated here.
-    model.robot = Robot::from_toml_str(&model.robot.to_toml_string(), "kinematics.toml")?;
-    if let Some(e) = &model.joint_errors {
-        let dof = model.robot.dof();
-        model.joint_errors = Some(JointErrors::from_toml_str(
-            &e.to_toml_string(),
-            "compliance.toml",
-            dof,
-        )?);
-    }
+    let mut model = as_saved(built.model())?;
     // What it was calibrated on (the data file's rows: the bad shots left out lie among them).
     model.domain = robocal_model::Domain::of(rows.iter().map(|m| &m.sample));
     let validation = input.validation.map(|v| {
@@ -260,4 +247,21 @@ pub fn calibrate(input: &CalibrationInput, observer: &dyn Observer) -> Result<Ca
         built,
         implausible: implausible.map(|w| w.to_string()),
     })
+}
+
+/// `model` as its files hold it: the files give angles in degrees and compliances in deg/kN·m,
+/// and some doubles (about one in ten) have no such number that reads back onto them exactly;
+/// they are taken as a reload takes them (a unit in the last place off), so that a saved model
+/// predicts exactly as the one calibrated, reported and validated.
+fn as_saved(mut model: CalibratedModel) -> Result<CalibratedModel> {
+    model.robot = Robot::from_toml_str(&model.robot.to_toml_string(), "kinematics.toml")?;
+    if let Some(e) = &model.joint_errors {
+        let dof = model.robot.dof();
+        model.joint_errors = Some(JointErrors::from_toml_str(
+            &e.to_toml_string(),
+            "compliance.toml",
+            dof,
+        )?);
+    }
+    Ok(model)
 }

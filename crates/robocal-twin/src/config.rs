@@ -381,6 +381,222 @@ impl Checker<'_> {
             self.fail(key, "must not be negative")
         }
     }
+
+    /// The links' masses and the payload's centre of mass.
+    fn masses(&self, m: &RawMasses, n: usize) -> Result<Masses> {
+        self.per_joint("masses.link_mass", &m.link_mass, n)?;
+        self.non_negative("masses.link_mass", &m.link_mass)?;
+        if m.link_com.len() != n {
+            return self.fail(
+                "masses.link_com",
+                format!("needs one [x, y, z] per joint ({n})"),
+            );
+        }
+        self.finite("masses.link_com", &m.link_com.concat())?;
+        self.finite("masses.payload_com", &m.payload_com)?;
+        Ok(Masses {
+            link_mass: m.link_mass.clone(),
+            link_com: m.link_com.iter().map(|v| Vector3::from(*v)).collect(),
+            payload_com: Vector3::from(m.payload_com),
+        })
+    }
+
+    /// The joints' stiffness, where enabled.
+    fn compliance(&self, r: &RawCompliance, n: usize) -> Result<Option<Stiffness>> {
+        if r.enabled {
+            self.per_joint("compliance.stiffness", &r.stiffness, n)?;
+            if r.stiffness.iter().any(|k| *k <= 0.0) {
+                return self.fail(
+                    "compliance.stiffness",
+                    "stiffness must be positive (N·m/rad)",
+                );
+            }
+            Ok(Some(Stiffness {
+                stiffness: r.stiffness.clone(),
+            }))
+        } else {
+            Ok(None)
+        }
+    }
+
+    /// The gears' transmission error, where enabled.
+    fn gear(&self, g: &RawGear, n: usize) -> Result<Option<Gear>> {
+        Ok(if g.enabled {
+            self.per_joint("gear.amplitude_1", &g.amplitude_1, n)?;
+            self.per_joint("gear.phase_1", &g.phase_1, n)?;
+            self.per_joint("gear.amplitude_2", &g.amplitude_2, n)?;
+            self.per_joint("gear.phase_2", &g.phase_2, n)?;
+            Some(Gear {
+                amplitude_1: rad(&g.amplitude_1),
+                phase_1: rad(&g.phase_1),
+                amplitude_2: rad(&g.amplitude_2),
+                phase_2: rad(&g.phase_2),
+            })
+        } else {
+            None
+        })
+    }
+
+    /// The joints' backlash, each joint once.
+    fn backlash(&self, raw: &[RawBacklash], n: usize) -> Result<Vec<Backlash>> {
+        let mut backlash: Vec<Backlash> = Vec::new();
+        for (i, b) in raw.iter().enumerate() {
+            if !b.enabled {
+                continue;
+            }
+            let key = |field: &str| format!("backlash[{}].{field}", i + 1);
+            if b.joint < 1 || b.joint > n {
+                return self.fail(&key("joint"), format!("must be a joint number 1..{n}"));
+            }
+            self.non_negative(&key("width"), &[b.width])?;
+            let side = match (b.side.as_str(), b.home, b.preload) {
+                ("approach", Some(home), None) => {
+                    self.finite(&key("home"), &[home])?;
+                    BacklashSide::Approach {
+                        home: home.to_radians(),
+                    }
+                }
+                ("torque", None, Some(preload)) => {
+                    self.finite(&key("preload"), &[preload])?;
+                    BacklashSide::Torque { preload }
+                }
+                ("approach", _, _) => {
+                    return self.fail(
+                        &key("side"),
+                        "side = \"approach\" needs `home` (deg) and no `preload`",
+                    );
+                }
+                ("torque", _, _) => {
+                    return self.fail(
+                        &key("side"),
+                        "side = \"torque\" needs `preload` (N·m) and no `home`",
+                    );
+                }
+                (other, _, _) => {
+                    return self.fail(
+                        &key("side"),
+                        format!("unknown side rule `{other}`: use \"approach\" or \"torque\""),
+                    );
+                }
+            };
+            if backlash.iter().any(|other| other.joint == b.joint - 1) {
+                return self.fail(&key("joint"), "this joint already has a backlash entry");
+            }
+            backlash.push(Backlash {
+                joint: b.joint - 1,
+                width: b.width.to_radians(),
+                side,
+            });
+        }
+        Ok(backlash)
+    }
+
+    /// The effects beyond the model's family, where enabled.
+    fn beyond(&self, raw: Option<&RawBeyond>, n: usize) -> Result<Option<Beyond>> {
+        Ok(match raw {
+            Some(b) if b.enabled => {
+                self.per_joint("beyond.tilt_stiffness", &b.tilt_stiffness, n)?;
+                self.non_negative("beyond.tilt_stiffness", &b.tilt_stiffness)?;
+                for (key, values) in [
+                    ("beyond.wobble", &b.wobble),
+                    ("beyond.wobble_phase", &b.wobble_phase),
+                    ("beyond.harmonic_3", &b.harmonic_3),
+                    ("beyond.phase_3", &b.phase_3),
+                    ("beyond.coupling", &b.coupling),
+                    ("beyond.coupling_phase", &b.coupling_phase),
+                ] {
+                    self.per_joint(key, values, n)?;
+                }
+                if b.coupling.first().is_some_and(|v| *v != 0.0) {
+                    return self.fail(
+                        "beyond.coupling",
+                        "joint 1 has no joint before it to be driven through: its value must be 0",
+                    );
+                }
+                Some(Beyond {
+                    tilt_stiffness: b.tilt_stiffness.clone(),
+                    wobble: rad(&b.wobble),
+                    wobble_phase: rad(&b.wobble_phase),
+                    harmonic_3: rad(&b.harmonic_3),
+                    phase_3: rad(&b.phase_3),
+                    coupling: rad(&b.coupling),
+                    coupling_phase: rad(&b.coupling_phase),
+                })
+            }
+            _ => None,
+        })
+    }
+
+    /// The tracker's noise and the arm's repeatability, where enabled.
+    fn noise(&self, z: &RawNoise) -> Result<Option<Noise>> {
+        Ok(if z.enabled {
+            self.non_negative("noise.tracker_base", &[z.tracker_base])?;
+            self.non_negative("noise.tracker_per_metre", &[z.tracker_per_metre])?;
+            self.non_negative("noise.repeatability", &[z.repeatability])?;
+            let probe_deg = z.probe_deg.unwrap_or(DEFAULT_PROBE_DEG);
+            self.non_negative("noise.probe_deg", &[probe_deg])?;
+            Some(Noise {
+                tracker_base: z.tracker_base,
+                tracker_per_metre: z.tracker_per_metre,
+                repeatability: z.repeatability,
+                probe_deg,
+            })
+        } else {
+            None
+        })
+    }
+
+    /// The grid of poses.
+    fn poses(&self, p: &RawPoses, n: usize) -> Result<PoseGrid> {
+        for (key, range) in [("poses.x", p.x), ("poses.y", p.y), ("poses.z", p.z)] {
+            self.finite(key, &range)?;
+            if range[0] > range[1] {
+                return self.fail(key, "the lower end must not exceed the upper end");
+            }
+        }
+        self.finite("poses.step", &[p.step])?;
+        if p.step <= 0.0 {
+            return self.fail("poses.step", "must be positive (mm)");
+        }
+        if p.count == 0 {
+            return self.fail("poses.count", "must be at least 1");
+        }
+        self.per_joint("poses.home", &p.home, n)?;
+        self.non_negative("poses.tilt", &[p.tilt])?;
+        self.non_negative("poses.spin", &[p.spin])?;
+        self.non_negative("poses.min_conditioning", &[p.min_conditioning])?;
+        Ok(PoseGrid {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            step: p.step,
+            count: p.count,
+            home: rad(&p.home),
+            tilt: p.tilt.to_radians(),
+            spin: p.spin.to_radians(),
+            min_conditioning: p.min_conditioning,
+        })
+    }
+
+    /// The loads, trained and untrained, none twice.
+    fn loads(&self, l: &RawLoads) -> Result<Loads> {
+        if l.trained.is_empty() {
+            return self.fail("loads.trained", "needs at least one load");
+        }
+        self.non_negative("loads.trained", &l.trained)?;
+        self.non_negative("loads.untrained", &l.untrained)?;
+        let loads = Loads {
+            trained: l.trained.clone(),
+            untrained: l.untrained.clone(),
+        };
+        if loads.all().windows(2).any(|w| w[0] == w[1]) {
+            return self.fail(
+                "loads",
+                "a load is listed twice (trained and untrained must be disjoint)",
+            );
+        }
+        Ok(loads)
+    }
 }
 
 fn rad(values: &[f64]) -> Vec<f64> {
@@ -416,183 +632,14 @@ impl TwinConfig {
             );
         }
         c.finite("gravity", &raw.gravity)?;
-        let m = &raw.masses;
-        c.per_joint("masses.link_mass", &m.link_mass, n)?;
-        c.non_negative("masses.link_mass", &m.link_mass)?;
-        if m.link_com.len() != n {
-            return c.fail(
-                "masses.link_com",
-                format!("needs one [x, y, z] per joint ({n})"),
-            );
-        }
-        c.finite("masses.link_com", &m.link_com.concat())?;
-        c.finite("masses.payload_com", &m.payload_com)?;
-        let masses = Masses {
-            link_mass: m.link_mass.clone(),
-            link_com: m.link_com.iter().map(|v| Vector3::from(*v)).collect(),
-            payload_com: Vector3::from(m.payload_com),
-        };
-        let compliance = if raw.compliance.enabled {
-            let r = &raw.compliance;
-            c.per_joint("compliance.stiffness", &r.stiffness, n)?;
-            if r.stiffness.iter().any(|k| *k <= 0.0) {
-                return c.fail(
-                    "compliance.stiffness",
-                    "stiffness must be positive (N·m/rad)",
-                );
-            }
-            Some(Stiffness {
-                stiffness: r.stiffness.clone(),
-            })
-        } else {
-            None
-        };
-        let gear = if raw.gear.enabled {
-            let g = &raw.gear;
-            c.per_joint("gear.amplitude_1", &g.amplitude_1, n)?;
-            c.per_joint("gear.phase_1", &g.phase_1, n)?;
-            c.per_joint("gear.amplitude_2", &g.amplitude_2, n)?;
-            c.per_joint("gear.phase_2", &g.phase_2, n)?;
-            Some(Gear {
-                amplitude_1: rad(&g.amplitude_1),
-                phase_1: rad(&g.phase_1),
-                amplitude_2: rad(&g.amplitude_2),
-                phase_2: rad(&g.phase_2),
-            })
-        } else {
-            None
-        };
-        let mut backlash: Vec<Backlash> = Vec::new();
-        for (i, b) in raw.backlash.iter().enumerate() {
-            if !b.enabled {
-                continue;
-            }
-            let key = |field: &str| format!("backlash[{}].{field}", i + 1);
-            if b.joint < 1 || b.joint > n {
-                return c.fail(&key("joint"), format!("must be a joint number 1..{n}"));
-            }
-            c.non_negative(&key("width"), &[b.width])?;
-            let side = match (b.side.as_str(), b.home, b.preload) {
-                ("approach", Some(home), None) => {
-                    c.finite(&key("home"), &[home])?;
-                    BacklashSide::Approach {
-                        home: home.to_radians(),
-                    }
-                }
-                ("torque", None, Some(preload)) => {
-                    c.finite(&key("preload"), &[preload])?;
-                    BacklashSide::Torque { preload }
-                }
-                ("approach", _, _) => {
-                    return c.fail(
-                        &key("side"),
-                        "side = \"approach\" needs `home` (deg) and no `preload`",
-                    );
-                }
-                ("torque", _, _) => {
-                    return c.fail(
-                        &key("side"),
-                        "side = \"torque\" needs `preload` (N·m) and no `home`",
-                    );
-                }
-                (other, _, _) => {
-                    return c.fail(
-                        &key("side"),
-                        format!("unknown side rule `{other}`: use \"approach\" or \"torque\""),
-                    );
-                }
-            };
-            if backlash.iter().any(|other| other.joint == b.joint - 1) {
-                return c.fail(&key("joint"), "this joint already has a backlash entry");
-            }
-            backlash.push(Backlash {
-                joint: b.joint - 1,
-                width: b.width.to_radians(),
-                side,
-            });
-        }
-        let beyond = match &raw.beyond {
-            Some(b) if b.enabled => {
-                c.per_joint("beyond.tilt_stiffness", &b.tilt_stiffness, n)?;
-                c.non_negative("beyond.tilt_stiffness", &b.tilt_stiffness)?;
-                for (key, values) in [
-                    ("beyond.wobble", &b.wobble),
-                    ("beyond.wobble_phase", &b.wobble_phase),
-                    ("beyond.harmonic_3", &b.harmonic_3),
-                    ("beyond.phase_3", &b.phase_3),
-                    ("beyond.coupling", &b.coupling),
-                    ("beyond.coupling_phase", &b.coupling_phase),
-                ] {
-                    c.per_joint(key, values, n)?;
-                }
-                if b.coupling.first().is_some_and(|v| *v != 0.0) {
-                    return c.fail(
-                        "beyond.coupling",
-                        "joint 1 has no joint before it to be driven through: its value must be 0",
-                    );
-                }
-                Some(Beyond {
-                    tilt_stiffness: b.tilt_stiffness.clone(),
-                    wobble: rad(&b.wobble),
-                    wobble_phase: rad(&b.wobble_phase),
-                    harmonic_3: rad(&b.harmonic_3),
-                    phase_3: rad(&b.phase_3),
-                    coupling: rad(&b.coupling),
-                    coupling_phase: rad(&b.coupling_phase),
-                })
-            }
-            _ => None,
-        };
-        let noise = if raw.noise.enabled {
-            let z = &raw.noise;
-            c.non_negative("noise.tracker_base", &[z.tracker_base])?;
-            c.non_negative("noise.tracker_per_metre", &[z.tracker_per_metre])?;
-            c.non_negative("noise.repeatability", &[z.repeatability])?;
-            let probe_deg = z.probe_deg.unwrap_or(DEFAULT_PROBE_DEG);
-            c.non_negative("noise.probe_deg", &[probe_deg])?;
-            Some(Noise {
-                tracker_base: z.tracker_base,
-                tracker_per_metre: z.tracker_per_metre,
-                repeatability: z.repeatability,
-                probe_deg,
-            })
-        } else {
-            None
-        };
-        let p = &raw.poses;
-        for (key, range) in [("poses.x", p.x), ("poses.y", p.y), ("poses.z", p.z)] {
-            c.finite(key, &range)?;
-            if range[0] > range[1] {
-                return c.fail(key, "the lower end must not exceed the upper end");
-            }
-        }
-        c.finite("poses.step", &[p.step])?;
-        if p.step <= 0.0 {
-            return c.fail("poses.step", "must be positive (mm)");
-        }
-        if p.count == 0 {
-            return c.fail("poses.count", "must be at least 1");
-        }
-        c.per_joint("poses.home", &p.home, n)?;
-        c.non_negative("poses.tilt", &[p.tilt])?;
-        c.non_negative("poses.spin", &[p.spin])?;
-        c.non_negative("poses.min_conditioning", &[p.min_conditioning])?;
-        let l = &raw.loads;
-        if l.trained.is_empty() {
-            return c.fail("loads.trained", "needs at least one load");
-        }
-        c.non_negative("loads.trained", &l.trained)?;
-        c.non_negative("loads.untrained", &l.untrained)?;
-        let loads = Loads {
-            trained: l.trained.clone(),
-            untrained: l.untrained.clone(),
-        };
-        if loads.all().windows(2).any(|w| w[0] == w[1]) {
-            return c.fail(
-                "loads",
-                "a load is listed twice (trained and untrained must be disjoint)",
-            );
-        }
+        let masses = c.masses(&raw.masses, n)?;
+        let compliance = c.compliance(&raw.compliance, n)?;
+        let gear = c.gear(&raw.gear, n)?;
+        let backlash = c.backlash(&raw.backlash, n)?;
+        let beyond = c.beyond(raw.beyond.as_ref(), n)?;
+        let noise = c.noise(&raw.noise)?;
+        let poses = c.poses(&raw.poses, n)?;
+        let loads = c.loads(&raw.loads)?;
         Ok(Self {
             name: raw.name.clone(),
             seed: raw.seed,
@@ -607,17 +654,7 @@ impl TwinConfig {
             backlash,
             beyond,
             noise,
-            poses: PoseGrid {
-                x: p.x,
-                y: p.y,
-                z: p.z,
-                step: p.step,
-                count: p.count,
-                home: rad(&p.home),
-                tilt: p.tilt.to_radians(),
-                spin: p.spin.to_radians(),
-                min_conditioning: p.min_conditioning,
-            },
+            poses,
             loads,
         })
     }
