@@ -310,33 +310,7 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
         let record = record.map_err(malformed)?;
         let line = record.position().map_or(0, |p| lines.line_of(p.byte()));
         let field = |i: usize| record.get(i).unwrap_or("");
-        let number = |i: usize| -> Result<f64> {
-            let column = cols.names[i].clone();
-            let text = field(i);
-            if text.is_empty() {
-                return Err(DataError::EmptyValue {
-                    path: path.to_path_buf(),
-                    line,
-                    column,
-                });
-            }
-            let value: f64 = text.parse().map_err(|_| DataError::NotANumber {
-                path: path.to_path_buf(),
-                line,
-                column: column.clone(),
-                value: text.to_string(),
-            })?;
-            if value.is_finite() {
-                Ok(value)
-            } else {
-                Err(DataError::NonFinite {
-                    path: path.to_path_buf(),
-                    line,
-                    column,
-                    value: text.to_string(),
-                })
-            }
-        };
+        let number = |i: usize| cell_number(path, line, &cols.names[i], field(i));
         let pose = field(cols.id).to_string();
         if pose.is_empty() {
             return Err(DataError::EmptyValue {
@@ -425,6 +399,34 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
         });
     }
     Ok((rows, orientation))
+}
+
+/// The number in the cell of `column` on line `line` of `path`, whose text is `text`: refused,
+/// named, when empty, not a number, or not finite.
+fn cell_number(path: &Path, line: u64, column: &str, text: &str) -> Result<f64> {
+    if text.is_empty() {
+        return Err(DataError::EmptyValue {
+            path: path.to_path_buf(),
+            line,
+            column: column.to_string(),
+        });
+    }
+    let value: f64 = text.parse().map_err(|_| DataError::NotANumber {
+        path: path.to_path_buf(),
+        line,
+        column: column.to_string(),
+        value: text.to_string(),
+    })?;
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(DataError::NonFinite {
+            path: path.to_path_buf(),
+            line,
+            column: column.to_string(),
+            value: text.to_string(),
+        })
+    }
 }
 
 impl MeasurementSet {

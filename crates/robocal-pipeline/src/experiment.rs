@@ -284,6 +284,50 @@ impl RawExperiment {
                 ));
             }
         };
+        let design = self.split_design(path, &data)?;
+        if self.models.is_empty() {
+            return Err(key(
+                path,
+                "model",
+                "lists no model; add at least one [[model]] with a name",
+            ));
+        }
+        let models = self.model_plans(path, seed)?;
+        let is_somm = |m: &ModelPlan| {
+            m.stages.residual.as_ref().map(|r| r.settings.kind) == Some(ResidualKind::Somm)
+        };
+        let table5 = match self.tables.as_ref().and_then(|t| t.table5.as_ref()) {
+            Some(name) => Some(models.iter().position(|m| &m.name == name).ok_or_else(|| {
+                key(
+                    path,
+                    "tables.table5",
+                    format!("no [[model]] is named `{name}`"),
+                )
+            })?),
+            None => models
+                .iter()
+                .position(|m| is_somm(m) && m.stages.kinematic.solver == SolverKind::Bfgs)
+                .or_else(|| models.iter().position(is_somm)),
+        };
+        Ok(Experiment {
+            source: path.to_path_buf(),
+            name: self.name.clone(),
+            description: self.description.clone(),
+            seed,
+            output: self
+                .output
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("reports")),
+            data,
+            split: design,
+            models,
+            table5,
+        })
+    }
+
+    /// The split's design, checked (`data`: where the rows come from; without a twin the
+    /// untrained loads must be listed).
+    fn split_design(&self, path: &Path, data: &DataSource) -> Result<SplitDesign> {
         let split = self.split.clone().unwrap_or_default();
         if data.twin().is_none() && split.untrained_loads.is_none() {
             return Err(key(
@@ -326,13 +370,11 @@ impl RawExperiment {
                 "must be a finite load, not negative (kg)",
             ));
         }
-        if self.models.is_empty() {
-            return Err(key(
-                path,
-                "model",
-                "lists no model; add at least one [[model]] with a name",
-            ));
-        }
+        Ok(design)
+    }
+
+    /// Each `[[model]]`'s stages, validated (named once each, residuals in the world frame).
+    fn model_plans(&self, path: &Path, seed: u64) -> Result<Vec<ModelPlan>> {
         let mut models: Vec<ModelPlan> = Vec::new();
         for (i, m) in self.models.iter().enumerate() {
             let at = format!("model[{}]", i + 1);
@@ -374,36 +416,7 @@ impl RawExperiment {
                 stages,
             });
         }
-        let is_somm = |m: &ModelPlan| {
-            m.stages.residual.as_ref().map(|r| r.settings.kind) == Some(ResidualKind::Somm)
-        };
-        let table5 = match self.tables.as_ref().and_then(|t| t.table5.as_ref()) {
-            Some(name) => Some(models.iter().position(|m| &m.name == name).ok_or_else(|| {
-                key(
-                    path,
-                    "tables.table5",
-                    format!("no [[model]] is named `{name}`"),
-                )
-            })?),
-            None => models
-                .iter()
-                .position(|m| is_somm(m) && m.stages.kinematic.solver == SolverKind::Bfgs)
-                .or_else(|| models.iter().position(is_somm)),
-        };
-        Ok(Experiment {
-            source: path.to_path_buf(),
-            name: self.name.clone(),
-            description: self.description.clone(),
-            seed,
-            output: self
-                .output
-                .clone()
-                .unwrap_or_else(|| PathBuf::from("reports")),
-            data,
-            split: design,
-            models,
-            table5,
-        })
+        Ok(models)
     }
 }
 

@@ -151,175 +151,15 @@ impl ResidualModel {
     /// Reads a model written by [`Self::save`] from `dir`.
     pub fn load(dir: &Path) -> Result<Self> {
         let path = dir.join(MANIFEST);
-        let text = std::fs::read_to_string(&path).map_err(|source| ResidualError::Io {
-            path: path.clone(),
-            source,
-        })?;
         let format = |message: String| ResidualError::Format {
             path: path.clone(),
             message,
         };
-        let version: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| format(e.to_string()))?;
-        match version
-            .get("residual_format")
-            .and_then(serde_json::Value::as_u64)
-        {
-            Some(v) if v == u64::from(RESIDUAL_FORMAT) => {}
-            Some(v) => {
-                return Err(format(format!(
-                    "residual_format {v}: this robocal reads format {RESIDUAL_FORMAT}"
-                )));
-            }
-            None => return Err(format("no residual_format field".into())),
-        }
-        let m: Manifest = serde_json::from_value(version).map_err(|e| format(e.to_string()))?;
-        if !(1..=MAX_MEMBERS).contains(&m.members)
-            || (m.members > 1 && m.kind != ResidualKind::Somm)
-        {
-            return Err(format(format!(
-                "members {}: a somm averages 1 to {MAX_MEMBERS} sets of networks, every other model has one",
-                m.members
-            )));
-        }
-        let expected = match m.kind {
-            ResidualKind::Somm => 3 * m.members,
-            ResidualKind::Mosm => 1,
-            ResidualKind::CaSomm => 6,
-            ResidualKind::Gp => 0,
-        };
-        if (m.kind == ResidualKind::Gp) != m.gp.is_some() {
-            return Err(format(format!(
-                "a {} model {} a `gp` section",
-                m.kind.name(),
-                if m.kind == ResidualKind::Gp {
-                    "needs"
-                } else {
-                    "has no"
-                }
-            )));
-        }
-        if m.nets.len() != expected || (m.kind == ResidualKind::CaSomm) != m.classifier.is_some() {
-            return Err(format(format!(
-                "a {} model has {expected} networks{}",
-                m.kind.name(),
-                if m.kind == ResidualKind::CaSomm {
-                    " and a classifier"
-                } else {
-                    ""
-                }
-            )));
-        }
+        let m = read_manifest(&path)?;
+        check_manifest(&m).map_err(format)?;
         let features = m.encoding.features(m.inputs);
-        if let Some(c) = &m.classifier {
-            c.check(c.inputs.features(m.encoding, m.inputs))
-                .map_err(format)?;
-        }
-        if let Some(gp) = &m.gp {
-            gp.check(features).map_err(format)?;
-        }
-        if let Some(spread) = m.spread_mm {
-            if !(spread.is_finite() && spread >= 0.0) {
-                return Err(format(format!(
-                    "spread_mm {spread}: must be finite and not negative (mm)"
-                )));
-            }
-            if m.kind.gives_std() {
-                return Err(format(
-                    "spread_mm: a GP gives its own standard deviation (gp.std_scale), not a spread beside the physics'".into(),
-                ));
-            }
-        }
-        if let Some(class) = m.empty_class {
-            if !matches!(class, 'A' | 'B') {
-                return Err(format(format!(
-                    "empty_class {class:?}: must be \"A\" or \"B\" (the CA-SOMM class its gate left empty)"
-                )));
-            }
-            if m.kind != ResidualKind::Somm {
-                return Err(format(format!(
-                    "empty_class {class:?}: only a CA-SOMM that fell back to one SOMM (kind \"somm\") has one, not a {} model",
-                    m.kind.name()
-                )));
-            }
-        }
-        let device = Device::flex();
-        let mut nets = Vec::new();
-        if m.inputs == 0 || m.inputs > MAX_INPUTS {
-            return Err(format(format!(
-                "inputs {}: a residual model takes 1 to {MAX_INPUTS} inputs",
-                m.inputs
-            )));
-        }
-        for (i, e) in m.nets.into_iter().enumerate() {
-            if let Err(e) = e.settings.check() {
-                let Invalid { key, message } = e.within(&format!("nets[{i}].settings"));
-                return Err(format(format!("{key}: {message}")));
-            }
-            // The network file sits beside the manifest: a bare file name, nothing else.
-            if std::path::Path::new(&e.file).file_name() != Some(std::ffi::OsStr::new(&e.file)) {
-                return Err(format(format!(
-                    "nets[{i}].file {:?}: must be a file name in the model directory",
-                    e.file
-                )));
-            }
-            if !e.input_scale.fits(features)
-                || !e.output_scale.fits(e.axes.len())
-                || e.axes.is_empty()
-                || e.axes.iter().any(|a| *a > 2)
-            {
-                return Err(format(format!(
-                    "{}: scaling does not fit the network",
-                    e.file
-                )));
-            }
-            let file = dir.join(&e.file);
-            let net = Mlp::new(
-                features,
-                &e.settings.hidden,
-                e.axes.len(),
-                e.settings.activation,
-                &device,
-            )
-            .try_load_file(&file)
-            .map_err(|err| ResidualError::Format {
-                path: file.clone(),
-                message: format!("cannot read the network: {err}"),
-            })?;
-            nets.push(AxisNet {
-                axes: e.axes,
-                settings: e.settings,
-                input_scale: e.input_scale,
-                output_scale: e.output_scale,
-                report: e.report,
-                dense: net.dense(),
-                net,
-            });
-        }
-        let shape = || format(format!("a {} model has other networks", m.kind.name()));
-        let three = |v: Vec<AxisNet>| -> Result<[AxisNet; 3]> { v.try_into().map_err(|_| shape()) };
-        let fitted = match (m.kind, m.classifier, m.gp) {
-            (ResidualKind::Somm, _, _) => {
-                let mut members = Vec::new();
-                while !nets.is_empty() {
-                    let rest = nets.split_off(3.min(nets.len()));
-                    members.push(three(std::mem::replace(&mut nets, rest))?);
-                }
-                Fitted::Somm(Somm { members })
-            }
-            (ResidualKind::Mosm, _, _) => Fitted::Mosm(Mosm {
-                net: nets.pop().ok_or_else(shape)?,
-            }),
-            (ResidualKind::CaSomm, Some(classifier), _) => {
-                let b = nets.split_off(3.min(nets.len()));
-                Fitted::CaSomm(CaSomm {
-                    classifier,
-                    sets: [Somm::single(three(nets)?), Somm::single(three(b)?)],
-                })
-            }
-            (ResidualKind::Gp, _, Some(gp)) => Fitted::Gp(gp),
-            _ => return Err(shape()),
-        };
+        let nets = load_nets(dir, m.nets, features, &format)?;
+        let fitted = assemble(m.kind, m.classifier, m.gp, nets).map_err(format)?;
         Ok(Self {
             inputs: m.inputs,
             encoding: m.encoding,
@@ -331,4 +171,205 @@ impl ResidualModel {
             spread_mm: m.spread_mm,
         })
     }
+}
+
+/// The manifest at `path`, in the format this robocal reads.
+fn read_manifest(path: &Path) -> Result<Manifest> {
+    let text = std::fs::read_to_string(path).map_err(|source| ResidualError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let format = |message: String| ResidualError::Format {
+        path: path.to_path_buf(),
+        message,
+    };
+    let version: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format(e.to_string()))?;
+    match version
+        .get("residual_format")
+        .and_then(serde_json::Value::as_u64)
+    {
+        Some(v) if v == u64::from(RESIDUAL_FORMAT) => {}
+        Some(v) => {
+            return Err(format(format!(
+                "residual_format {v}: this robocal reads format {RESIDUAL_FORMAT}"
+            )));
+        }
+        None => return Err(format("no residual_format field".into())),
+    }
+    serde_json::from_value(version).map_err(|e| format(e.to_string()))
+}
+
+/// Whether the manifest's parts fit its kind — its members, networks, classifier, GP, spread,
+/// empty class and inputs —; why not, in words.
+fn check_manifest(m: &Manifest) -> std::result::Result<(), String> {
+    let format = |message: String| message;
+    if !(1..=MAX_MEMBERS).contains(&m.members) || (m.members > 1 && m.kind != ResidualKind::Somm) {
+        return Err(format(format!(
+            "members {}: a somm averages 1 to {MAX_MEMBERS} sets of networks, every other model has one",
+            m.members
+        )));
+    }
+    let expected = match m.kind {
+        ResidualKind::Somm => 3 * m.members,
+        ResidualKind::Mosm => 1,
+        ResidualKind::CaSomm => 6,
+        ResidualKind::Gp => 0,
+    };
+    if (m.kind == ResidualKind::Gp) != m.gp.is_some() {
+        return Err(format(format!(
+            "a {} model {} a `gp` section",
+            m.kind.name(),
+            if m.kind == ResidualKind::Gp {
+                "needs"
+            } else {
+                "has no"
+            }
+        )));
+    }
+    if m.nets.len() != expected || (m.kind == ResidualKind::CaSomm) != m.classifier.is_some() {
+        return Err(format(format!(
+            "a {} model has {expected} networks{}",
+            m.kind.name(),
+            if m.kind == ResidualKind::CaSomm {
+                " and a classifier"
+            } else {
+                ""
+            }
+        )));
+    }
+    let features = m.encoding.features(m.inputs);
+    if let Some(c) = &m.classifier {
+        c.check(c.inputs.features(m.encoding, m.inputs))
+            .map_err(format)?;
+    }
+    if let Some(gp) = &m.gp {
+        gp.check(features).map_err(format)?;
+    }
+    if let Some(spread) = m.spread_mm {
+        if !(spread.is_finite() && spread >= 0.0) {
+            return Err(format(format!(
+                "spread_mm {spread}: must be finite and not negative (mm)"
+            )));
+        }
+        if m.kind.gives_std() {
+            return Err(format(
+                "spread_mm: a GP gives its own standard deviation (gp.std_scale), not a spread beside the physics'".into(),
+            ));
+        }
+    }
+    if let Some(class) = m.empty_class {
+        if !matches!(class, 'A' | 'B') {
+            return Err(format(format!(
+                "empty_class {class:?}: must be \"A\" or \"B\" (the CA-SOMM class its gate left empty)"
+            )));
+        }
+        if m.kind != ResidualKind::Somm {
+            return Err(format(format!(
+                "empty_class {class:?}: only a CA-SOMM that fell back to one SOMM (kind \"somm\") has one, not a {} model",
+                m.kind.name()
+            )));
+        }
+    }
+    if m.inputs == 0 || m.inputs > MAX_INPUTS {
+        return Err(format(format!(
+            "inputs {}: a residual model takes 1 to {MAX_INPUTS} inputs",
+            m.inputs
+        )));
+    }
+    Ok(())
+}
+
+/// The networks the manifest lists (`entries`), each read from its file in `dir` for
+/// `features` inputs; `format` makes a fault of the manifest an error naming it.
+fn load_nets(
+    dir: &Path,
+    entries: Vec<NetEntry>,
+    features: usize,
+    format: &dyn Fn(String) -> ResidualError,
+) -> Result<Vec<AxisNet>> {
+    let device = Device::flex();
+    let mut nets = Vec::new();
+    for (i, e) in entries.into_iter().enumerate() {
+        if let Err(e) = e.settings.check() {
+            let Invalid { key, message } = e.within(&format!("nets[{i}].settings"));
+            return Err(format(format!("{key}: {message}")));
+        }
+        // The network file sits beside the manifest: a bare file name, nothing else.
+        if std::path::Path::new(&e.file).file_name() != Some(std::ffi::OsStr::new(&e.file)) {
+            return Err(format(format!(
+                "nets[{i}].file {:?}: must be a file name in the model directory",
+                e.file
+            )));
+        }
+        if !e.input_scale.fits(features)
+            || !e.output_scale.fits(e.axes.len())
+            || e.axes.is_empty()
+            || e.axes.iter().any(|a| *a > 2)
+        {
+            return Err(format(format!(
+                "{}: scaling does not fit the network",
+                e.file
+            )));
+        }
+        let file = dir.join(&e.file);
+        let net = Mlp::new(
+            features,
+            &e.settings.hidden,
+            e.axes.len(),
+            e.settings.activation,
+            &device,
+        )
+        .try_load_file(&file)
+        .map_err(|err| ResidualError::Format {
+            path: file.clone(),
+            message: format!("cannot read the network: {err}"),
+        })?;
+        nets.push(AxisNet {
+            axes: e.axes,
+            settings: e.settings,
+            input_scale: e.input_scale,
+            output_scale: e.output_scale,
+            report: e.report,
+            dense: net.dense(),
+            net,
+        });
+    }
+    Ok(nets)
+}
+
+/// The fitted model of `kind` from its networks, classifier and GP; why they do not make one,
+/// in words.
+fn assemble(
+    kind: ResidualKind,
+    classifier: Option<Classifier>,
+    gp: Option<GpResidual>,
+    mut nets: Vec<AxisNet>,
+) -> std::result::Result<Fitted, String> {
+    let shape = || format!("a {} model has other networks", kind.name());
+    let three = |v: Vec<AxisNet>| -> std::result::Result<[AxisNet; 3], String> {
+        v.try_into().map_err(|_| shape())
+    };
+    Ok(match (kind, classifier, gp) {
+        (ResidualKind::Somm, _, _) => {
+            let mut members = Vec::new();
+            while !nets.is_empty() {
+                let rest = nets.split_off(3.min(nets.len()));
+                members.push(three(std::mem::replace(&mut nets, rest))?);
+            }
+            Fitted::Somm(Somm { members })
+        }
+        (ResidualKind::Mosm, _, _) => Fitted::Mosm(Mosm {
+            net: nets.pop().ok_or_else(shape)?,
+        }),
+        (ResidualKind::CaSomm, Some(classifier), _) => {
+            let b = nets.split_off(3.min(nets.len()));
+            Fitted::CaSomm(CaSomm {
+                classifier,
+                sets: [Somm::single(three(nets)?), Somm::single(three(b)?)],
+            })
+        }
+        (ResidualKind::Gp, _, Some(gp)) => Fitted::Gp(gp),
+        _ => return Err(shape()),
+    })
 }

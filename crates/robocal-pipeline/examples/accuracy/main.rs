@@ -29,8 +29,7 @@
 //! `robot.toml`, `train.csv`, `test.csv`, and `truth.csv` with the test rows' noise-free points),
 //! for the outside pipeline of `scripts/peer/lm_mlp.py`.
 
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+mod cases;
 
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -44,228 +43,11 @@ use robocal_data::{ErrorStats, Measurement, MeasurementSet, Observer, Silent};
 use robocal_ident::{ComplianceSettings, JointErrorSettings, KinematicSettings};
 use robocal_pipeline::CalibratedModel;
 use robocal_residual::{ResidualKind, ResidualSettings, ResidualStage};
-use robocal_robot::{JointField, ParamId};
 use robocal_twin::TwinConfig;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-/// The twins: name, file.
-const ARMS: [(&str, &str); 14] = [
-    ("pmc6va030", "configs/twin/pmc6va030.toml"),
-    ("arm7", "configs/twin/arm7.toml"),
-    ("arm5", "configs/twin/arm5.toml"),
-    ("arm5w", "configs/twin/arm5w.toml"),
-    ("arm5t", "configs/twin/arm5t.toml"),
-    ("arm6s", "configs/twin/arm6s.toml"),
-    ("arm6h", "configs/twin/arm6h.toml"),
-    ("arm6c", "configs/twin/arm6c.toml"),
-    ("arm6m", "configs/twin/arm6m.toml"),
-    ("arm6n", "configs/twin/arm6n.toml"),
-    ("arm6u", "configs/twin/arm6u.toml"),
-    ("arm6k", "configs/twin/arm6k.toml"),
-    ("arm6w", "configs/twin/arm6w.toml"),
-    ("arm6t", "configs/twin/arm6t.toml"),
-];
-/// Families kept aside: never run while tuning, only to report a change once it is decided.
-const ASIDE: [&str; 9] = [
-    "arm6s", "arm6h", "arm6c", "arm6m", "arm6n", "arm6u", "arm6k", "arm6w", "arm6t",
-];
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// A member of a twin family: the file's twin with its truth, masses, stiffnesses and gear
-/// errors drawn again around the file's values (seed 0 is the file's twin itself).
-fn member(base: &TwinConfig, seed: u64) -> TwinConfig {
-    let mut twin = base.clone();
-    if seed == 0 {
-        return twin;
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut gauss = |s: f64| -> f64 {
-        // Box–Muller from two uniforms.
-        let (u, v): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
-        s * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    };
-    for id in twin.nominal.param_ids() {
-        let sd = match id {
-            ParamId::Joint {
-                field: JointField::A | JointField::D,
-                ..
-            } => 0.3,
-            ParamId::Joint { .. } => 0.04f64.to_radians(),
-            _ => continue,
-        };
-        let v = twin.nominal.param(id) + gauss(sd);
-        // The nominal table has every parameter the truth has.
-        let _ = twin.truth.set_param(id, v);
-    }
-    for m in &mut twin.masses.link_mass {
-        *m *= 1.0 + 0.15 * gauss(1.0).clamp(-2.0, 2.0);
-    }
-    if let Some(c) = &mut twin.compliance {
-        for k in &mut c.stiffness {
-            *k *= (0.25 * gauss(1.0)).exp();
-        }
-    }
-    if let Some(g) = &mut twin.gear {
-        for a in g.amplitude_1.iter_mut().chain(g.amplitude_2.iter_mut()) {
-            *a *= (0.3 * gauss(1.0)).exp();
-        }
-        for p in g.phase_1.iter_mut().chain(g.phase_2.iter_mut()) {
-            *p += gauss(1.0);
-        }
-    }
-    twin.seed = twin.seed.wrapping_add(seed.wrapping_mul(7919));
-    twin
-}
-
-/// Which of the twin's effects are on.
-#[derive(Clone, Copy, PartialEq)]
-enum Effects {
-    /// Everything the file has.
-    All,
-    /// Geometry, joint compliance under the payload and noise: what the physical model holds.
-    Modelled,
-    /// Everything the file has and effects beyond robocal's model family ([`beyond`]): what a
-    /// real arm holds besides, for the learned residual models.
-    Beyond,
-}
-
-impl Effects {
-    const EVERY: [Self; 3] = [Self::All, Self::Modelled, Self::Beyond];
-
-    /// The table's words.
-    fn label(self) -> &'static str {
-        match self {
-            Self::All => "all",
-            Self::Modelled => "modelled only",
-            Self::Beyond => "beyond the model",
-        }
-    }
-
-    /// The exported case's word (and `--effects`'s).
-    fn key(self) -> &'static str {
-        match self {
-            Self::All => "all",
-            Self::Modelled => "modelled",
-            Self::Beyond => "beyond",
-        }
-    }
-}
-
-/// Effects beyond robocal's model family for a twin without a `[beyond]` section, sized from
-/// the twin's own numbers (robocal's invention, not a real robot's): each bearing's tilting
-/// stiffness 5× its joint's torsional stiffness (reducer catalogues give 10–30×: this tilts more
-/// than most), axis runout at twice the joint angle of a quarter of the joint's first gear
-/// harmonic, a third gear harmonic of 0.4× its second, and the wrist's last two joints' gears
-/// driven through the joint before them at half their first harmonic; every phase drawn from
-/// the twin's seed and the member's.
-///
-/// `scale` multiplies every one of them (the tilts' compliance, the runout, the third harmonic,
-/// the coupled error): `--beyond-scale K`, for arms where what the physics lacks is most of what
-/// the kinematic table leaves (as on real arms where a network on the joints halves it).
-fn beyond(twin: &TwinConfig, seed: u64, scale: f64) -> robocal_twin::Beyond {
-    let n = twin.truth.dof();
-    let mut rng = ChaCha8Rng::seed_from_u64(twin.seed ^ seed.wrapping_mul(0xBE70));
-    let mut phases = || -> Vec<f64> {
-        (0..n)
-            .map(|_| rng.random_range(-std::f64::consts::PI..std::f64::consts::PI))
-            .collect()
-    };
-    let (a1, a2) = twin.gear.as_ref().map_or_else(
-        || (vec![0.0; n], vec![0.0; n]),
-        |g| (g.amplitude_1.clone(), g.amplitude_2.clone()),
-    );
-    robocal_twin::Beyond {
-        tilt_stiffness: twin.compliance.as_ref().map_or(vec![0.0; n], |c| {
-            c.stiffness.iter().map(|k| 5.0 * k / scale).collect()
-        }),
-        wobble: a1.iter().map(|a| 0.25 * a * scale).collect(),
-        wobble_phase: phases(),
-        harmonic_3: a2.iter().map(|a| 0.4 * a * scale).collect(),
-        phase_3: phases(),
-        coupling: (0..n)
-            .map(|i| {
-                if i + 2 >= n && i > 0 {
-                    0.5 * a1[i] * scale
-                } else {
-                    0.0
-                }
-            })
-            .collect(),
-        coupling_phase: phases(),
-    }
-}
-
-/// Test rows: a random quarter of the configurations, or the quarter with the highest joint-1
-/// reading (the test poses lie outside the trained range of joint 1), or — on the twin's poses
-/// laid around its base ([`ring`]) — every configuration outside a 90° window of joint 1.
-#[derive(Clone, Copy, PartialEq)]
-enum Split {
-    Configurations,
-    Extrapolation,
-    /// Trained on the configurations whose joint 1 lies within [`WINDOW`], tested on every
-    /// other: up to 150° beyond the readings on one side and 120° on the other.
-    Window,
-}
-
-/// The joint-1 readings (deg) the window split trains on.
-const WINDOW: [f64; 2] = [-60.0, 30.0];
-
-/// The twin with its pose grid laid all around its base (x and y each over ± the grid's largest
-/// reach along them) and three times its configurations (at most 300), for the window split:
-/// joint 1 then spans its whole turn.
-fn ring(twin: &TwinConfig) -> TwinConfig {
-    let mut ringed = twin.clone();
-    ringed.poses = twin.poses.around_base((3 * twin.poses.count).min(300));
-    ringed
-}
-
-fn split<'a>(
-    rows: &[&'a Measurement],
-    how: Split,
-    seed: u64,
-) -> (Vec<&'a Measurement>, Vec<&'a Measurement>) {
-    let mut poses: Vec<(&str, f64)> = rows
-        .iter()
-        .map(|r| (r.sample.pose.as_str(), r.sample.joints[0]))
-        .collect();
-    poses.sort_by(|a, b| a.0.cmp(b.0));
-    poses.dedup_by(|a, b| a.0 == b.0);
-    match how {
-        Split::Configurations => {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xACC);
-            for i in (1..poses.len()).rev() {
-                let j = rng.random_range(0..=i);
-                poses.swap(i, j);
-            }
-        }
-        Split::Extrapolation => poses.sort_by(|a, b| b.1.total_cmp(&a.1)),
-        Split::Window => {
-            let [lo, hi] = WINDOW;
-            let test: std::collections::HashSet<&str> = (poses.iter())
-                .filter(|p| !(lo..=hi).contains(&p.1))
-                .map(|p| p.0)
-                .collect();
-            return rows
-                .iter()
-                .partition(|r| !test.contains(r.sample.pose.as_str()));
-        }
-    }
-    let test: std::collections::HashSet<&str> =
-        poses[..poses.len() / 4].iter().map(|p| p.0).collect();
-    rows.iter()
-        .partition(|r| !test.contains(r.sample.pose.as_str()))
-}
-
-/// The twin's noise-free point of every measured row: (pose, load bits) → point.
-fn truth_of(
-    data: &robocal_twin::TwinDataset,
-) -> std::collections::HashMap<(String, u64), Vector3<f64>> {
-    (data.truth.rows.iter())
-        .map(|r| ((r.sample.pose.clone(), r.sample.load.to_bits()), r.position))
-        .collect()
-}
+use cases::{ARMS, ASIDE, Effects, Split, case_twin, member, ring, root, split, truth_of};
 
 /// Mean error of `model` against the noise-free points of `test` (`truth`: pose/load → point).
 fn versus_truth(
@@ -452,69 +234,23 @@ fn marked_section(page: &str, section: &str, text: &str) -> Option<String> {
 }
 
 fn suite() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let value = |flag: &str| {
-        args.iter()
-            .position(|a| a == flag)
-            .and_then(|i| args.get(i + 1).cloned())
-    };
-    let seeds: u64 = number(&args, "--seeds")?.unwrap_or(2);
-    let aside = args.iter().any(|a| a == "--aside");
-    let compensation = !args.iter().any(|a| a == "--no-compensation");
-    let verbose = args.iter().any(|a| a == "--verbose");
-    // Residual models side by side on the identified physics, instead of the default.
-    let networks = args.iter().any(|a| a == "--networks");
-    // With `--networks`: on the default's fullest physical candidate (backlash, the links'
-    // weights) instead of compliance + harmonics + per-joint self-weight.
-    let full_physics = value("--physics").is_some_and(|p| p == "full");
-    // The default's time budget, s (`--budget`; robocal's default otherwise).
-    let budget_seconds: f64 = number(&args, "--budget")?.unwrap_or(DEFAULT_BUDGET_SECONDS);
-    // Every case's files for an outside pipeline (scripts/peer), instead of the table.
-    let export = value("--export").map(PathBuf::from);
-    // More configurations than the twin file's (`--poses N`): a larger member of each family,
-    // its grid made finer by the cube root of the ratio so that enough points are measurable.
-    let poses: Option<usize> = number(&args, "--poses")?;
-    // The effects beyond the model made K times as large (`--beyond-scale K`; 1 otherwise).
-    let beyond_scale: f64 = number(&args, "--beyond-scale")?.unwrap_or(1.0);
-    if !(beyond_scale > 0.0 && beyond_scale.is_finite()) {
-        return Err(format!("--beyond-scale: {beyond_scale} is not a positive number").into());
-    }
-    // Which effect sets (`--effects all,modelled,beyond`; default every one).
-    let effect_sets: Vec<Effects> = match value("--effects") {
-        Some(list) => list
-            .split(',')
-            .map(|k| {
-                (Effects::EVERY.into_iter().find(|e| e.key() == k))
-                    .ok_or_else(|| format!("--effects: unknown effect set `{k}`"))
-            })
-            .collect::<Result<_, _>>()?,
-        None => Effects::EVERY.to_vec(),
-    };
-    // Which splits (`--splits configurations,q1,window`; default the first two).
-    let splits: Vec<Split> = match value("--splits") {
-        Some(list) => list
-            .split(',')
-            .map(|k| match k {
-                "configurations" => Ok(Split::Configurations),
-                "q1" => Ok(Split::Extrapolation),
-                "window" => Ok(Split::Window),
-                _ => Err(format!(
-                    "--splits: unknown split `{k}` (configurations, q1, window)"
-                )),
-            })
-            .collect::<Result<_, _>>()?,
-        None => vec![Split::Configurations, Split::Extrapolation],
-    };
+    let SuiteArgs {
+        seeds,
+        compensation,
+        verbose,
+        networks,
+        full_physics,
+        budget_seconds,
+        export,
+        poses,
+        beyond_scale,
+        effect_sets,
+        splits,
+        arms,
+        outliers,
+    } = suite_args()?;
     let mut landings: Vec<(String, u64, Effects, Landing)> = Vec::new();
-    let arms: Vec<String> = match value("--arms") {
-        Some(list) => list.split(',').map(str::to_string).collect(),
-        None => ARMS
-            .iter()
-            .map(|a| a.0.to_string())
-            .filter(|a| aside || !ASIDE.contains(&a.as_str()))
-            .collect(),
-    };
-    if args.iter().any(|a| a == "--outliers") {
+    if outliers {
         return bad_shots(&arms, seeds);
     }
     if networks {
@@ -532,27 +268,7 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
         let base = TwinConfig::load(root().join(file))?;
         for seed in 0..seeds {
             for &effects in &effect_sets {
-                let mut twin = member(&base, seed);
-                if let Some(count) = poses {
-                    let ratio = count as f64 / twin.poses.count as f64;
-                    if ratio > 1.0 {
-                        twin.poses.step /= ratio.cbrt();
-                    }
-                    twin.poses.count = count;
-                }
-                match effects {
-                    Effects::All => twin.beyond = None,
-                    Effects::Modelled => {
-                        twin.gear = None;
-                        twin.backlash.clear();
-                        twin.beyond = None;
-                    }
-                    Effects::Beyond => {
-                        if twin.beyond.is_none() {
-                            twin.beyond = Some(beyond(&twin, seed, beyond_scale));
-                        }
-                    }
-                }
+                let twin = case_twin(&base, seed, effects, poses, beyond_scale);
                 let boxed = twin.generate()?;
                 let ringed = (splits.contains(&Split::Window))
                     .then(|| ring(&twin).generate())
@@ -595,41 +311,6 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
                             .collect();
                         ErrorStats::from_errors(&e).mean
                     };
-                    // Physics 0: kinematic; 1: + compliance; 2: + harmonics 2 and per-joint
-                    // self-weight; 3: the default's fullest candidate (compliance held
-                    // plausible, harmonics 2, the links' weights and the payload's centre of
-                    // mass, backlash on either flank). Every one with the compliances finds an
-                    // arm on a wall or a ceiling as the default does.
-                    let stage = |physics: u8, residual: Option<ResidualSettings>| Stages {
-                        kinematic: KinematicSettings {
-                            compliance: match physics {
-                                0 => None,
-                                1 | 2 => Some(ComplianceSettings {
-                                    detect_mounting: true,
-                                    ..ComplianceSettings::default()
-                                }),
-                                _ => Some(ComplianceSettings {
-                                    plausible_only: true,
-                                    detect_mounting: true,
-                                    identify_payload_com: true,
-                                    ..ComplianceSettings::default()
-                                }),
-                            },
-                            joint_errors: (physics >= 2).then(|| JointErrorSettings {
-                                harmonics: 2,
-                                self_weight: physics == 2,
-                                link_weights: physics >= 3,
-                                backlash: physics >= 3,
-                                ..JointErrorSettings::default()
-                            }),
-                            ..KinematicSettings::default()
-                        },
-                        residual: residual.map(|settings| ResidualStage {
-                            settings,
-                            holdout: 0.2,
-                        }),
-                        default: None,
-                    };
                     let score = |stages: &Stages| -> String {
                         match configured(stages, &twin.nominal, &train, None, &Silent) {
                             Ok(b) => {
@@ -638,40 +319,11 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
                             Err(e) => format!("failed ({e})"),
                         }
                     };
-                    let label = |effects: Effects, how: Split| {
-                        (
-                            effects.label(),
-                            match how {
-                                Split::Configurations => "configurations",
-                                Split::Extrapolation => "extrapolation (q1)",
-                                Split::Window => "window (joint 1 −60…30°)",
-                            },
-                        )
-                    };
                     if networks {
-                        let timed = |stages: &Stages| {
-                            let t = Instant::now();
-                            let e = score(stages);
-                            (e, t.elapsed().as_secs_f64())
-                        };
-                        let level = if full_physics { 3 } else { 2 };
-                        let (physics, _) = timed(&stage(level, None));
-                        let (paper, paper_s) = timed(&stage(
-                            level,
-                            Some(ResidualSettings::paper(ResidualKind::Somm, 2020)),
-                        ));
-                        let (ours, ours_s) = timed(&stage(
-                            level,
-                            Some(ResidualSettings::robocal(ResidualKind::Somm, 2020)),
-                        ));
-                        let (gated, gated_s) = timed(&stage(
-                            level,
-                            Some(ResidualSettings::robocal(ResidualKind::CaSomm, 2020)),
-                        ));
-                        let (gp, gp_s) = timed(&stage(level, Some(ResidualSettings::gp(2020))));
-                        let (e, h) = label(effects, how);
+                        let (e, h) = (effects.label(), split_label(how));
+                        let row = networks_row(&score, full_physics);
                         out!(
-                            "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gated} | {gated_s:.1} | {gp} | {gp_s:.1} |",
+                            "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {row}",
                             test.len()
                         );
                         continue;
@@ -682,44 +334,9 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
                     let gp = score(&stage(2, Some(ResidualSettings::gp(2020))));
                     let previous =
                         versus_truth(&previous_default(&twin.nominal, &train)?, &test, &truth).mean;
-                    let t = Instant::now();
-                    let built = automatic(
-                        &AutoSettings {
-                            budget_seconds,
-                            ..AutoSettings::default()
-                        },
-                        &twin.nominal,
-                        &train,
-                        None,
-                        &Prefixed {
-                            prefix: format!("{name} {seed}"),
-                            verbose,
-                        },
-                    )?;
-                    let secs = t.elapsed().as_secs_f64();
-                    let choice = built
-                        .selection
-                        .as_ref()
-                        .and_then(|s| s.chosen())
-                        .map_or("?".to_string(), |c| c.name.clone());
-                    // The choice's name is what the model holds.
-                    let terms = |kind: &str| {
-                        (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind))
-                    };
-                    assert_eq!(terms(".h"), choice.contains("harmonics"), "{choice}");
-                    // Self-weight: per-joint terms (`j2.sw3.x`) or the links' weights (`link3.x`).
-                    assert_eq!(
-                        terms(".sw") || terms("link"),
-                        choice.contains("self-weight"),
-                        "{choice}"
-                    );
-                    // A residual model, in either frame (`… + gp (world frame)`).
-                    assert_eq!(
-                        built.residual.is_some(),
-                        choice.contains(" + gp") || choice.contains(" + somm"),
-                        "{choice}"
-                    );
-                    let model = built.model();
+                    let prefix = format!("{name} {seed}");
+                    let (model, choice, secs) =
+                        run_default(&twin, &train, budget_seconds, &prefix, verbose)?;
                     let default = versus_truth(&model, &test, &truth).mean;
                     if compensation && effects != Effects::Modelled && how == Split::Configurations
                     {
@@ -730,7 +347,7 @@ fn suite() -> Result<(), Box<dyn std::error::Error>> {
                             land(&twin, &model, &test),
                         ));
                     }
-                    let (e, h) = label(effects, how);
+                    let (e, h) = (effects.label(), split_label(how));
                     out!(
                         "| {name} | {seed} | {e} | {h} | {} | {floor:.4} | {previous:.4} | {kin} | {comp} | {physics} | {gp} | **{default:.4}** | {:+.0} % | {choice} | {secs:.1} |",
                         test.len(),
@@ -880,4 +497,233 @@ fn bad_shots(arms: &[String], seeds: u64) -> Result<(), Box<dyn std::error::Erro
         }
     }
     Ok(())
+}
+
+/// Physics 0: kinematic; 1: + compliance; 2: + harmonics 2 and per-joint
+/// self-weight; 3: the default's fullest candidate (compliance held
+/// plausible, harmonics 2, the links' weights and the payload's centre of
+/// mass, backlash on either flank). Every one with the compliances finds an
+/// arm on a wall or a ceiling as the default does.
+fn stage(physics: u8, residual: Option<ResidualSettings>) -> Stages {
+    Stages {
+        kinematic: KinematicSettings {
+            compliance: match physics {
+                0 => None,
+                1 | 2 => Some(ComplianceSettings {
+                    detect_mounting: true,
+                    ..ComplianceSettings::default()
+                }),
+                _ => Some(ComplianceSettings {
+                    plausible_only: true,
+                    detect_mounting: true,
+                    identify_payload_com: true,
+                    ..ComplianceSettings::default()
+                }),
+            },
+            joint_errors: (physics >= 2).then(|| JointErrorSettings {
+                harmonics: 2,
+                self_weight: physics == 2,
+                link_weights: physics >= 3,
+                backlash: physics >= 3,
+                ..JointErrorSettings::default()
+            }),
+            ..KinematicSettings::default()
+        },
+        residual: residual.map(|settings| ResidualStage {
+            settings,
+            holdout: 0.2,
+        }),
+        default: None,
+    }
+}
+
+/// The columns of a `--networks` row after the noise floor: the physics alone, then each
+/// residual model with its seconds, `score` scoring a stage config on the case.
+fn networks_row(score: &dyn Fn(&Stages) -> String, full_physics: bool) -> String {
+    let timed = |stages: &Stages| {
+        let t = Instant::now();
+        let e = score(stages);
+        (e, t.elapsed().as_secs_f64())
+    };
+    let level = if full_physics { 3 } else { 2 };
+    let (physics, _) = timed(&stage(level, None));
+    let (paper, paper_s) = timed(&stage(
+        level,
+        Some(ResidualSettings::paper(ResidualKind::Somm, 2020)),
+    ));
+    let (ours, ours_s) = timed(&stage(
+        level,
+        Some(ResidualSettings::robocal(ResidualKind::Somm, 2020)),
+    ));
+    let (gated, gated_s) = timed(&stage(
+        level,
+        Some(ResidualSettings::robocal(ResidualKind::CaSomm, 2020)),
+    ));
+    let (gp, gp_s) = timed(&stage(level, Some(ResidualSettings::gp(2020))));
+    format!(
+        "{physics} | {paper} | {paper_s:.1} | {ours} | {ours_s:.1} | {gated} | {gated_s:.1} | {gp} | {gp_s:.1} |"
+    )
+}
+
+/// The suite's command-line arguments (see the module's documentation).
+struct SuiteArgs {
+    seeds: u64,
+    compensation: bool,
+    verbose: bool,
+    /// Residual models side by side on the identified physics, instead of the default.
+    networks: bool,
+    /// With `networks`: on the default's fullest physical candidate (backlash, the links'
+    /// weights) instead of compliance + harmonics + per-joint self-weight.
+    full_physics: bool,
+    /// The default's time budget, s.
+    budget_seconds: f64,
+    /// Every case's files for an outside pipeline (scripts/peer), instead of the table.
+    export: Option<PathBuf>,
+    /// More configurations than the twin file's: a larger member of each family.
+    poses: Option<usize>,
+    /// The effects beyond the model made this many times as large.
+    beyond_scale: f64,
+    effect_sets: Vec<Effects>,
+    splits: Vec<Split>,
+    arms: Vec<String>,
+    /// The bad shots' table instead.
+    outliers: bool,
+}
+
+/// Reads the suite's arguments.
+fn suite_args() -> Result<SuiteArgs, Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let value = |flag: &str| {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let seeds: u64 = number(&args, "--seeds")?.unwrap_or(2);
+    let aside = args.iter().any(|a| a == "--aside");
+    let compensation = !args.iter().any(|a| a == "--no-compensation");
+    let verbose = args.iter().any(|a| a == "--verbose");
+    // Residual models side by side on the identified physics, instead of the default.
+    let networks = args.iter().any(|a| a == "--networks");
+    // With `--networks`: on the default's fullest physical candidate (backlash, the links'
+    // weights) instead of compliance + harmonics + per-joint self-weight.
+    let full_physics = value("--physics").is_some_and(|p| p == "full");
+    // The default's time budget, s (`--budget`; robocal's default otherwise).
+    let budget_seconds: f64 = number(&args, "--budget")?.unwrap_or(DEFAULT_BUDGET_SECONDS);
+    // Every case's files for an outside pipeline (scripts/peer), instead of the table.
+    let export = value("--export").map(PathBuf::from);
+    // More configurations than the twin file's (`--poses N`): a larger member of each family,
+    // its grid made finer by the cube root of the ratio so that enough points are measurable.
+    let poses: Option<usize> = number(&args, "--poses")?;
+    // The effects beyond the model made K times as large (`--beyond-scale K`; 1 otherwise).
+    let beyond_scale: f64 = number(&args, "--beyond-scale")?.unwrap_or(1.0);
+    if !(beyond_scale > 0.0 && beyond_scale.is_finite()) {
+        return Err(format!("--beyond-scale: {beyond_scale} is not a positive number").into());
+    }
+    // Which effect sets (`--effects all,modelled,beyond`; default every one).
+    let effect_sets: Vec<Effects> = match value("--effects") {
+        Some(list) => list
+            .split(',')
+            .map(|k| {
+                (Effects::EVERY.into_iter().find(|e| e.key() == k))
+                    .ok_or_else(|| format!("--effects: unknown effect set `{k}`"))
+            })
+            .collect::<Result<_, _>>()?,
+        None => Effects::EVERY.to_vec(),
+    };
+    // Which splits (`--splits configurations,q1,window`; default the first two).
+    let splits: Vec<Split> = match value("--splits") {
+        Some(list) => list
+            .split(',')
+            .map(|k| match k {
+                "configurations" => Ok(Split::Configurations),
+                "q1" => Ok(Split::Extrapolation),
+                "window" => Ok(Split::Window),
+                _ => Err(format!(
+                    "--splits: unknown split `{k}` (configurations, q1, window)"
+                )),
+            })
+            .collect::<Result<_, _>>()?,
+        None => vec![Split::Configurations, Split::Extrapolation],
+    };
+    let arms: Vec<String> = match value("--arms") {
+        Some(list) => list.split(',').map(str::to_string).collect(),
+        None => ARMS
+            .iter()
+            .map(|a| a.0.to_string())
+            .filter(|a| aside || !ASIDE.contains(&a.as_str()))
+            .collect(),
+    };
+    Ok(SuiteArgs {
+        seeds,
+        compensation,
+        verbose,
+        networks,
+        full_physics,
+        budget_seconds,
+        export,
+        poses,
+        beyond_scale,
+        effect_sets,
+        splits,
+        arms,
+        outliers: args.iter().any(|a| a == "--outliers"),
+    })
+}
+
+/// The default calibration on `train` within `budget_seconds`, its lines prefixed with `prefix`
+/// where `verbose`: the model, the name of its choice (checked against what the model holds),
+/// and its seconds.
+fn run_default(
+    twin: &TwinConfig,
+    train: &[&Measurement],
+    budget_seconds: f64,
+    prefix: &str,
+    verbose: bool,
+) -> Result<(CalibratedModel, String, f64), Box<dyn std::error::Error>> {
+    let t = Instant::now();
+    let built = automatic(
+        &AutoSettings {
+            budget_seconds,
+            ..AutoSettings::default()
+        },
+        &twin.nominal,
+        train,
+        None,
+        &Prefixed {
+            prefix: prefix.to_string(),
+            verbose,
+        },
+    )?;
+    let secs = t.elapsed().as_secs_f64();
+    let choice = built
+        .selection
+        .as_ref()
+        .and_then(|s| s.chosen())
+        .map_or("?".to_string(), |c| c.name.clone());
+    // The choice's name is what the model holds.
+    let terms =
+        |kind: &str| (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind));
+    assert_eq!(terms(".h"), choice.contains("harmonics"), "{choice}");
+    // Self-weight: per-joint terms (`j2.sw3.x`) or the links' weights (`link3.x`).
+    assert_eq!(
+        terms(".sw") || terms("link"),
+        choice.contains("self-weight"),
+        "{choice}"
+    );
+    // A residual model, in either frame (`… + gp (world frame)`).
+    assert_eq!(
+        built.residual.is_some(),
+        choice.contains(" + gp") || choice.contains(" + somm"),
+        "{choice}"
+    );
+    Ok((built.model(), choice, secs))
+}
+
+/// A split's name in the table.
+fn split_label(how: Split) -> &'static str {
+    match how {
+        Split::Configurations => "configurations",
+        Split::Extrapolation => "extrapolation (q1)",
+        Split::Window => "window (joint 1 −60…30°)",
+    }
 }
