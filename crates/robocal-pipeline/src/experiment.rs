@@ -10,8 +10,8 @@ use robocal_ident::SolverKind;
 use robocal_residual::{Gate, PerClass, ResidualKind};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{PipelineError, Result, read_text};
-use robocal_calibration::{RawStages, Stages};
+use crate::error::{Result, invalid, key, read_text};
+use robocal_calibration::{CalibrationError, RawStages, Stages};
 
 /// An experiment file as written.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -201,14 +201,6 @@ pub struct Experiment {
 /// Default seed of an experiment: the one seed robocal uses wherever none is given.
 pub use robocal_residual::DEFAULT_SEED;
 
-fn key(path: &Path, key: impl Into<String>, message: impl Into<String>) -> PipelineError {
-    PipelineError::Key {
-        path: path.to_path_buf(),
-        key: key.into(),
-        message: message.into(),
-    }
-}
-
 /// `a/b/../c` → `a/c`, lexically (no file system access); leading `..` are kept.
 fn tidy(path: &Path) -> PathBuf {
     use std::path::Component;
@@ -234,7 +226,7 @@ impl Experiment {
     pub fn load(path: &Path) -> Result<Self> {
         let text = read_text(path)?;
         let raw: RawExperiment =
-            toml::from_str(&text).map_err(|e| PipelineError::toml(path, &text, &e))?;
+            toml::from_str(&text).map_err(|e| CalibrationError::toml(path, &text, &e))?;
         raw.validate(path)
     }
 }
@@ -396,7 +388,7 @@ impl RawExperiment {
                 default: None,
             }
             .validate(Some(seed), robocal_residual::Defaults::Paper)
-            .map_err(|e| PipelineError::invalid(path, e.within(&at)))?;
+            .map_err(|e| invalid(path, e.within(&at)))?;
             // An experiment scores its residual models on the world frame's errors, as the
             // paper's tables do; a frame turning with joint 1 is `calibrate`'s.
             if let Some(r) = stages.residual.as_ref()

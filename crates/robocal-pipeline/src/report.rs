@@ -8,12 +8,13 @@ use std::time::Instant;
 use robocal_data::{ErrorStats, write_dir_atomically, write_text_in};
 use robocal_twin::{BacklashSide, TwinConfig};
 
-use crate::error::{PipelineError, Result};
+use crate::error::Result;
 use crate::figures::{draw_all, report_dir};
 use crate::paper;
 use crate::run::{Outcome, Summary, stats};
 use crate::split::Set;
 use robocal_calibration::GateSummary;
+use robocal_report::ReportError;
 
 fn ours(s: &ErrorStats) -> String {
     format!("{:.3} | {:.3} | {:.3}", s.mean, s.std, s.max)
@@ -698,7 +699,7 @@ pub fn write_report(o: &mut Outcome, out: Option<&Path>) -> Result<Written> {
     let resolved = o
         .experiment
         .resolved(o.splits.untrained_loads.clone(), o.splits.kinematic_load);
-    let resolved = toml::to_string(&resolved).map_err(|e| PipelineError::Plot {
+    let resolved = toml::to_string(&resolved).map_err(|e| ReportError::Plot {
         path: dir.join("experiment.toml"),
         message: e.to_string(),
     })?;

@@ -163,7 +163,7 @@ pub struct Timings {
 }
 
 fn key_error(e: &Experiment, invalid: Invalid) -> PipelineError {
-    PipelineError::invalid(&e.source, invalid)
+    crate::error::invalid(&e.source, invalid)
 }
 
 /// The nominal table, the twin (if any), the measurements, and whether they were generated

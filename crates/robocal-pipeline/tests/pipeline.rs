@@ -4,8 +4,8 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
+use robocal_calibration::{CalibrationError, Stage, Stages, Status};
 use robocal_calibration::{OutlierSettings, find_outliers};
-use robocal_calibration::{Stage, Stages, Status};
 use robocal_data::{Lines, Measurement, MeasurementSet};
 use robocal_ident::KinematicSettings;
 use robocal_pipeline::{Experiment, PipelineError, RawExperiment, Set, Splits};
@@ -209,14 +209,14 @@ fn split_designs_the_data_cannot_meet_are_refused_with_their_key() {
 }
 
 fn validate(text: &str) -> Result<Experiment, PipelineError> {
-    let raw: RawExperiment =
-        toml::from_str(text).map_err(|e| PipelineError::toml(Path::new("exp.toml"), text, &e))?;
+    let raw: RawExperiment = toml::from_str(text)
+        .map_err(|e| CalibrationError::toml(Path::new("exp.toml"), text, &e))?;
     raw.validate(Path::new("dir/exp.toml"))
 }
 
 fn key_of(r: Result<Experiment, PipelineError>) -> String {
     match r {
-        Err(PipelineError::Key { key, .. }) => key,
+        Err(PipelineError::Calibration(CalibrationError::Key { key, .. })) => key,
         other => panic!("expected a key error, got {other:?}"),
     }
 }
