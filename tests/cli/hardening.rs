@@ -69,8 +69,37 @@ fn good_rows() -> String {
 
 #[test]
 fn every_command_refuses_bad_input_cleanly() {
+    let f = fixture();
+    bad_measurement_files(&f);
+    unreadable_files(&f);
+    bad_robot_tables(&f);
+    bad_stage_configs(&f);
+    stages_the_data_cannot_fit(&f);
+    options_of_the_default(&f);
+    bad_model_directories(&f);
+    bad_target_files(&f);
+    bad_twin_and_experiment_files(&f);
+}
+
+/// The files every refusal is checked against: outputs that must be left as they were, a good
+/// measurement file, and a good model to break copies of.
+struct Fixture {
+    _dir: tempfile::TempDir,
+    d: PathBuf,
+    outs: PathBuf,
+    pred: PathBuf,
+    commands: PathBuf,
+    model_out: PathBuf,
+    sim_out: PathBuf,
+    good: PathBuf,
+    model: PathBuf,
+}
+
+/// Makes the [`Fixture`].
+fn fixture() -> Fixture {
     let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let d = dir.path().to_path_buf();
+    let d = d.as_path();
     let outs = d.join("outputs");
     std::fs::create_dir_all(&outs).unwrap();
     let pred = write(&outs, "pred.csv", "previous prediction\n");
@@ -96,7 +125,30 @@ fn every_command_refuses_bad_input_cleanly() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
-    // --- Measurement CSV: predict, evaluate and calibrate read it the same way.
+    Fixture {
+        d: d.to_path_buf(),
+        outs,
+        pred,
+        commands,
+        model_out,
+        sim_out,
+        good,
+        model,
+        _dir: dir,
+    }
+}
+
+/// Measurement CSV: predict, evaluate and calibrate read it the same way.
+fn bad_measurement_files(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        pred,
+        model_out,
+        good,
+        model,
+        ..
+    } = f;
     let csv_cases: &[(&str, String, &[&str])] = &[
         ("empty.csv", String::new(), &["empty.csv", "empty"]),
         (
@@ -188,7 +240,11 @@ fn every_command_refuses_bad_input_cleanly() {
             fails(name, &args, needles, &outs);
         }
     }
-    // Unreadable: a directory where a file should be, and a missing file.
+}
+
+/// Unreadable: a directory where a file should be, and a missing file.
+fn unreadable_files(f: &Fixture) {
+    let Fixture { d, outs, .. } = f;
     for (label, path) in [
         ("directory", d.to_path_buf()),
         ("missing", d.join("nope.csv")),
@@ -200,8 +256,18 @@ fn every_command_refuses_bad_input_cleanly() {
             &outs,
         );
     }
+}
 
-    // --- Robot TOML.
+/// Robot TOML.
+fn bad_robot_tables(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        pred,
+        model_out,
+        good,
+        ..
+    } = f;
     let joint = "[[joint]]\na = 0.0\nalpha = 0.0\nd = 0.0\ntheta = 0.0\n";
     let frames =
         "[base]\nxyz = [0.0, 0.0, 0.0]\nrpy = [0.0, 0.0, 0.0]\n[tool]\nxyz = [0.0, 0.0, 0.0]\n";
@@ -286,8 +352,17 @@ fn every_command_refuses_bad_input_cleanly() {
             &outs,
         );
     }
+}
 
-    // --- Stage configs.
+/// Stage configs.
+fn bad_stage_configs(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        model_out,
+        good,
+        ..
+    } = f;
     let stage_cases: &[(&str, &str, &[&str])] = &[
         (
             "stage-type.toml",
@@ -349,7 +424,17 @@ fn every_command_refuses_bad_input_cleanly() {
             &outs,
         );
     }
-    // A compliance stage on one load, and too few poses for the parameters.
+}
+
+/// A compliance stage on one load, and too few poses for the parameters.
+fn stages_the_data_cannot_fit(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        model_out,
+        good,
+        ..
+    } = f;
     let compliance = write(d, "compliance.toml", "[compliance]\n");
     fails(
         "one load",
@@ -386,9 +471,20 @@ fn every_command_refuses_bad_input_cleanly() {
         &["two.csv", "too few"],
         &outs,
     );
-    // The default calibration's time budget: a positive number of seconds, and not for a
-    // stage config (which runs what it names); the bearings' tilt is the default's to try too
-    // (a stage config asks for it itself).
+}
+
+/// The default calibration's time budget: a positive number of seconds, and not for a
+/// stage config (which runs what it names); the bearings' tilt is the default's to try too
+/// (a stage config asks for it itself).
+fn options_of_the_default(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        model_out,
+        good,
+        ..
+    } = f;
+    let compliance = write(d, "compliance.toml", "[compliance]\n");
     for (name, option, config, needles) in [
         (
             "zero budget",
@@ -452,8 +548,18 @@ fn every_command_refuses_bad_input_cleanly() {
         }
         fails(name, &args, needles, &outs);
     }
+}
 
-    // --- Model directories.
+/// Model directories.
+fn bad_model_directories(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        pred,
+        good,
+        model,
+        ..
+    } = f;
     let copy = |name: &str| -> PathBuf {
         let to = d.join(name);
         std::fs::create_dir_all(&to).unwrap();
@@ -515,8 +621,17 @@ fn every_command_refuses_bad_input_cleanly() {
             &outs,
         );
     }
+}
 
-    // --- Targets CSV.
+/// Targets CSV.
+fn bad_target_files(f: &Fixture) {
+    let Fixture {
+        d,
+        outs,
+        commands,
+        model,
+        ..
+    } = f;
     let target_header = "id,q1,q2,q3,q4,q5,q6,load,x,y,z";
     let target_cases: &[(&str, String, &[&str])] = &[
         (
@@ -557,8 +672,13 @@ fn every_command_refuses_bad_input_cleanly() {
             &outs,
         );
     }
+}
 
-    // --- Twin and experiment configs.
+/// Twin and experiment configs.
+fn bad_twin_and_experiment_files(f: &Fixture) {
+    let Fixture {
+        d, outs, sim_out, ..
+    } = f;
     let twin_cases: &[(&str, &str, &[&str])] = &[
         ("twin-empty.toml", "", &["twin-empty.toml", "line 1"]),
         (
