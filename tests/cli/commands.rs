@@ -523,15 +523,26 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     assert_eq!(read(&a), read(&b));
     assert_ne!(read(&a), read(&k));
 
-    // Compensation through the whole model (kinematics + CA-SOMM): targets 1 mm off what the model
-    // predicts at the held-out rows; the commands, fed back through `predict --model`, land on
-    // the targets to 0.001 mm.
-    let predicted: Vec<Vec<f64>> = read(&a)
+    compensation_through_the_model_lands_on_targets(&dir, &model, &held, &a);
+    a_bad_residual_setting_writes_nothing(&dir, &train);
+}
+
+/// Compensation through the whole model (kinematics + CA-SOMM): targets 1 mm off what the model
+/// predicts at the held-out rows; the commands, fed back through `predict --model`, land on
+/// the targets to 0.001 mm.
+fn compensation_through_the_model_lands_on_targets(
+    dir: &tempfile::TempDir,
+    model: &Path,
+    held: &Path,
+    a: &Path,
+) {
+    let read = |p: &Path| std::fs::read_to_string(p).unwrap();
+    let predicted: Vec<Vec<f64>> = read(a)
         .lines()
         .skip(1)
         .map(|l| l.split(',').skip(2).map(|v| v.parse().unwrap()).collect())
         .collect();
-    let held_rows: Vec<Vec<String>> = read(&held)
+    let held_rows: Vec<Vec<String>> = read(held)
         .lines()
         .skip(1)
         .take(12)
@@ -556,7 +567,7 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
         robocal(&[
             "compensate",
             "--model",
-            s(&model),
+            s(model),
             "--targets",
             s(targets),
             "--out",
@@ -575,7 +586,7 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
     let o = robocal(&[
         "predict",
         "--model",
-        s(&model),
+        s(model),
         "--data",
         s(&replay),
         "--out",
@@ -604,7 +615,10 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
         "{err}"
     );
     assert_eq!(read(&commands).lines().count(), aims.len() + 1);
-    // A bad residual setting is refused with its key, and nothing is written.
+}
+
+/// A bad residual setting is refused with its key, and nothing is written.
+fn a_bad_residual_setting_writes_nothing(dir: &tempfile::TempDir, train: &Path) {
     let bad = write(
         dir.path(),
         "bad.toml",
@@ -616,7 +630,7 @@ fn a_residual_stage_trains_saves_and_predicts_through_the_model() {
         "--robot",
         ROBOT,
         "--data",
-        s(&train),
+        s(train),
         "--out",
         s(&out),
         "--config",
@@ -742,10 +756,23 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
     assert_eq!(resolved.split.validation_loads, 3);
     assert_eq!(resolved.data.twin(), original.data.twin());
 
-    // The same experiment again: the same numbers and the same plots, byte for byte (only the
-    // wall-clock fields may differ).
+    the_same_experiment_again_gives_the_same_files_and_a_bad_one_leaves_them(
+        &dir, &exp, &report, &files, &md, &out,
+    );
+}
+
+/// The same experiment again: the same numbers and the same plots, byte for byte (only the
+/// wall-clock fields may differ).
+fn the_same_experiment_again_gives_the_same_files_and_a_bad_one_leaves_them(
+    dir: &tempfile::TempDir,
+    exp: &Path,
+    report: &Path,
+    files: &[String],
+    md: &str,
+    out: &Path,
+) {
     let again = dir.path().join("again");
-    let o = robocal(&["run", s(&exp), "--out", s(&again)]);
+    let o = robocal(&["run", s(exp), "--out", s(&again)]);
     assert!(o.status.success());
     fn without_clock(v: &mut serde_json::Value) {
         match v {
@@ -780,15 +807,15 @@ fn an_experiment_runs_through_the_binary_and_writes_every_report_file() {
     }
 
     // A bad experiment fails with its key and leaves the report as it was.
-    let before_md = md.clone();
+    let before_md = md.to_string();
     let bad = write(
         dir.path(),
         "small.toml",
-        &std::fs::read_to_string(&exp)
+        &std::fs::read_to_string(exp)
             .unwrap()
             .replace("validation_loads = 3", "validation_loads = 15"),
     );
-    let o = robocal(&["run", s(&bad), "--out", s(&out)]);
+    let o = robocal(&["run", s(&bad), "--out", s(out)]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(

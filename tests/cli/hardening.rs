@@ -204,7 +204,7 @@ fn bad_measurement_files(f: &Fixture) {
     ];
     for (name, text, needles) in csv_cases {
         let data = write(d, name, text);
-        let m = s(&model_out);
+        let m = s(model_out);
         for args in [
             vec![
                 "predict",
@@ -213,9 +213,9 @@ fn bad_measurement_files(f: &Fixture) {
                 "--data",
                 s(&data),
                 "--out",
-                s(&pred),
+                s(pred),
             ],
-            vec!["evaluate", "--model", s(&model), "--data", s(&data)],
+            vec!["evaluate", "--model", s(model), "--data", s(&data)],
             vec![
                 "calibrate",
                 "--robot",
@@ -230,14 +230,14 @@ fn bad_measurement_files(f: &Fixture) {
                 "--robot",
                 ROBOT,
                 "--data",
-                s(&good),
+                s(good),
                 "--validate",
                 s(&data),
                 "--out",
                 m,
             ],
         ] {
-            fails(name, &args, needles, &outs);
+            fails(name, &args, needles, outs);
         }
     }
 }
@@ -253,7 +253,7 @@ fn unreadable_files(f: &Fixture) {
             label,
             &["evaluate", "--robot", ROBOT, "--data", s(&path)],
             &[s(&path)],
-            &outs,
+            outs,
         );
     }
 }
@@ -330,12 +330,12 @@ fn bad_robot_tables(f: &Fixture) {
                 "--robot",
                 s(&robot),
                 "--data",
-                s(&good),
+                s(good),
                 "--out",
-                s(&pred),
+                s(pred),
             ],
             needles,
-            &outs,
+            outs,
         );
         fails(
             name,
@@ -344,12 +344,12 @@ fn bad_robot_tables(f: &Fixture) {
                 "--robot",
                 s(&robot),
                 "--data",
-                s(&good),
+                s(good),
                 "--out",
-                s(&model_out),
+                s(model_out),
             ],
             needles,
-            &outs,
+            outs,
         );
     }
 }
@@ -414,14 +414,14 @@ fn bad_stage_configs(f: &Fixture) {
                 "--robot",
                 ROBOT,
                 "--data",
-                s(&good),
+                s(good),
                 "--out",
-                s(&model_out),
+                s(model_out),
                 "--config",
                 s(&config),
             ],
             needles,
-            &outs,
+            outs,
         );
     }
 }
@@ -443,14 +443,14 @@ fn stages_the_data_cannot_fit(f: &Fixture) {
             "--robot",
             ROBOT,
             "--data",
-            s(&good),
+            s(good),
             "--out",
-            s(&model_out),
+            s(model_out),
             "--config",
             s(&compliance),
         ],
         &["good.csv", "two or more loads"],
-        &outs,
+        outs,
     );
     let two = write(
         d,
@@ -466,10 +466,10 @@ fn stages_the_data_cannot_fit(f: &Fixture) {
             "--data",
             s(&two),
             "--out",
-            s(&model_out),
+            s(model_out),
         ],
         &["two.csv", "too few"],
-        &outs,
+        outs,
     );
 }
 
@@ -538,15 +538,15 @@ fn options_of_the_default(f: &Fixture) {
             "--robot",
             ROBOT,
             "--data",
-            s(&good),
+            s(good),
             "--out",
-            s(&model_out),
+            s(model_out),
         ];
         args.extend(option);
         if let Some(c) = config {
             args.extend(["--config", c]);
         }
-        fails(name, &args, needles, &outs);
+        fails(name, &args, needles, outs);
     }
 }
 
@@ -563,7 +563,7 @@ fn bad_model_directories(f: &Fixture) {
     let copy = |name: &str| -> PathBuf {
         let to = d.join(name);
         std::fs::create_dir_all(&to).unwrap();
-        for e in std::fs::read_dir(&model).unwrap() {
+        for e in std::fs::read_dir(model).unwrap() {
             let p = e.unwrap().path();
             std::fs::copy(&p, to.join(p.file_name().unwrap())).unwrap();
         }
@@ -607,18 +607,18 @@ fn bad_model_directories(f: &Fixture) {
                 "--model",
                 s(dir),
                 "--data",
-                s(&good),
+                s(good),
                 "--out",
-                s(&pred),
+                s(pred),
             ],
             needles,
-            &outs,
+            outs,
         );
         fails(
             label,
-            &["evaluate", "--model", s(dir), "--data", s(&good)],
+            &["evaluate", "--model", s(dir), "--data", s(good)],
             needles,
-            &outs,
+            outs,
         );
     }
 }
@@ -662,14 +662,14 @@ fn bad_target_files(f: &Fixture) {
             &[
                 "compensate",
                 "--model",
-                s(&model),
+                s(model),
                 "--targets",
                 s(&targets),
                 "--out",
-                s(&commands),
+                s(commands),
             ],
             needles,
-            &outs,
+            outs,
         );
     }
 }
@@ -691,9 +691,9 @@ fn bad_twin_and_experiment_files(f: &Fixture) {
         let twin = write(d, name, text);
         fails(
             name,
-            &["simulate", "--twin", s(&twin), "--out", s(&sim_out)],
+            &["simulate", "--twin", s(&twin), "--out", s(sim_out)],
             needles,
-            &outs,
+            outs,
         );
     }
     let experiment_cases: &[(&str, &str, &[&str])] = &[
@@ -719,7 +719,7 @@ fn bad_twin_and_experiment_files(f: &Fixture) {
             name,
             &["run", s(&experiment), "--out", s(&outs.join("reports"))],
             needles,
-            &outs,
+            outs,
         );
     }
 }

@@ -143,14 +143,20 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
         position <= position3 * 1.05,
         "held-out position {position} mm with the probe's angles, {position3} without"
     );
-    // Per row: the angle between measured and predicted tool frames beside the distance.
+    per_pose_errors_hold_the_angle(&dir, &model, &test, angle);
+    the_report_states_the_orientation(&dir, &model, &test, angle);
+    predict_writes_the_orientation(&dir, &model, &test);
+}
+
+/// Per row: the angle between measured and predicted tool frames beside the distance.
+fn per_pose_errors_hold_the_angle(dir: &tempfile::TempDir, model: &Path, test: &Path, angle: f64) {
     let per_pose = dir.path().join("errors.csv");
     let o = robocal(&[
         "evaluate",
         "--model",
-        s(&model),
+        s(model),
         "--data",
-        s(&test),
+        s(test),
         "--per-pose",
         s(&per_pose),
     ]);
@@ -170,14 +176,22 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
         .sum::<f64>()
         / 20.0;
     assert!((mean_angle - angle).abs() < 1e-5, "{mean_angle} vs {angle}");
-    // The report states the orientation error beside the position error.
+}
+
+/// The report states the orientation error beside the position error.
+fn the_report_states_the_orientation(
+    dir: &tempfile::TempDir,
+    model: &Path,
+    test: &Path,
+    angle: f64,
+) {
     let pictures = dir.path().join("report");
     let o = robocal(&[
         "report",
         "--model",
-        s(&model),
+        s(model),
         "--data",
-        s(&test),
+        s(test),
         "--out",
         s(&pictures),
     ]);
@@ -190,14 +204,17 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
     assert!(stats["orientation"]["before"]["mean"].as_f64().unwrap() > after);
     let md = std::fs::read_to_string(pictures.join("report.md")).unwrap();
     assert!(md.contains("Orientation error (deg)"), "{md}");
-    // Predict writes the tool frame's orientation for a file that has the columns.
+}
+
+/// Predict writes the tool frame's orientation for a file that has the columns.
+fn predict_writes_the_orientation(dir: &tempfile::TempDir, model: &Path, test: &Path) {
     let pred = dir.path().join("pred.csv");
     let o = robocal(&[
         "predict",
         "--model",
-        s(&model),
+        s(model),
         "--data",
-        s(&test),
+        s(test),
         "--out",
         s(&pred),
     ]);
@@ -212,7 +229,7 @@ fn a_6dof_probe_is_simulated_calibrated_predicted_and_evaluated() {
             .map(|v| v.parse().unwrap())
             .collect()
     };
-    let truth_text = std::fs::read_to_string(&test).unwrap();
+    let truth_text = std::fs::read_to_string(test).unwrap();
     let want = angles(truth_text.lines().nth(1).unwrap());
     let got = angles(text.lines().nth(1).unwrap());
     for (g, w) in got.iter().zip(&want) {

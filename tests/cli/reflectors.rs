@@ -106,8 +106,17 @@ fn three_reflectors_are_simulated_calibrated_and_predicted_by_target() {
     assert_eq!(stats["count"], 240);
     assert!(stats["mean"].as_f64().unwrap() < 1.0, "{stats}");
 
-    // Compensation puts the row's target point on the target: smr2's predicted points as
-    // targets, seeds half a degree off; the commands bring smr2 back onto them.
+    compensation_puts_the_rows_point_on_the_target(&dir, &data, &model, &lines);
+}
+
+/// Compensation puts the row's target point on the target: smr2's predicted points as
+/// targets, seeds half a degree off; the commands bring smr2 back onto them.
+fn compensation_puts_the_rows_point_on_the_target(
+    dir: &tempfile::TempDir,
+    data: &Path,
+    model: &Path,
+    lines: &[&str],
+) {
     let truth = std::fs::read_to_string(data.join("truth.csv")).unwrap();
     let rows: Vec<Vec<&str>> = (truth.lines().skip(1))
         .map(|l| l.split(',').collect())
@@ -138,7 +147,7 @@ fn three_reflectors_are_simulated_calibrated_and_predicted_by_target() {
     let o = robocal(&[
         "compensate",
         "--model",
-        s(&model),
+        s(model),
         "--targets",
         s(&targets_file),
         "--out",
@@ -155,7 +164,7 @@ fn three_reflectors_are_simulated_calibrated_and_predicted_by_target() {
     let o = robocal(&[
         "predict",
         "--model",
-        s(&model),
+        s(model),
         "--data",
         s(&check_file),
         "--out",

@@ -285,7 +285,6 @@ fn experiment_files_are_validated_with_the_key_named() {
 #[test]
 fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error() {
     use robocal_calibration::{AutoSettings, automatic};
-    use robocal_calibration::{fit_kinematic, folds};
     use robocal_residual::{GpSettings, ResidualKind, ResidualSettings, ResidualStage};
     let twin = TwinConfig::load(root().join("configs/twin/arm5.toml")).unwrap();
     let data = twin.generate().unwrap().measurements;
@@ -327,133 +326,12 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     assert_eq!(selection.folds, 6);
     assert_eq!(selection.held_out_rows, 2 * rows.len());
     assert_eq!(selection.fitted_rows, 4 * rows.len());
-    let names: Vec<&str> = selection
-        .candidates
-        .iter()
+    the_candidates_follow_the_chain(selection);
+    the_kinematic_score_and_the_blocks_are_recomputed(&twin, &rows, &settings, selection);
+    let names: Vec<&str> = (selection.candidates.iter())
         .map(|c| c.name.as_str())
         .collect();
-    // Nominal, kinematic, compliance; each joint-error block alone, then (once one was kept)
-    // each remaining one added to the kept ones, for as long as one is kept: at most 2 + 1;
-    // then the axis runouts on the physics the blocks reached; then the tilting compliances on
-    // the chosen physics (it holds the compliances: the twin has six loads); the two residual
-    // models; where one of them beat the physics significantly, the lower-scoring of those again
-    // on the identified table alone, in the world frame and in joint 1's (the chain's physics
-    // holds more than the table).
-    let table = (names.iter())
-        .filter(|n| n.starts_with("kinematic + gp") || n.starts_with("kinematic + somm"))
-        .count();
-    let physical = names.len() - 2 - table;
-    let significant = (selection.candidates[physical..physical + 2].iter())
-        .filter(|c| matches!(c.status, Status::Evaluated | Status::Chosen))
-        .min_by(|a, b| a.score.unwrap().total_cmp(&b.score.unwrap()));
-    match significant {
-        Some(lower) => {
-            let kind = lower.name.rsplit(" + ").next().unwrap();
-            assert_eq!(
-                names[physical + 2..],
-                [
-                    format!("kinematic + {kind} (world frame)"),
-                    format!("kinematic + {kind} (joint-1 frame)")
-                ],
-                "{names:?}"
-            );
-        }
-        None => assert_eq!(table, 0, "{names:?}"),
-    }
-    assert!((8..=11).contains(&physical), "{names:?}");
-    let tilt = physical - 1;
-    assert!(names[tilt].ends_with(" + tilt"), "{names:?}");
-    let runout = tilt - 1;
-    assert!(names[runout].ends_with(" + runout 2"), "{names:?}");
-    assert_eq!(names[1], "kinematic");
-    let blocks = |name: &str| {
-        [" + harmonics 2", " + self-weight", " + backlash"]
-            .iter()
-            .filter(|b| name.contains(*b))
-            .count()
-    };
-    assert!(names[3].ends_with("compliance + harmonics 2"), "{names:?}");
-    assert!(names[4].ends_with("compliance + self-weight"), "{names:?}");
-    assert!(names[5].ends_with("compliance + backlash"), "{names:?}");
-    for name in &names[6..runout] {
-        assert!(blocks(name) >= 2, "{names:?}");
-    }
-    // The runouts are tried on the physics the blocks reached, and their decision holds both
-    // candidates' scores.
-    let runout_decision = (selection.decisions.iter())
-        .find(|d| d.stage == Stage::Runout)
-        .unwrap();
-    assert_eq!(
-        runout_decision.held_out_with, selection.candidates[runout].score,
-        "{runout_decision:?}"
-    );
-    assert_eq!(
-        runout_decision.held_out_without,
-        (selection.candidates.iter())
-            .find(|c| c.name == names[runout].trim_end_matches(" + runout 2"))
-            .unwrap()
-            .score,
-        "{names:?}"
-    );
-    // The tilt is tried on the physics the chain had chosen without it.
-    let before = names[tilt].trim_end_matches(" + tilt");
-    let tilt_decision = (selection.decisions.iter())
-        .find(|d| d.stage == Stage::Tilt)
-        .unwrap();
-    assert_eq!(
-        tilt_decision.held_out_with, selection.candidates[tilt].score,
-        "{tilt_decision:?}"
-    );
-    assert_eq!(
-        tilt_decision.held_out_without,
-        (selection.candidates.iter())
-            .find(|c| c.name == before)
-            .unwrap()
-            .score,
-        "{names:?}"
-    );
-    assert!(
-        names[physical].ends_with("+ gp") && names[physical + 1].ends_with("+ somm"),
-        "{names:?}"
-    );
-    // The kinematic candidate's held-out mean is the rigid identification's error on each
-    // fold's held-out configurations, computed here again.
-    let (fold_of, k) = folds(&rows, 3, settings.seed);
-    let mut errors = Vec::new();
-    for f in 0..k {
-        let pick = |held: bool| -> Vec<&robocal_data::Measurement> {
-            (rows.iter().zip(&fold_of))
-                .filter(|(_, g)| (**g == f) == held)
-                .map(|(r, _)| *r)
-                .collect()
-        };
-        let fit = fit_kinematic(
-            &twin.nominal,
-            &pick(false),
-            &robocal_ident::KinematicSettings::default(),
-        )
-        .unwrap();
-        for m in pick(true) {
-            errors.push((fit.robot.point(&m.sample.joints_rad()) - m.position).norm());
-        }
-    }
-    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-    let kinematic = selection.candidates[1].held_out.as_ref().unwrap().mean;
-    assert!((kinematic - mean).abs() < 1e-12, "{kinematic} vs {mean}");
-    // The blocks: joint 1's readings of one block all lie beyond those of the block before.
-    let (block_of, kb) = robocal_calibration::blocks(&rows, 3);
-    assert_eq!(kb, 3);
-    for b in 1..kb {
-        let q1 = |block: usize| {
-            (rows.iter().zip(&block_of))
-                .filter(|(_, g)| **g == block)
-                .map(|(r, _)| r.sample.joints[0])
-                .collect::<Vec<f64>>()
-        };
-        let before = q1(b - 1).into_iter().fold(f64::NEG_INFINITY, f64::max);
-        let after = q1(b).into_iter().fold(f64::INFINITY, f64::min);
-        assert!(before <= after, "block {b}: {before} > {after}");
-    }
+    let tilt = (names.iter().position(|n| n.ends_with(" + tilt"))).unwrap();
     // Every evaluated candidate's score is the mean of its two means.
     for c in selection.candidates.iter().filter(|c| c.score.is_some()) {
         let (r, b) = (c.held_out.unwrap().mean, c.held_out_blocks.unwrap().mean);
@@ -516,11 +394,22 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     for d in &selection.decisions {
         assert!(said.iter().any(|l| l.contains(&d.reason)), "{said:?}");
     }
-    // What was chosen is what the model holds, fitted on every row.
-    let with_compliance = chosen[0].name.contains("compliance");
-    let with_errors = blocks(&chosen[0].name) > 0;
-    let with_tilt = chosen[0].name.contains(" + tilt");
-    let with_runout = chosen[0].name.contains(" + runout");
+    the_chosen_candidate_is_what_the_model_holds(&built, chosen[0], rows.len());
+}
+
+/// What was chosen (`chosen`) is what the model holds, fitted on every row (`rows` of them): its
+/// physics, its residual model, its decisions; joint 1's identified harmonics continued at
+/// every angle exactly where the blocks of joint 1 said they extrapolate.
+fn the_chosen_candidate_is_what_the_model_holds(
+    built: &robocal_calibration::Built,
+    chosen: &robocal_calibration::Candidate,
+    rows: usize,
+) {
+    let selection = built.selection.as_ref().unwrap();
+    let with_compliance = chosen.name.contains("compliance");
+    let with_errors = block_count(&chosen.name) > 0;
+    let with_tilt = chosen.name.contains(" + tilt");
+    let with_runout = chosen.name.contains(" + runout");
     assert_eq!(
         built.kinematic.compliance.is_some(),
         with_compliance || with_errors || with_runout
@@ -532,13 +421,13 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     );
     let terms =
         |kind: &str| (built.kinematic.report.joint_errors.iter()).any(|t| t.name.contains(kind));
-    assert_eq!(terms(".h"), chosen[0].name.contains("harmonics"));
-    assert_eq!(terms(".sw"), chosen[0].name.contains("self-weight"));
-    assert_eq!(terms(".backlash"), chosen[0].name.contains("backlash"));
+    assert_eq!(terms(".h"), chosen.name.contains("harmonics"));
+    assert_eq!(terms(".sw"), chosen.name.contains("self-weight"));
+    assert_eq!(terms(".backlash"), chosen.name.contains("backlash"));
     assert_eq!(terms(".tilt"), with_tilt);
     assert_eq!(terms(".r1"), with_runout);
     // A residual model, in either frame (`… + gp (world frame)` where both are tried).
-    let residual = chosen[0].name.contains(" + gp") || chosen[0].name.contains(" + somm");
+    let residual = chosen.name.contains(" + gp") || chosen.name.contains(" + somm");
     assert_eq!(built.residual.is_some(), residual);
     let kept = |stage: Stage| {
         (selection.decisions.iter())
@@ -552,8 +441,8 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     let added = !kept(Stage::JointErrors) && kept(Stage::FlankSearch);
     assert_eq!(kept(Stage::JointErrors) || added, with_errors);
     if added {
-        assert_eq!(blocks(&chosen[0].name), 1);
-        assert!(chosen[0].name.contains("backlash (flank search)"));
+        assert_eq!(block_count(&chosen.name), 1);
+        assert!(chosen.name.contains("backlash (flank search)"));
     }
     assert_eq!(kept(Stage::Tilt), with_tilt);
     assert_eq!(kept(Stage::Runout), with_runout);
@@ -564,7 +453,7 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
     match (selection.decisions.iter()).find(|d| d.stage == Stage::FlankSearch) {
         Some(d) => {
             assert_eq!(d.held_out_with, searched.unwrap().score, "{d:?}");
-            assert_eq!(d.kept, chosen[0].name.contains("(flank search)"));
+            assert_eq!(d.kept, chosen.name.contains("(flank search)"));
         }
         None => assert!(searched.is_none(), "{searched:?}"),
     }
@@ -588,7 +477,149 @@ fn the_default_calibration_chooses_the_candidate_with_the_lowest_held_out_error(
         );
     }
     if with_compliance {
-        assert_eq!(built.kinematic.report.points, rows.len());
+        assert_eq!(built.kinematic.report.points, rows);
+    }
+}
+
+/// How many joint-error blocks a candidate's name holds.
+fn block_count(name: &str) -> usize {
+    [" + harmonics 2", " + self-weight", " + backlash"]
+        .iter()
+        .filter(|b| name.contains(*b))
+        .count()
+}
+
+/// The default's candidates in the chain's order: nominal, kinematic, compliance; each
+/// joint-error block alone, then (once one was kept) each remaining one added to the kept
+/// ones, for as long as one is kept: at most 2 + 1; then the axis runouts on the physics the
+/// blocks reached; then the tilting compliances on the chosen physics (it holds the
+/// compliances: the twin has six loads); the two residual models; where one of them beat the
+/// physics significantly, the lower-scoring of those again on the identified table alone, in
+/// the world frame and in joint 1's (the chain's physics holds more than the table). The runouts'
+/// and the tilt's decisions hold their candidates' scores.
+fn the_candidates_follow_the_chain(selection: &robocal_calibration::Selection) {
+    let names: Vec<&str> = selection
+        .candidates
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect();
+    let table = (names.iter())
+        .filter(|n| n.starts_with("kinematic + gp") || n.starts_with("kinematic + somm"))
+        .count();
+    let physical = names.len() - 2 - table;
+    let significant = (selection.candidates[physical..physical + 2].iter())
+        .filter(|c| matches!(c.status, Status::Evaluated | Status::Chosen))
+        .min_by(|a, b| a.score.unwrap().total_cmp(&b.score.unwrap()));
+    match significant {
+        Some(lower) => {
+            let kind = lower.name.rsplit(" + ").next().unwrap();
+            assert_eq!(
+                names[physical + 2..],
+                [
+                    format!("kinematic + {kind} (world frame)"),
+                    format!("kinematic + {kind} (joint-1 frame)")
+                ],
+                "{names:?}"
+            );
+        }
+        None => assert_eq!(table, 0, "{names:?}"),
+    }
+    assert!((8..=11).contains(&physical), "{names:?}");
+    let tilt = physical - 1;
+    assert!(names[tilt].ends_with(" + tilt"), "{names:?}");
+    let runout = tilt - 1;
+    assert!(names[runout].ends_with(" + runout 2"), "{names:?}");
+    assert_eq!(names[1], "kinematic");
+    assert!(names[3].ends_with("compliance + harmonics 2"), "{names:?}");
+    assert!(names[4].ends_with("compliance + self-weight"), "{names:?}");
+    assert!(names[5].ends_with("compliance + backlash"), "{names:?}");
+    for name in &names[6..runout] {
+        assert!(block_count(name) >= 2, "{names:?}");
+    }
+    // The runouts are tried on the physics the blocks reached, and their decision holds both
+    // candidates' scores.
+    let runout_decision = (selection.decisions.iter())
+        .find(|d| d.stage == Stage::Runout)
+        .unwrap();
+    assert_eq!(
+        runout_decision.held_out_with, selection.candidates[runout].score,
+        "{runout_decision:?}"
+    );
+    assert_eq!(
+        runout_decision.held_out_without,
+        (selection.candidates.iter())
+            .find(|c| c.name == names[runout].trim_end_matches(" + runout 2"))
+            .unwrap()
+            .score,
+        "{names:?}"
+    );
+    // The tilt is tried on the physics the chain had chosen without it.
+    let before = names[tilt].trim_end_matches(" + tilt");
+    let tilt_decision = (selection.decisions.iter())
+        .find(|d| d.stage == Stage::Tilt)
+        .unwrap();
+    assert_eq!(
+        tilt_decision.held_out_with, selection.candidates[tilt].score,
+        "{tilt_decision:?}"
+    );
+    assert_eq!(
+        tilt_decision.held_out_without,
+        (selection.candidates.iter())
+            .find(|c| c.name == before)
+            .unwrap()
+            .score,
+        "{names:?}"
+    );
+    assert!(
+        names[physical].ends_with("+ gp") && names[physical + 1].ends_with("+ somm"),
+        "{names:?}"
+    );
+}
+
+/// The kinematic candidate's held-out mean is the rigid identification's error on each fold's
+/// held-out configurations, computed here again; the blocks of joint 1 lie one beyond the other.
+fn the_kinematic_score_and_the_blocks_are_recomputed(
+    twin: &TwinConfig,
+    rows: &[&robocal_data::Measurement],
+    settings: &robocal_calibration::AutoSettings,
+    selection: &robocal_calibration::Selection,
+) {
+    use robocal_calibration::{fit_kinematic, folds};
+    let (fold_of, k) = folds(rows, 3, settings.seed);
+    let mut errors = Vec::new();
+    for f in 0..k {
+        let pick = |held: bool| -> Vec<&robocal_data::Measurement> {
+            (rows.iter().zip(&fold_of))
+                .filter(|(_, g)| (**g == f) == held)
+                .map(|(r, _)| *r)
+                .collect()
+        };
+        let fit = fit_kinematic(
+            &twin.nominal,
+            &pick(false),
+            &robocal_ident::KinematicSettings::default(),
+        )
+        .unwrap();
+        for m in pick(true) {
+            errors.push((fit.robot.point(&m.sample.joints_rad()) - m.position).norm());
+        }
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let kinematic = selection.candidates[1].held_out.as_ref().unwrap().mean;
+    assert!((kinematic - mean).abs() < 1e-12, "{kinematic} vs {mean}");
+    // The blocks: joint 1's readings of one block all lie beyond those of the block before.
+    let (block_of, kb) = robocal_calibration::blocks(rows, 3);
+    assert_eq!(kb, 3);
+    for b in 1..kb {
+        let q1 = |block: usize| {
+            (rows.iter().zip(&block_of))
+                .filter(|(_, g)| **g == block)
+                .map(|(r, _)| r.sample.joints[0])
+                .collect::<Vec<f64>>()
+        };
+        let before = q1(b - 1).into_iter().fold(f64::NEG_INFINITY, f64::max);
+        let after = q1(b).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(before <= after, "block {b}: {before} > {after}");
     }
 }
 

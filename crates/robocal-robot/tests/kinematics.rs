@@ -733,12 +733,7 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     };
     // The rotation vector between the tool frames of two models, over their parameters' step.
     let orientation_fd = |up: &JointErrors, down: &JointErrors, h: f64| {
-        let d = up.rotation(&probe, &q, load) * down.rotation(&probe, &q, load).transpose();
-        Vector3::new(
-            d[(2, 1)] - d[(1, 2)],
-            d[(0, 2)] - d[(2, 0)],
-            d[(1, 0)] - d[(0, 1)],
-        ) / (4.0 * h)
+        rotation_difference(&probe, &q, load, (up, down), h)
     };
     let (rot, ojac) = e.orientation_param_jacobian(&probe, &q, load, &params);
     assert!((rot - e.rotation(&probe, &q, load)).norm() < 1e-12);
@@ -758,25 +753,39 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
             ojac.column(k)
         );
     }
-    // The payload's centre of mass moves the payload's torque on every joint: its columns
-    // (small, a compliance times a load times a lever) against central differences, tightly
-    // with rigid bearings; with tilting ones to the order of the tilts (the columns leave out
-    // the tilts' turn of the joints' deflections, micro-radians of them).
+    the_payload_centre_of_mass_columns_match_differences(&robot, &e, &q, load, &probe);
+}
+
+/// The payload's centre of mass moves the payload's torque on every joint: its columns
+/// (small, a compliance times a load times a lever) against central differences, tightly
+/// with rigid bearings; with tilting ones to the order of the tilts (the columns leave out
+/// the tilts' turn of the joints' deflections, micro-radians of them).
+fn the_payload_centre_of_mass_columns_match_differences(
+    robot: &Robot,
+    e: &robocal_robot::JointErrors,
+    q: &[f64],
+    load: f64,
+    probe: &Robot,
+) {
+    use robocal_robot::{ErrorParam, JointErrors};
+    let orientation_fd = |up: &JointErrors, down: &JointErrors, h: f64| {
+        rotation_difference(probe, q, load, (up, down), h)
+    };
     let com: Vec<ErrorParam> = (0..3).map(ErrorParam::PayloadCom).collect();
     let rigid_bearings = JointErrors {
         tilts: Vec::new(),
         runouts: Vec::new(),
         ..e.clone()
     };
-    for (e, tolerance) in [(&rigid_bearings, 1e-6), (&e, 5e-4)] {
-        let (_, cjac) = e.param_jacobian(&robot, &q, load, &com);
-        let (_, cojac) = e.orientation_param_jacobian(&probe, &q, load, &com);
+    for (e, tolerance) in [(&rigid_bearings, 1e-6), (e, 5e-4)] {
+        let (_, cjac) = e.param_jacobian(robot, q, load, &com);
+        let (_, cojac) = e.orientation_param_jacobian(probe, q, load, &com);
         for (k, &param) in com.iter().enumerate() {
             let h = 1e-2;
             let (mut up, mut down) = (e.clone(), e.clone());
             up.set_param(param, e.param(param) + h);
             down.set_param(param, e.param(param) - h);
-            let fd = (up.point(&robot, &q, load) - down.point(&robot, &q, load)) / (2.0 * h);
+            let fd = (up.point(robot, q, load) - down.point(robot, q, load)) / (2.0 * h);
             assert!(
                 fd.norm() > 1e-5 && (fd - cjac.column(k)).norm() < tolerance * fd.norm(),
                 "{}: {fd} vs {}",
@@ -794,16 +803,26 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
     }
     // The tilts' part of those columns matters: without it they would miss the differences
     // by several times the tolerance.
-    let (_, without) = rigid_bearings.param_jacobian(&robot, &q, load, &com);
-    let (_, with) = e.param_jacobian(&robot, &q, load, &com);
+    let (_, without) = rigid_bearings.param_jacobian(robot, q, load, &com);
+    let (_, with) = e.param_jacobian(robot, q, load, &com);
     let ratio = (with - &without).norm() / without.norm();
     assert!(ratio > 2e-3, "{ratio}");
     assert_eq!(e.param_name(ErrorParam::PayloadCom(2)), "payload_com.z");
     // Without a load the payload's centre of mass moves nothing.
-    let (_, unloaded) = e.param_jacobian(&robot, &q, 0.0, &com);
+    let (_, unloaded) = e.param_jacobian(robot, q, 0.0, &com);
     assert_eq!(unloaded.norm(), 0.0);
-    // The shared link weights are the per-joint self-weight terms with coefficient
-    // `compliance × weight` for every joint up to the link: the same deflection.
+    shared_link_weights_deflect_as_per_joint_terms_and_the_file_reads_back(robot, e, q, load);
+}
+
+/// The shared link weights are the per-joint self-weight terms with coefficient
+/// `compliance × weight` for every joint up to the link: the same deflection.
+fn shared_link_weights_deflect_as_per_joint_terms_and_the_file_reads_back(
+    robot: &Robot,
+    e: &robocal_robot::JointErrors,
+    q: &[f64],
+    load: f64,
+) {
+    use robocal_robot::JointErrors;
     let mut shared = JointErrors::new(e.values.clone(), e.gravity, e.payload_com);
     shared.link_weights = e.link_weights.clone();
     let mut per_joint = JointErrors::new(e.values.clone(), e.gravity, e.payload_com);
@@ -818,8 +837,8 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         }
     }
     let (a, b) = (
-        shared.deflection(&robot, &q, load),
-        per_joint.deflection(&robot, &q, load),
+        shared.deflection(robot, q, load),
+        per_joint.deflection(robot, q, load),
     );
     assert!(
         a.iter().zip(&b).all(|(a, b)| (a - b).abs() < 1e-15),
@@ -844,8 +863,8 @@ fn joint_errors_basis_jacobian_and_file_round_trip() {
         let (a, b) = (back.param(p), e.param(p));
         assert!((a - b).abs() <= 1e-15 * b.abs().max(1e-300), "{a} vs {b}");
     }
-    let point = |m: &JointErrors| m.point(&robot, &q, load);
-    assert!((point(&back) - point(&e)).norm() < 1e-9);
+    let point = |m: &JointErrors| m.point(robot, q, load);
+    assert!((point(&back) - point(e)).norm() < 1e-9);
     let bad = text.replacen("joint = 4", "joint = 9", 1);
     let err = JointErrors::from_toml_str(&bad, "m/compliance.toml", 6)
         .unwrap_err()
@@ -1607,4 +1626,21 @@ fn saved_tables_and_joint_errors_read_back_bit_for_bit() {
             assert!(same(b, x, rad(x)), "{x:e} read back as {b:e}");
         }
     }
+}
+
+/// The rotation vector between the tool frames of two models (`up`, `down`) of `probe` at `q`
+/// under `load`, over their parameters' step `2 h`.
+fn rotation_difference(
+    probe: &Robot,
+    q: &[f64],
+    load: f64,
+    (up, down): (&robocal_robot::JointErrors, &robocal_robot::JointErrors),
+    h: f64,
+) -> Vector3<f64> {
+    let d = up.rotation(probe, q, load) * down.rotation(probe, q, load).transpose();
+    Vector3::new(
+        d[(2, 1)] - d[(1, 2)],
+        d[(0, 2)] - d[(2, 0)],
+        d[(1, 0)] - d[(0, 1)],
+    ) / (4.0 * h)
 }
