@@ -82,7 +82,7 @@ fn physics_lines(built: &Built) -> Vec<String> {
                 }
             ));
         }
-        if c.payload_com_source.starts_with("identified") {
+        if c.payload_com_identified > 0 {
             // Each coordinate with its σ where the report has one.
             let coordinates: Vec<String> = (0..3)
                 .map(|axis| {

@@ -83,8 +83,5 @@ pub(super) fn mounting(
         ..physics.settings(settings)
     };
     let fit = calibrate_kinematics(nominal, &obs, &counted).ok()?;
-    let warning = (fit.report.warnings.iter())
-        .find(|w| w.starts_with("gravity taken along"))
-        .cloned();
-    Some((fit.compliance?.gravity, warning))
+    Some((fit.compliance?.gravity, fit.report.mounting_warning))
 }

@@ -49,6 +49,10 @@ pub struct ComplianceReport {
     pub payload_com: [f64; 3],
     /// Where the payload centre of mass came from.
     pub payload_com_source: String,
+    /// How many of its coordinates were identified with the compliances (0: given, or taken
+    /// from the measured point).
+    #[serde(skip)]
+    pub payload_com_identified: usize,
     /// How the joints were chosen.
     pub joints_source: String,
     /// Every joint.
@@ -184,14 +188,15 @@ pub(super) fn compliance_report(
     fixed: &[FixedParameter],
     std_of: &dyn Fn(Column) -> Option<f64>,
 ) -> Option<ComplianceReport> {
+    let identified = (0..3)
+        .filter(|&axis| kept.contains(&Column::PayloadCom(axis)))
+        .count();
     match (choice, compliance) {
         (Some(choice), Some(model)) => Some(ComplianceReport {
             gravity: model.gravity.into(),
             payload_com: model.payload_com.into(),
-            payload_com_source: match (0..3)
-                .filter(|&axis| kept.contains(&Column::PayloadCom(axis)))
-                .count()
-            {
+            payload_com_identified: identified,
+            payload_com_source: match identified {
                 0 => choice.payload_com_source.clone(),
                 n => format!(
                     "identified with the compliances ({n} of 3 coordinates; started from {})",
