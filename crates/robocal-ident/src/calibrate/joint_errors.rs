@@ -2,7 +2,7 @@
 //! and the solve that holds back what the poses cannot separate.
 
 use super::priors::harmonic_prior;
-use super::report::{Fixed, FixedParameter};
+use super::report::{ComplianceReport, ErrorTermReport, Fixed, FixedParameter, JointCompliance};
 use super::settings::{
     BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceSettings, HARMONIC_BOUND_DEG,
     KinematicSettings, PAYLOAD_COM_BOUND, SolverKind, TILT_START_SHARE, TORQUE_SHARE,
@@ -520,5 +520,107 @@ pub(super) fn held_compliance(problem: &CalibrationProblem<'_>, joint: usize) ->
             "held at {:.4} deg/kN·m, the value the first fit (without the links' weights, the payload's centre of mass and backlash) found",
             start / DEG_PER_KNM
         )
+    }
+}
+
+/// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
+/// payload torque and why it was held (rigid, or at a first fit's value).
+pub(super) fn compliance_report(
+    choice: Option<&ComplianceChoice>,
+    compliance: Option<&JointErrors>,
+    obs: &Observations,
+    kept: &[Column],
+    fixed: &[FixedParameter],
+    std_of: &dyn Fn(Column) -> Option<f64>,
+) -> Option<ComplianceReport> {
+    let identified = (0..3)
+        .filter(|&axis| kept.contains(&Column::PayloadCom(axis)))
+        .count();
+    match (choice, compliance) {
+        (Some(choice), Some(model)) => Some(ComplianceReport {
+            gravity: model.gravity.into(),
+            payload_com: model.payload_com.into(),
+            payload_com_identified: identified,
+            payload_com_source: match identified {
+                0 => choice.payload_com_source.clone(),
+                n => format!(
+                    "identified with the compliances ({n} of 3 coordinates; started from {})",
+                    choice.payload_com_source
+                ),
+            },
+            joints_source: choice.joints_source.clone(),
+            loads: obs.distinct_loads(),
+            joints: (0..model.values.len())
+                .map(|j| {
+                    let column = Column::Compliance(j);
+                    let identified = kept.contains(&column);
+                    let reason = if identified && model.values[j] < 0.0 {
+                        "identified, NEGATIVE: no joint stiffens under load; the stage is absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection); consider leaving this joint out".to_string()
+                    } else if identified {
+                        "identified".to_string()
+                    } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
+                        // Rigid, or at the first fit's value when the gate held it in the fit
+                        // that started there (its reason says which).
+                        if model.values[j] == 0.0 {
+                            format!("held rigid: {}", f.reason)
+                        } else {
+                            format!("held: {}", f.reason)
+                        }
+                    } else {
+                        "held rigid: not selected".to_string()
+                    };
+                    JointCompliance {
+                        joint: j + 1,
+                        compliance: model.values[j] / DEG_PER_KNM,
+                        std: std_of(column).map(|s| s / DEG_PER_KNM),
+                        torque_per_kg: choice.torque_per_kg[j],
+                        identified,
+                        reason,
+                    }
+                })
+                .collect(),
+        }),
+        _ => None,
+    }
+}
+
+/// The joint-error terms besides the compliances in the report (harmonics, self-weight, backlash,
+/// the links' weights, the payload's centre of mass): value in its unit, σ, whether identified.
+pub(super) fn joint_error_reports(
+    model: &JointErrors,
+    params: &[ErrorParam],
+    kept: &[Column],
+    std_of: &dyn Fn(Column) -> Option<f64>,
+) -> Vec<ErrorTermReport> {
+    params
+        .iter()
+        .filter(|p| !matches!(p, ErrorParam::Compliance(_)))
+        .map(|&p| {
+            let column = Column::of_error(model, p);
+            ErrorTermReport {
+                name: model.param_name(p),
+                unit: match p {
+                    ErrorParam::SelfWeight(_) => "deg per basis unit",
+                    ErrorParam::LinkWeight(i) => model.link_weights[i].part.weight_unit(),
+                    ErrorParam::PayloadCom(_) => "mm",
+                    ErrorParam::Tilt(_) => "deg per kN·m",
+                    _ => "deg",
+                },
+                value: in_file_unit(p, model.param(p)),
+                std: std_of(column).map(|s| in_file_unit(p, s)),
+                identified: kept.contains(&column),
+            }
+        })
+        .collect()
+}
+
+/// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m and
+/// the payload's centre of mass's mm as they are, a tilting compliance in deg per kN·m, the rest
+/// from radians to degrees.
+pub(super) fn in_file_unit(p: ErrorParam, value: f64) -> f64 {
+    match p {
+        ErrorParam::LinkWeight(_) | ErrorParam::PayloadCom(_) => value,
+        ErrorParam::Tilt(_) => value / DEG_PER_KNM,
+        _ => value.to_degrees(),
     }
 }

@@ -2,8 +2,8 @@
 //! selection and their folds share the fits they start from.
 
 use super::frames::align;
+use super::report::KinematicCalibration;
 use super::settings::KinematicSettings;
-use super::{KinematicCalibration, undated};
 use crate::error::Result;
 use crate::problem::Observations;
 use robocal_robot::Robot;
@@ -102,4 +102,24 @@ impl FitMemo {
     pub fn fits(&self) -> usize {
         self.entries().fits.len()
     }
+}
+
+/// `settings` as a [`FitMemo`] tells identifications apart: without their deadline and work count (a fit that
+/// ended is the same whatever time it had to end by, so the candidates' folds, each with its own
+/// deadline, share it), and without the flank search where no flank is chosen (no backlash, the
+/// approach flanks alone, or the flanks given): the search candidate's folds share the fits its
+/// rounds start from — the first fit without the links' weights and the fit on the approach
+/// flanks — with the candidate without the search.
+pub(crate) fn undated(settings: &KinematicSettings) -> KinematicSettings {
+    let mut key = KinematicSettings {
+        deadline: None,
+        work: None,
+        ..settings.clone()
+    };
+    if let Some(je) = key.joint_errors.as_mut()
+        && (!je.backlash || !je.backlash_torque || je.flanks.is_some())
+    {
+        je.flank_search = false;
+    }
+    key
 }

@@ -21,14 +21,15 @@ use robocal_robot::{Compliance, Flank, ParamId, ParameterCovariance, Robot};
 pub use frames::{align, tracker_down};
 use frames::{by_reflectors, down_of_aligned};
 pub use joint_errors::default_compliance_joints;
-use joint_errors::{choose_compliance, joint_error_start, solve_gated};
+use joint_errors::{
+    choose_compliance, compliance_report, joint_error_reports, joint_error_start, solve_gated,
+};
 pub use memo::FitMemo;
 pub use priors::prior_spread;
 pub use report::{
-    ComplianceReport, ErrorTermReport, Fixed, FixedParameter, JointCompliance, KinematicReport,
-    OrientationReport, ParameterReport,
+    ComplianceReport, ErrorTermReport, Fixed, FixedParameter, JointCompliance,
+    KinematicCalibration, KinematicReport, OrientationReport, ParameterReport,
 };
-use report::{compliance_report, joint_error_reports};
 pub use settings::{
     BACKLASH_BOUND_DEG, COMPLIANCE_BOUND, ComplianceSettings, FLANK_ROUNDS, HARMONIC_BOUND_DEG,
     HUBER_K, IRLS_ROUNDS, JointErrorSettings, KinematicSettings, Loss, MOUNTING_ANGLE_DEG,
@@ -38,22 +39,6 @@ use warnings::fit_warnings;
 pub use warnings::{
     FAR_FROM_NOMINAL, FAR_SIGMAS, ILL_CONDITIONED, POOR_FIT, far_from_nominal, poorly_determined,
 };
-
-/// A calibrated kinematic model and its report.
-#[derive(Debug, Clone)]
-pub struct KinematicCalibration {
-    /// The identified table (a valid robot file when written out).
-    pub robot: Robot,
-    /// The identified joint compliances, when the settings asked for them.
-    pub compliance: Option<Compliance>,
-    /// The nominal table with only base and tool fitted.
-    pub aligned: Robot,
-    /// The identified parameters' covariance (the posterior's under the harmonics' prior), when
-    /// the fit leaves degrees of freedom.
-    pub covariance: Option<ParameterCovariance>,
-    /// Report.
-    pub report: KinematicReport,
-}
 
 /// Identifies the kinematic parameters of `nominal` from `obs` (and, when the settings ask for
 /// it, the joint compliances with them: then the points of every load take part).
@@ -103,26 +88,6 @@ pub fn calibrate_kinematics_with(
         Ok(with) if with.report.after.rms <= without.report.after.rms => with,
         _ => without,
     })
-}
-
-/// `settings` as a [`FitMemo`] tells identifications apart: without their deadline and work count (a fit that
-/// ended is the same whatever time it had to end by, so the candidates' folds, each with its own
-/// deadline, share it), and without the flank search where no flank is chosen (no backlash, the
-/// approach flanks alone, or the flanks given): the search candidate's folds share the fits its
-/// rounds start from — the first fit without the links' weights and the fit on the approach
-/// flanks — with the candidate without the search.
-fn undated(settings: &KinematicSettings) -> KinematicSettings {
-    let mut key = KinematicSettings {
-        deadline: None,
-        work: None,
-        ..settings.clone()
-    };
-    if let Some(je) = key.joint_errors.as_mut()
-        && (!je.backlash || !je.backlash_torque || je.flanks.is_some())
-    {
-        je.flank_search = false;
-    }
-    key
 }
 
 /// [`identify_anew`], or the identification `memo` remembers for the same table, rows and

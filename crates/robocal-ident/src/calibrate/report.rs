@@ -1,11 +1,8 @@
 //! What an identification reports: every parameter with its change and deviation, the
 //! compliances and joint errors in their file units, what was held and why.
 
-use super::joint_errors::ComplianceChoice;
-use crate::identifiability::Column;
-use crate::problem::Observations;
 use robocal_data::ErrorStats;
-use robocal_robot::{DEG_PER_KNM, ErrorParam, JointErrors};
+use robocal_robot::{Compliance, ParameterCovariance, Robot};
 use serde::Serialize;
 
 /// One joint-error coefficient besides the payload compliances, in the report.
@@ -178,104 +175,18 @@ pub struct KinematicReport {
     pub mounting_warning: Option<String>,
 }
 
-/// The compliance part of the report: each joint's identified compliance (deg per kN·m), σ,
-/// payload torque and why it was held (rigid, or at a first fit's value).
-pub(super) fn compliance_report(
-    choice: Option<&ComplianceChoice>,
-    compliance: Option<&JointErrors>,
-    obs: &Observations,
-    kept: &[Column],
-    fixed: &[FixedParameter],
-    std_of: &dyn Fn(Column) -> Option<f64>,
-) -> Option<ComplianceReport> {
-    let identified = (0..3)
-        .filter(|&axis| kept.contains(&Column::PayloadCom(axis)))
-        .count();
-    match (choice, compliance) {
-        (Some(choice), Some(model)) => Some(ComplianceReport {
-            gravity: model.gravity.into(),
-            payload_com: model.payload_com.into(),
-            payload_com_identified: identified,
-            payload_com_source: match identified {
-                0 => choice.payload_com_source.clone(),
-                n => format!(
-                    "identified with the compliances ({n} of 3 coordinates; started from {})",
-                    choice.payload_com_source
-                ),
-            },
-            joints_source: choice.joints_source.clone(),
-            loads: obs.distinct_loads(),
-            joints: (0..model.values.len())
-                .map(|j| {
-                    let column = Column::Compliance(j);
-                    let identified = kept.contains(&column);
-                    let reason = if identified && model.values[j] < 0.0 {
-                        "identified, NEGATIVE: no joint stiffens under load; the stage is absorbing an effect it does not model (backlash whose side the torque sets, a wrong payload_com, link deflection); consider leaving this joint out".to_string()
-                    } else if identified {
-                        "identified".to_string()
-                    } else if let Some(f) = fixed.iter().find(|f| f.name == column.to_string()) {
-                        // Rigid, or at the first fit's value when the gate held it in the fit
-                        // that started there (its reason says which).
-                        if model.values[j] == 0.0 {
-                            format!("held rigid: {}", f.reason)
-                        } else {
-                            format!("held: {}", f.reason)
-                        }
-                    } else {
-                        "held rigid: not selected".to_string()
-                    };
-                    JointCompliance {
-                        joint: j + 1,
-                        compliance: model.values[j] / DEG_PER_KNM,
-                        std: std_of(column).map(|s| s / DEG_PER_KNM),
-                        torque_per_kg: choice.torque_per_kg[j],
-                        identified,
-                        reason,
-                    }
-                })
-                .collect(),
-        }),
-        _ => None,
-    }
-}
-
-/// The joint-error terms besides the compliances in the report (harmonics, self-weight, backlash,
-/// the links' weights, the payload's centre of mass): value in its unit, σ, whether identified.
-pub(super) fn joint_error_reports(
-    model: &JointErrors,
-    params: &[ErrorParam],
-    kept: &[Column],
-    std_of: &dyn Fn(Column) -> Option<f64>,
-) -> Vec<ErrorTermReport> {
-    params
-        .iter()
-        .filter(|p| !matches!(p, ErrorParam::Compliance(_)))
-        .map(|&p| {
-            let column = Column::of_error(model, p);
-            ErrorTermReport {
-                name: model.param_name(p),
-                unit: match p {
-                    ErrorParam::SelfWeight(_) => "deg per basis unit",
-                    ErrorParam::LinkWeight(i) => model.link_weights[i].part.weight_unit(),
-                    ErrorParam::PayloadCom(_) => "mm",
-                    ErrorParam::Tilt(_) => "deg per kN·m",
-                    _ => "deg",
-                },
-                value: in_file_unit(p, model.param(p)),
-                std: std_of(column).map(|s| in_file_unit(p, s)),
-                identified: kept.contains(&column),
-            }
-        })
-        .collect()
-}
-
-/// A joint-error coefficient (internal units) in its report's: a link weight's kg or kg·m and
-/// the payload's centre of mass's mm as they are, a tilting compliance in deg per kN·m, the rest
-/// from radians to degrees.
-pub(super) fn in_file_unit(p: ErrorParam, value: f64) -> f64 {
-    match p {
-        ErrorParam::LinkWeight(_) | ErrorParam::PayloadCom(_) => value,
-        ErrorParam::Tilt(_) => value / DEG_PER_KNM,
-        _ => value.to_degrees(),
-    }
+/// A calibrated kinematic model and its report.
+#[derive(Debug, Clone)]
+pub struct KinematicCalibration {
+    /// The identified table (a valid robot file when written out).
+    pub robot: Robot,
+    /// The identified joint compliances, when the settings asked for them.
+    pub compliance: Option<Compliance>,
+    /// The nominal table with only base and tool fitted.
+    pub aligned: Robot,
+    /// The identified parameters' covariance (the posterior's under the harmonics' prior), when
+    /// the fit leaves degrees of freedom.
+    pub covariance: Option<ParameterCovariance>,
+    /// Report.
+    pub report: KinematicReport,
 }

@@ -1,8 +1,8 @@
 //! The residuals of an identification and their Jacobians: exact where the model's joints
 //! deflect, to first order elsewhere; and the mean distance's gradient.
 
-use super::CalibrationProblem;
 use super::observations::{ROWS_PER_TASK, RowBlock};
+use super::setup::CalibrationProblem;
 use faer::Mat;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use rayon::prelude::*;

@@ -1,7 +1,7 @@
 //! The problem as the solvers see it: least squares for Levenberg–Marquardt, the mean distance
 //! for BFGS (argmin's operator, Jacobian, cost and gradient).
 
-use super::CalibrationProblem;
+use super::setup::CalibrationProblem;
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Jacobian, Operator};
 use faer::Mat;
 use std::cell::RefCell;

@@ -1,7 +1,7 @@
 //! The report's figures: the errors' cumulative distributions, per configuration, per axis
 //! against every joint, against the load, over the workspace, and against the predicted spread.
 
-use super::{Figure, loads, mean};
+use super::stats::{Figure, loads, mean};
 use crate::error::Result;
 use crate::plots::{
     ColourPanel, Draw, Panel, Series, colour_figure, cumulative_curves, figure_grid,

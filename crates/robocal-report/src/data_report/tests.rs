@@ -1,3 +1,6 @@
+use nalgebra::Vector3;
+
+use super::stats::{rank_correlation, ranks};
 use super::*;
 use robocal_data::Sample;
 use robocal_robot::Robot;

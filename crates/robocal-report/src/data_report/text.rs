@@ -1,7 +1,7 @@
 //! The report's text: its tables and sections as Markdown (`report.md`) and as a
 //! self-contained page (`report.html`, the figures inlined).
 
-use super::DataReport;
+use super::stats::DataReport;
 use robocal_data::ErrorStats;
 use std::fmt::Write as _;
 use std::path::Path;
