@@ -10,16 +10,17 @@ use robocal_model::CalibratedModel;
 use robocal_robot::{JointErrors, Robot};
 use serde::Serialize;
 
+use crate::built::Built;
+use crate::configured::configured_with;
 use crate::error::{CalibrationError, Result};
 use crate::options::DefaultOptions;
+use crate::outliers::{OutlierReport, OutlierSettings, find_outliers_with};
+use crate::plausibility::check_plausible;
+use crate::readings::{rounded_joints, rounding_warning};
+use crate::repeats::{Repeats, repeats};
+use crate::residual_report::ResidualReport;
+use crate::select::{AutoSettings, Selection, automatic};
 use crate::stages::Stages;
-use crate::{
-    AutoSettings, Built, OutlierReport, OutlierSettings, Repeats, ResidualReport, Selection,
-    check_plausible, configured_with, find_outliers_with,
-    readings::{rounded_joints, rounding_warning},
-    repeats::repeats,
-    select::automatic,
-};
 
 /// What `calibrate` checks before it makes a model.
 #[derive(Debug, Clone, Copy, Default)]

@@ -1,86 +1,19 @@
 //! The stages a stage config asks for, fitted in order: the identification, then a residual
 //! model on what it leaves.
 
+use crate::built::Built;
 use crate::error::Result;
-use crate::outliers::OutlierReport;
+use crate::fit::{fit_kinematic_with, physical_model};
 use crate::residual_report::{ResidualReport, gate_ready, residual_report};
-use crate::rows::{configurations, early_stopping_hold_out, lightest_load_rows};
-use crate::select::Selection;
+use crate::rows::{configurations, early_stopping_hold_out};
 use crate::stages::Stages;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use robocal_data::{Measurement, Observer, Sample, Silent};
-use robocal_ident::{
-    FitMemo, KinematicCalibration, KinematicSettings, Observations, calibrate_kinematics_with,
-};
+use robocal_ident::FitMemo;
 use robocal_model::{CalibratedModel, with_gate_physics};
 use robocal_residual::{ResidualModel, ResidualSettings, ResidualStage, Samples};
 use robocal_robot::Robot;
-
-/// The geometric (and elastic) model of an identification, without a residual model, with its
-/// parameters' covariance.
-pub fn physical_model(calibration: &KinematicCalibration) -> CalibratedModel {
-    CalibratedModel {
-        covariance: calibration.covariance.clone(),
-        ..CalibratedModel::new(
-            calibration.robot.clone(),
-            calibration.compliance.clone(),
-            None,
-        )
-    }
-}
-
-/// Identifies the kinematic stage from `rows`: a rigid stage from the rows at the lightest load
-/// (geometry alone, as in the paper), an elasto-geometric one from every row.
-pub fn fit_kinematic(
-    nominal: &Robot,
-    rows: &[&Measurement],
-    settings: &KinematicSettings,
-) -> Result<KinematicCalibration> {
-    fit_kinematic_with(nominal, rows, settings, &FitMemo::default())
-}
-
-/// [`fit_kinematic`], sharing with the other fits of the same rows the alignments and
-/// identifications `memo` remembers ([`robocal_ident::calibrate_kinematics_with`]: the same
-/// results, bit for bit).
-pub fn fit_kinematic_with(
-    nominal: &Robot,
-    rows: &[&Measurement],
-    settings: &KinematicSettings,
-    memo: &FitMemo,
-) -> Result<KinematicCalibration> {
-    let obs = if settings.compliance.is_some() {
-        Observations::from_rows(nominal.dof(), rows.iter().copied())
-    } else {
-        Observations::from_rows(nominal.dof(), lightest_load_rows(rows).into_iter())
-    };
-    Ok(calibrate_kinematics_with(nominal, &obs, settings, memo)?)
-}
-
-/// A calibrated model and what made it.
-#[derive(Debug)]
-pub struct Built {
-    /// The kinematic (or elasto-geometric) identification in the model.
-    pub kinematic: KinematicCalibration,
-    /// The residual stage, if one is in the model.
-    pub residual: Option<(ResidualModel, ResidualReport)>,
-    /// The stages, as a stage config would give them.
-    pub stages: Stages,
-    /// How the default calibration chose the stages (absent with a stage config).
-    pub selection: Option<Selection>,
-    /// The bad shots found before the calibration (absent when not searched).
-    pub outliers: Option<OutlierReport>,
-}
-
-impl Built {
-    /// The calibrated model.
-    pub fn model(&self) -> CalibratedModel {
-        CalibratedModel {
-            residual: self.residual.as_ref().map(|(m, _)| m.clone()),
-            ..physical_model(&self.kinematic)
-        }
-    }
-}
 
 /// Runs the stages of a stage config on `rows` (early stopping on `validation` when given).
 pub fn configured(

@@ -17,9 +17,11 @@
 //! [`outliers`] (bad shots), [`plausibility`] (data that do not fit the robot file).
 
 pub mod budget;
+pub mod built;
 pub mod calibrate;
 pub mod configured;
 pub mod error;
+pub mod fit;
 pub mod folds;
 pub mod options;
 pub mod outliers;
@@ -46,10 +48,9 @@ pub use select::{
     joint1_gravity_angle, residual_stages,
 };
 
-pub use configured::{
-    Built, configured, configured_with, fit_kinematic, fit_kinematic_with, physical_model,
-    train_residual, train_residual_model,
-};
+pub use built::Built;
+pub use configured::{configured, configured_with, train_residual, train_residual_model};
+pub use fit::{fit_kinematic, fit_kinematic_with, physical_model};
 pub use residual_report::{
     GateSplit, GateSummary, GpSummary, NetTraining, ResidualReport, gate_ready, gate_summary,
 };

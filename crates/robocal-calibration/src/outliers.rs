@@ -14,8 +14,8 @@ use robocal_ident::{
 use robocal_robot::Robot;
 use serde::Serialize;
 
-use crate::configured::{fit_kinematic, fit_kinematic_with, physical_model};
 use crate::error::Result;
+use crate::fit::{fit_kinematic, fit_kinematic_with, physical_model};
 use crate::folds::configuration_groups;
 use crate::rows::{coordinates_and_parameters, loads, readings_key};
 

@@ -10,8 +10,8 @@ use robocal_ident::{
 };
 use robocal_robot::Robot;
 
-use crate::configured::fit_kinematic;
 use crate::error::Result;
+use crate::fit::fit_kinematic;
 use crate::rows::{configurations, coordinates_and_parameters, lightest_load_rows, loads};
 
 /// Why a calibration is not plausible, and what probably went wrong.

@@ -12,8 +12,8 @@ use robocal_robot::{
     tilt_name,
 };
 
+use crate::built::Built;
 use crate::calibrate::{Calibration, CalibrationReport};
-use crate::configured::Built;
 use crate::select::Selection;
 
 /// The lines that describe a calibration's fit, in order: the identified physics (its errors

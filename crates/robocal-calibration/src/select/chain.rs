@@ -1,10 +1,13 @@
 //! The chain of physical candidates: each richer model taken only where it lowers the held-out
 //! errors significantly.
 
-use super::physics::{Physics, Scored, score_physics, skipped};
+use super::physics::Physics;
 use super::plan::FoldPlan;
-use super::status::{Stage, report};
-use super::{AutoSettings, Candidate};
+use super::scoring::{Scored, score_physics, skipped};
+use super::selection::Candidate;
+use super::selection::report;
+use super::settings::AutoSettings;
+use super::status::Stage;
 use crate::budget::Allowance;
 use crate::folds::improves;
 use crate::rows::loads;

@@ -1,11 +1,13 @@
 //! The decisions the selection reports, one per stage, and the reach of joint 1's harmonics.
 
 use super::chain::Chain;
-use super::physics::{Physics, Scored, orders_words};
+use super::physics::{Physics, orders_words};
 use super::plan::FoldPlan;
 use super::residual::ResidualScore;
+use super::scoring::Scored;
+use super::selection::{Candidate, Decision};
+use super::settings::AutoSettings;
 use super::status::Stage;
-use super::{AutoSettings, Candidate, Decision};
 use crate::folds::improves;
 use robocal_data::Measurement;
 use robocal_model::Domain;

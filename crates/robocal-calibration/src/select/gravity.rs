@@ -1,8 +1,8 @@
 //! Gravity and the default: the mounting decided once before the candidates, and the residual
 //! models' frames where joint 1 lies off the line of gravity.
 
-use super::AutoSettings;
 use super::physics::Physics;
+use super::settings::AutoSettings;
 use crate::rows::loads;
 use nalgebra::Vector3;
 use robocal_data::Measurement;

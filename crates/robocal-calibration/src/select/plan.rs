@@ -1,6 +1,6 @@
 //! Where the candidates are scored: the folds, the blocks of joint 1 or the validation file.
 
-use super::AutoSettings;
+use super::settings::AutoSettings;
 use crate::folds::{Fold, blocks, folds, splits_of};
 use crate::rows::configurations;
 use robocal_data::Measurement;

@@ -3,8 +3,10 @@
 
 use super::chain::Chain;
 use super::plan::FoldPlan;
-use super::status::{Status, report};
-use super::{AutoSettings, Candidate};
+use super::selection::Candidate;
+use super::selection::report;
+use super::settings::AutoSettings;
+use super::status::Status;
 use crate::budget::{self, Allowance, Epochs, REFERENCE_CORES};
 use crate::configured::train_residual_model;
 use crate::error::Result;

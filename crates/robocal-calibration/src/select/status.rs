@@ -4,10 +4,7 @@
 
 use std::fmt;
 
-use robocal_data::Observer;
 use serde::{Serialize, Serializer};
-
-use super::Candidate;
 
 /// The stage a decision of the default calibration is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -163,7 +160,7 @@ impl Serialize for Status {
 
 /// A candidate's seconds in words: under a tenth of a second is said so, not as `0.0 s`, which
 /// reads as nothing having run (its fits were quick, or made already by a candidate before it).
-fn seconds_words(seconds: f64) -> String {
+pub(super) fn seconds_words(seconds: f64) -> String {
     if seconds < 0.1 {
         "under 0.1 s".into()
     } else {
@@ -171,32 +168,9 @@ fn seconds_words(seconds: f64) -> String {
     }
 }
 
-/// Says a candidate's held-out numbers, or why it was skipped.
-pub(super) fn report(c: &Candidate, observer: &dyn Observer) {
-    observer.message(&match (&c.held_out, &c.held_out_blocks) {
-        (Some(h), Some(b)) => format!(
-            "candidate {}: held-out mean {:.4} mm (max {:.4}) on random folds, {:.4} mm (max {:.4}) on blocks of joint 1 ({})",
-            c.name,
-            h.mean,
-            h.max,
-            b.mean,
-            b.max,
-            seconds_words(c.seconds)
-        ),
-        (Some(h), None) => format!(
-            "candidate {}: held-out mean {:.4} mm, max {:.4} mm ({})",
-            c.name,
-            h.mean,
-            h.max,
-            seconds_words(c.seconds)
-        ),
-        _ => format!("candidate {}: {}", c.name, c.status),
-    });
-}
-
 /// `the time budget (120 s)`: how every status of a candidate the budget cut names it, and
 /// [`budget_warning`] the budget.
-fn the_budget(budget_seconds: f64) -> String {
+pub(super) fn the_budget(budget_seconds: f64) -> String {
     format!("the time budget ({budget_seconds} s)")
 }
 
@@ -208,28 +182,4 @@ fn leaving(reserve: f64) -> String {
     } else {
         String::new()
     }
-}
-
-/// Where the time budget ended the search before every candidate was scored (skipped before
-/// its folds, or abandoned during them: [`Status::budget_cut`]), a warning naming them: the
-/// model chosen is the best of those scored, and a larger budget scores the rest. On the paper's
-/// twin beyond the model (2646 rows) the default 120 s leaves the axis runouts unscored, and
-/// with them scored the error on poses past the trained joint-1 range falls from 0.14 and 0.11
-/// to 0.03 and 0.05 mm on two seeds: a user who can wait should know.
-pub(super) fn budget_warning(candidates: &[Candidate], budget_seconds: f64) -> Option<String> {
-    let words = the_budget(budget_seconds);
-    let cut: Vec<&str> = (candidates.iter())
-        .filter(|c| c.status.budget_cut() && c.score.is_none())
-        .map(|c| c.name.as_str())
-        .collect();
-    (!cut.is_empty()).then(|| {
-        format!(
-            "{words} ended the search before {} candidate{} {} scored ({}): the model chosen is the best of those scored; a larger budget (`--budget`, or `budget=` in Python) scores {}",
-            cut.len(),
-            if cut.len() == 1 { "" } else { "s" },
-            if cut.len() == 1 { "was" } else { "were" },
-            cut.join("; "),
-            if cut.len() == 1 { "it" } else { "them" },
-        )
-    })
 }

@@ -5,9 +5,23 @@ use robocal_twin::TwinConfig;
 use robocal_ident::{FLANK_ROUNDS, SEARCH_FLANK_ROUNDS};
 use robocal_model::CalibratedModel;
 
-use super::physics::{Physics, fold_share, projection};
+use super::physics::Physics;
 use super::residual::{KINEMATIC, ResidualScore};
+use super::scoring::{fold_share, projection};
+use nalgebra::Vector3;
+use robocal_data::{Measurement, Silent};
+use robocal_residual::{Frame, ResidualKind, ResidualSettings, ResidualStage};
+use robocal_robot::Robot;
+
+use super::gravity::mounting;
+use super::plan::FoldPlan;
+use super::residual::{pick_residual, residual_share};
+use super::run::automatic_metered;
+use super::scoring::FINAL_FIT_SHARE;
+use super::selection::budget_warning;
 use super::*;
+use crate::budget::Meter;
+use crate::built::Built;
 use crate::spread;
 
 /// Joint 1's angle to gravity, against a hand count on ARM5 (joint 1 along its base's z):
