@@ -4,7 +4,7 @@
 use crate::fit::physical_model;
 use crate::outliers::OutlierReport;
 use crate::residual_report::ResidualReport;
-use crate::select::Selection;
+use crate::select::selection::Selection;
 use crate::stages::Stages;
 use robocal_ident::KinematicCalibration;
 use robocal_model::CalibratedModel;

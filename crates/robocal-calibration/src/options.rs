@@ -10,7 +10,7 @@ use robocal_residual::Frame;
 use serde::Deserialize;
 
 use crate::error::{CalibrationError, Result};
-use crate::select::{AutoSettings, DEFAULT_BUDGET_SECONDS};
+use crate::select::settings::{AutoSettings, DEFAULT_BUDGET_SECONDS};
 
 /// The default calibration's options. Every one is optional: what is not given keeps the
 /// default's own setting.

@@ -9,8 +9,8 @@ mod plan;
 mod residual;
 mod run;
 mod scoring;
-mod selection;
-mod settings;
+pub(crate) mod selection;
+pub(crate) mod settings;
 mod status;
 
 pub use decisions::REACH_GAIN;

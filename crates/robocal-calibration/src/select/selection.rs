@@ -80,6 +80,8 @@ pub struct Selection {
     /// See `budget_seconds`.
     pub seconds: f64,
     /// Whether the budget was kept by counted work ([`AutoSettings::reproducible`]).
+    ///
+    /// [`AutoSettings::reproducible`]: crate::select::AutoSettings::reproducible
     pub reproducible: bool,
     /// With `reproducible`, the reference machine's seconds the selection's counted work came to
     /// (what the budget was kept by).

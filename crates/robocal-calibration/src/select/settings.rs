@@ -56,6 +56,8 @@ pub struct AutoSettings {
     /// frame turning with joint 1 is also tried in the world frame, and the folds choose: the
     /// turned frame's gain rests on joint 1 standing along gravity (on by default; off when the
     /// user names the frame).
+    ///
+    /// [`JOINT1_GRAVITY_ANGLE_DEG`]: crate::select::JOINT1_GRAVITY_ANGLE_DEG
     pub both_frames_off_gravity: bool,
     /// Seconds the selection may take: a candidate whose folds would run past it (projected
     /// from its first fold) is abandoned, and none starts after it. The only setting that
@@ -68,6 +70,7 @@ pub struct AutoSettings {
     /// Off by default.
     ///
     /// [`REFERENCE_CORES`]: crate::budget::REFERENCE_CORES
+    /// [`budget`]: crate::budget
     pub reproducible: bool,
     /// The search for bad shots before everything else (none: every row is used).
     pub outliers: Option<OutlierSettings>,

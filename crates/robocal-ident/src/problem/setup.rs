@@ -227,6 +227,8 @@ impl<'a> CalibrationProblem<'a> {
     /// least-squares view ([`LeastSquares`]) appends a row `weight × value` for each (a prior of
     /// standard deviation `τ` against residuals of standard deviation `σ`: weight `σ / τ`);
     /// coefficients not identified are left out. `spread` holds the groups' `τ` (reported).
+    ///
+    /// [`LeastSquares`]: crate::problem::LeastSquares
     pub fn set_prior(&mut self, prior: Vec<(ErrorParam, f64)>, spread: PriorSpreads) {
         let params = self.error_params().to_vec();
         self.prior = prior

@@ -3,10 +3,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::JointErrors;
-use super::gravity::{Pose, PoseCache, visit_torque_features};
-use super::payload::payload_mass_feature;
-use crate::table::Robot;
+use super::gravity::{TORQUE_FEATURES_PER_LINK, visit_torque_features};
 
 /// Which flank of its play a joint with backlash rests on.
 #[derive(Debug, Clone, PartialEq)]
@@ -25,6 +22,8 @@ pub enum Flank {
     /// times the load, and 1). With the load's unit-mass weight 1, the others are the links'
     /// masses (kg) and first moments (kg·m), the payload's centre of mass (m) and a preload
     /// (N·m): the sign is that of the joint's torque.
+    ///
+    /// [`JointErrors::torque_features`]: crate::compliance::JointErrors::torque_features
     Torque {
         /// One per feature.
         weights: Vec<f64>,
@@ -121,41 +120,8 @@ pub fn backlash_name(joint: usize) -> String {
     format!("j{}.backlash", joint + 1)
 }
 
-impl JointErrors {
-    /// Adds backlash terms (half play 0) for `joints`, each on the flank of its approach from
-    /// home reading 0.
-    pub fn with_backlash(mut self, joints: &[usize]) -> Self {
-        for &joint in joints {
-            self.backlash.push(Backlash {
-                joint,
-                flank: Flank::Approach { home: 0.0 },
-                value: 0.0,
-            });
-        }
-        self
-    }
-
-    /// The flank (`±1`) backlash `b` rests on at command `q` (rad) under `load` kg.
-    pub fn flank(&self, b: &Backlash, robot: &Robot, q: &[f64], load: f64) -> f64 {
-        match &b.flank {
-            Flank::Approach { home } => side(q[b.joint] >= *home),
-            Flank::Torque { weights } => {
-                torque_side(weights, &self.torque_features(robot, q, load, b.joint))
-            }
-        }
-    }
-
-    /// The flank (`±1`) of every backlash term at command `q` (rad) under `load` kg, the arm's
-    /// frames computed once for all the torque flanks.
-    pub(super) fn flanks(&self, pose: &PoseCache, load: f64) -> Vec<f64> {
-        (self.backlash.iter())
-            .map(|b| match &b.flank {
-                Flank::Approach { home } => side(pose.q[b.joint] >= *home),
-                Flank::Torque { weights } => {
-                    let Pose { axes, frames, g } = pose.get();
-                    torque_side_at(weights, &axes[b.joint], &frames[b.joint..], g, load)
-                }
-            })
-            .collect()
-    }
+/// The position, among `count` gravity-torque features, of the payload's unit mass (the
+/// weight a torque flank's weights are scaled to; the preload's is the last).
+pub fn payload_mass_feature(count: usize) -> usize {
+    count.saturating_sub(TORQUE_FEATURES_PER_LINK + 1)
 }

@@ -2,13 +2,14 @@
 //! moves the tool to, and what a fit needs of each row (the basis of the coefficients, their
 //! Jacobian, the rates under the table's parameters).
 
-use std::cell::OnceCell;
-
 use nalgebra::{Matrix3, Matrix3xX, Vector3};
 
-use super::gravity::{Pose, PoseCache, Quantity, unit_torque};
-use super::self_weight::{LinkUnits, MomentPart};
-use super::{DeflectionRates, ErrorParam, JointErrors, RowTerms, turn_rotation, turned, turned_by};
+use super::gravity::{MomentPart, Pose, Quantity, unit_torque};
+use super::model::{
+    DeflectionRates, ErrorParam, JointErrors, RowTerms, turn_rotation, turned, turned_by,
+};
+use super::self_weight::LinkUnits;
+use super::terms::PoseCache;
 use crate::table::Robot;
 
 /// The terms of one row that the deflection and the basis share ([`JointErrors::row_terms`]).
@@ -143,38 +144,6 @@ impl JointErrors {
         }
     }
 
-    /// Gravity in the world frame of `robot`, m/s².
-    pub fn gravity_world(&self, robot: &Robot) -> Vector3<f64> {
-        robot.base_rotation() * self.gravity
-    }
-
-    /// A lazily computed [`Pose`] of `robot` at command `q` (rad), for this model's gravity.
-    pub(super) fn pose<'a>(&self, robot: &'a Robot, q: &'a [f64]) -> PoseCache<'a> {
-        self.pose_on(robot, q, None)
-    }
-
-    /// [`Self::pose`] with the bases of the model's waves at `q` given ([`Self::wave_bases`]),
-    /// or computed on first use.
-    pub(super) fn pose_on<'a>(
-        &self,
-        robot: &'a Robot,
-        q: &'a [f64],
-        waves: Option<&'a [(f64, f64)]>,
-    ) -> PoseCache<'a> {
-        debug_assert!(
-            waves.is_none_or(|w| w.len() == self.harmonics.len() + self.runouts.len()),
-            "one basis per wave"
-        );
-        PoseCache {
-            robot,
-            q,
-            g: self.gravity_world(robot),
-            pose: OnceCell::new(),
-            given_waves: waves,
-            waves: OnceCell::new(),
-        }
-    }
-
     /// How far each joint turns from command `q` (rad) under `load` kg, rad: compliance ×
     /// torque of the payload and of the links' weights, plus the harmonics, the self-weight
     /// terms and the backlash.
@@ -236,11 +205,11 @@ impl JointErrors {
         }
         for (i, t) in self.self_weight.iter().enumerate() {
             if t.value != 0.0 {
-                d[t.joint] += t.value * sw.map_or_else(|| t.basis_at(pose), |sw| sw[i]);
+                d[t.joint] += t.value * sw.map_or_else(|| t.basis_at(&pose.get()), |sw| sw[i]);
             } else if d[t.joint] == 0.0 && d[t.joint].is_sign_negative() {
                 // A term at zero adds ±0: that leaves every sum as it is but −0, which +0 turns
                 // +0 — the one case its basis (not computed: `sw` holds 0 for it) decides.
-                d[t.joint] += t.value * t.basis_at(pose);
+                d[t.joint] += t.value * t.basis_at(&pose.get());
             }
         }
         for (b, s) in self.backlash.iter().zip(flanks) {

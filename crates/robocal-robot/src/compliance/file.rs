@@ -6,11 +6,12 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::backlash::{Backlash, Flank};
+use super::gravity::MomentPart;
 use super::harmonic::{Harmonic, MAX_HARMONIC_ORDER};
+use super::model::{DEG_PER_KNM, JointErrors};
 use super::runout::{Across, Runout};
-use super::self_weight::{LinkWeight, MomentPart, SelfWeight};
+use super::self_weight::{LinkWeight, SelfWeight};
 use super::tilt::Tilt;
-use super::{DEG_PER_KNM, JointErrors};
 use crate::error::{Result, RobotError};
 use crate::table::{file_value, toml_error};
 
@@ -137,154 +138,11 @@ pub struct RawSelfWeight {
     pub value: f64,
 }
 
-impl JointErrors {
-    /// Parses `compliance.toml` for a robot with `dof` joints.
-    pub fn from_toml_str(text: &str, path: impl AsRef<Path>, dof: usize) -> Result<Self> {
-        let path = path.as_ref();
-        let raw: RawCompliance = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-        let check = Check { path, dof };
-        check.compliances(&raw)?;
-        let harmonics = (raw.harmonic.iter().enumerate())
-            .map(|(i, h)| check.wave(&format!("harmonic[{}]", i + 1), h))
-            .collect::<Result<Vec<_>>>()?;
-        // One order of checks, so that a file with several faults names the same one first.
-        let runouts = check.runouts(&raw.runout)?;
-        let self_weight = check.self_weight(&raw.self_weight)?;
-        let backlash = check.backlash(&raw.backlash)?;
-        let link_weights = check.link_weights(&raw.link_weight)?;
-        let tilts = check.tilts(&raw.tilt)?;
-        Ok(Self {
-            values: raw.compliance.iter().map(|c| c * DEG_PER_KNM).collect(),
-            gravity: Vector3::from(raw.gravity),
-            payload_com: Vector3::from(raw.payload_com),
-            harmonics,
-            self_weight,
-            backlash,
-            link_weights,
-            tilts,
-            runouts,
-        })
-    }
-
-    /// Reads `compliance.toml` for a robot with `dof` joints.
-    pub fn load(path: impl AsRef<Path>, dof: usize) -> Result<Self> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_toml_str(&text, path, dof)
-    }
-
-    /// The file form, with a header saying what the numbers mean.
-    pub fn to_toml_string(&self) -> String {
-        // Every number as the one that reads back exactly (the loader's conversions inverted).
-        let deg = |v: f64| file_value(v, f64::to_degrees, f64::to_radians);
-        let knm = |c: f64| file_value(c, |c| c / DEG_PER_KNM, |c| c * DEG_PER_KNM);
-        let raw = RawCompliance {
-            gravity: self.gravity.into(),
-            payload_com: self.payload_com.into(),
-            compliance: self.values.iter().map(|&c| knm(c)).collect(),
-            harmonic: (self.harmonics.iter())
-                .map(|h| RawHarmonic {
-                    joint: h.joint + 1,
-                    order: h.order,
-                    sin: deg(h.sin),
-                    cos: deg(h.cos),
-                    reach: h.reach.map(|r| r.map(deg)),
-                })
-                .collect(),
-            self_weight: (self.self_weight.iter())
-                .map(|t| RawSelfWeight {
-                    joint: t.joint + 1,
-                    body: t.body + 1,
-                    part: t.part,
-                    value: deg(t.value),
-                })
-                .collect(),
-            backlash: (self.backlash.iter())
-                .map(|b| RawBacklash {
-                    joint: b.joint + 1,
-                    home: b.home().map(deg),
-                    torque: match &b.flank {
-                        Flank::Torque { weights } => Some(weights.clone()),
-                        Flank::Approach { .. } => None,
-                    },
-                    value: deg(b.value),
-                })
-                .collect(),
-            link_weight: (self.link_weights.iter())
-                .map(|w| RawLinkWeight {
-                    body: w.body + 1,
-                    part: w.part,
-                    value: w.value,
-                })
-                .collect(),
-            tilt: (self.tilts.iter())
-                .map(|t| RawTilt {
-                    joint: t.joint + 1,
-                    compliance: knm(t.value),
-                })
-                .collect(),
-            runout: (self.runouts.iter())
-                .map(|r| RawRunout {
-                    joint: r.wave.joint + 1,
-                    order: r.wave.order,
-                    across: r.across,
-                    sin: deg(r.wave.sin),
-                    cos: deg(r.wave.cos),
-                    reach: r.wave.reach.map(|v| v.map(deg)),
-                })
-                .collect(),
-        };
-        let body = toml::to_string(&raw).unwrap_or_default();
-        let more = if self.has_configuration_terms() {
-            "# harmonic: transmission error of a joint, sin · sin(order q) + cos · cos(order q), deg;\n\
-             # reach = [lo, hi] (deg): beyond it, q is held at the nearer end (the readings it was\n\
-             # identified on, widened by a quarter of their span at each end); without a reach the\n\
-             # harmonic is continued at every angle.\n\
-             # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
-             # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n\
-             # backlash: the joint rests on one flank of its play, error +value (deg, half the\n\
-             # play) on one, -value on the other: with `home` (deg), the flank of its approach\n\
-             # from home (+ at or above it); with `torque`, the flank its torque presses (+ where\n\
-             # the weights times the features are at least 0: for each link from the joint's\n\
-             # outwards the gravity torques of a unit mass at its frame's origin and of unit first\n\
-             # moments along x, y, z, then the same of the flange frame times the load, then 1).\n\
-             # link_weight: the weight of link `body` shared by every joint up to it: its mass\n\
-             # (part = mass, kg, at the link frame's origin) or first moment (x, y, z: kg·m along\n\
-             # the link frame's axes); each joint deflects by its compliance × the gravity torque\n\
-             # of the payload and of these weights.\n"
-        } else {
-            ""
-        };
-        let tilt = if self.tilts.is_empty() {
-            ""
-        } else {
-            "# tilt: the parts beyond the joint turn about its origin, across its axis, by\n\
-             # compliance (deg per kN·m) × the gravity moment across the axis of the payload and\n\
-             # of the link weights beyond it.\n"
-        };
-        let runout = if self.runouts.is_empty() {
-            ""
-        } else {
-            "# runout: the parts beyond the joint turn about its origin, across its axis, by\n\
-             # sin · sin(order q) + cos · cos(order q) (deg) about the axis `across` (x or y) of\n\
-             # the joint's link frame, which turns with the joint; reach as a harmonic's.\n"
-        };
-        format!(
-            "# Joint compliance under the payload, identified by robocal: joint deflection =\n\
-             # compliance × gravity torque of the payload (deg per kN·m, one per joint; 0 = rigid).\n\
-             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{tilt}{runout}{body}"
-        )
-    }
-}
-
 /// The checks of a `compliance.toml` read for a robot with `dof` joints, each entry turned into
 /// its term with the file's units converted.
-struct Check<'a> {
-    path: &'a Path,
-    dof: usize,
+pub(super) struct Check<'a> {
+    pub(super) path: &'a Path,
+    pub(super) dof: usize,
 }
 
 impl Check<'_> {
@@ -521,5 +379,148 @@ impl Check<'_> {
             });
         }
         Ok(tilts)
+    }
+}
+
+impl JointErrors {
+    /// Parses `compliance.toml` for a robot with `dof` joints.
+    pub fn from_toml_str(text: &str, path: impl AsRef<Path>, dof: usize) -> Result<Self> {
+        let path = path.as_ref();
+        let raw: RawCompliance = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        let check = Check { path, dof };
+        check.compliances(&raw)?;
+        let harmonics = (raw.harmonic.iter().enumerate())
+            .map(|(i, h)| check.wave(&format!("harmonic[{}]", i + 1), h))
+            .collect::<Result<Vec<_>>>()?;
+        // One order of checks, so that a file with several faults names the same one first.
+        let runouts = check.runouts(&raw.runout)?;
+        let self_weight = check.self_weight(&raw.self_weight)?;
+        let backlash = check.backlash(&raw.backlash)?;
+        let link_weights = check.link_weights(&raw.link_weight)?;
+        let tilts = check.tilts(&raw.tilt)?;
+        Ok(Self {
+            values: raw.compliance.iter().map(|c| c * DEG_PER_KNM).collect(),
+            gravity: Vector3::from(raw.gravity),
+            payload_com: Vector3::from(raw.payload_com),
+            harmonics,
+            self_weight,
+            backlash,
+            link_weights,
+            tilts,
+            runouts,
+        })
+    }
+
+    /// Reads `compliance.toml` for a robot with `dof` joints.
+    pub fn load(path: impl AsRef<Path>, dof: usize) -> Result<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml_str(&text, path, dof)
+    }
+
+    /// The file form, with a header saying what the numbers mean.
+    pub fn to_toml_string(&self) -> String {
+        // Every number as the one that reads back exactly (the loader's conversions inverted).
+        let deg = |v: f64| file_value(v, f64::to_degrees, f64::to_radians);
+        let knm = |c: f64| file_value(c, |c| c / DEG_PER_KNM, |c| c * DEG_PER_KNM);
+        let raw = RawCompliance {
+            gravity: self.gravity.into(),
+            payload_com: self.payload_com.into(),
+            compliance: self.values.iter().map(|&c| knm(c)).collect(),
+            harmonic: (self.harmonics.iter())
+                .map(|h| RawHarmonic {
+                    joint: h.joint + 1,
+                    order: h.order,
+                    sin: deg(h.sin),
+                    cos: deg(h.cos),
+                    reach: h.reach.map(|r| r.map(deg)),
+                })
+                .collect(),
+            self_weight: (self.self_weight.iter())
+                .map(|t| RawSelfWeight {
+                    joint: t.joint + 1,
+                    body: t.body + 1,
+                    part: t.part,
+                    value: deg(t.value),
+                })
+                .collect(),
+            backlash: (self.backlash.iter())
+                .map(|b| RawBacklash {
+                    joint: b.joint + 1,
+                    home: b.home().map(deg),
+                    torque: match &b.flank {
+                        Flank::Torque { weights } => Some(weights.clone()),
+                        Flank::Approach { .. } => None,
+                    },
+                    value: deg(b.value),
+                })
+                .collect(),
+            link_weight: (self.link_weights.iter())
+                .map(|w| RawLinkWeight {
+                    body: w.body + 1,
+                    part: w.part,
+                    value: w.value,
+                })
+                .collect(),
+            tilt: (self.tilts.iter())
+                .map(|t| RawTilt {
+                    joint: t.joint + 1,
+                    compliance: knm(t.value),
+                })
+                .collect(),
+            runout: (self.runouts.iter())
+                .map(|r| RawRunout {
+                    joint: r.wave.joint + 1,
+                    order: r.wave.order,
+                    across: r.across,
+                    sin: deg(r.wave.sin),
+                    cos: deg(r.wave.cos),
+                    reach: r.wave.reach.map(|v| v.map(deg)),
+                })
+                .collect(),
+        };
+        let body = toml::to_string(&raw).unwrap_or_default();
+        let more = if self.has_configuration_terms() {
+            "# harmonic: transmission error of a joint, sin · sin(order q) + cos · cos(order q), deg;\n\
+             # reach = [lo, hi] (deg): beyond it, q is held at the nearer end (the readings it was\n\
+             # identified on, widened by a quarter of their span at each end); without a reach the\n\
+             # harmonic is continued at every angle.\n\
+             # self_weight: value (deg per unit) × the gravity torque about the joint of a unit mass\n\
+             # (part = mass, N·m per kg) or first moment (x, y, z: N·m per kg·m) of link `body`.\n\
+             # backlash: the joint rests on one flank of its play, error +value (deg, half the\n\
+             # play) on one, -value on the other: with `home` (deg), the flank of its approach\n\
+             # from home (+ at or above it); with `torque`, the flank its torque presses (+ where\n\
+             # the weights times the features are at least 0: for each link from the joint's\n\
+             # outwards the gravity torques of a unit mass at its frame's origin and of unit first\n\
+             # moments along x, y, z, then the same of the flange frame times the load, then 1).\n\
+             # link_weight: the weight of link `body` shared by every joint up to it: its mass\n\
+             # (part = mass, kg, at the link frame's origin) or first moment (x, y, z: kg·m along\n\
+             # the link frame's axes); each joint deflects by its compliance × the gravity torque\n\
+             # of the payload and of these weights.\n"
+        } else {
+            ""
+        };
+        let tilt = if self.tilts.is_empty() {
+            ""
+        } else {
+            "# tilt: the parts beyond the joint turn about its origin, across its axis, by\n\
+             # compliance (deg per kN·m) × the gravity moment across the axis of the payload and\n\
+             # of the link weights beyond it.\n"
+        };
+        let runout = if self.runouts.is_empty() {
+            ""
+        } else {
+            "# runout: the parts beyond the joint turn about its origin, across its axis, by\n\
+             # sin · sin(order q) + cos · cos(order q) (deg) about the axis `across` (x or y) of\n\
+             # the joint's link frame, which turns with the joint; reach as a harmonic's.\n"
+        };
+        format!(
+            "# Joint compliance under the payload, identified by robocal: joint deflection =\n\
+             # compliance × gravity torque of the payload (deg per kN·m, one per joint; 0 = rigid).\n\
+             # gravity: m/s² in the robot base frame {{0}}; payload_com: mm in the flange frame.\n{more}{tilt}{runout}{body}"
+        )
     }
 }

@@ -2,15 +2,48 @@
 //! gravity term reads, computed once per row, and the torque of a unit mass or first moment of a
 //! link about a joint.
 
-use std::cell::OnceCell;
-
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
 
-use super::payload::TORQUE_FEATURES_PER_LINK;
-use super::self_weight::MomentPart;
-use super::{ErrorParam, JointErrors};
 use crate::kinematics::{Axis, Frame};
-use crate::table::Robot;
+
+/// Which unit quantity of a link a self-weight term weighs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MomentPart {
+    /// A unit mass at the link frame's origin: basis N·m per kg.
+    Mass,
+    /// A unit first moment (1 kg·m) along the link frame's x axis: basis N·m per kg·m.
+    X,
+    /// Along y.
+    Y,
+    /// Along z.
+    Z,
+}
+
+impl MomentPart {
+    /// Every part, in the order of the self-weight terms and torque features.
+    pub const ALL: [Self; 4] = [Self::Mass, Self::X, Self::Y, Self::Z];
+
+    /// The unit of a link's quantity of this part: `kg` for its mass, `kg·m` for a first
+    /// moment.
+    pub fn weight_unit(self) -> &'static str {
+        match self {
+            Self::Mass => "kg",
+            Self::X | Self::Y | Self::Z => "kg·m",
+        }
+    }
+
+    /// Name in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mass => "mass",
+            Self::X => "x",
+            Self::Y => "y",
+            Self::Z => "z",
+        }
+    }
+}
 
 /// One link quantity a gravity torque acts through: a point (mm) that holds a mass, or a
 /// direction along which a first moment lies.
@@ -59,38 +92,6 @@ pub(super) struct Pose<'a> {
     pub(super) g: &'a Vector3<f64>,
 }
 
-/// The arm's joint axes and link frames at command `q`, computed on first use and once: the
-/// payload's torques, the links' weights, the self-weight terms, the torque flanks and the
-/// centre of mass's columns of one row share them. With them the bases of the model's waves at
-/// `q` ([`JointErrors::wave_bases`]): the caller's, or computed on first use.
-pub(super) struct PoseCache<'a> {
-    pub(super) robot: &'a Robot,
-    pub(super) q: &'a [f64],
-    pub(super) g: Vector3<f64>,
-    pub(super) pose: OnceCell<(Vec<Axis>, Vec<Frame>)>,
-    pub(super) given_waves: Option<&'a [(f64, f64)]>,
-    pub(super) waves: OnceCell<Vec<(f64, f64)>>,
-}
-
-impl PoseCache<'_> {
-    pub(super) fn get(&self) -> Pose<'_> {
-        let (axes, frames) = self.pose.get_or_init(|| self.robot.axes_and_frames(self.q));
-        Pose {
-            axes,
-            frames,
-            g: &self.g,
-        }
-    }
-
-    /// The bases of `model`'s waves at the command ([`JointErrors::wave_bases`]).
-    pub(super) fn waves(&self, model: &JointErrors) -> &[(f64, f64)] {
-        match self.given_waves {
-            Some(waves) => waves,
-            None => self.waves.get_or_init(|| model.wave_bases(self.q)),
-        }
-    }
-}
-
 /// The gravity moment (N·m per unit, world frame) about the point `a` (mm) of the unit quantity
 /// `part` of the link whose frame is `(r, o)`, gravity `g` (m/s²): the vector whose component
 /// along an axis through `a` is [`unit_torque`].
@@ -111,20 +112,6 @@ pub(super) fn unit_moment(
 /// `m` less its component along the unit vector `w`.
 pub(super) fn across(w: &Vector3<f64>, m: Vector3<f64>) -> Vector3<f64> {
     m - w * w.dot(&m)
-}
-
-/// Which of a block's terms (their `values`, in order) a row computes the basis of: those not at
-/// zero, and those among `params` (`index` picks the block's own parameters out of them).
-pub(super) fn not_zero_or_identified(
-    values: impl Iterator<Item = f64>,
-    params: &[ErrorParam],
-    index: impl Fn(ErrorParam) -> Option<usize>,
-) -> Vec<bool> {
-    let mut wanted: Vec<bool> = values.map(|v| v != 0.0).collect();
-    for i in params.iter().filter_map(|&p| index(p)) {
-        wanted[i] = true;
-    }
-    wanted
 }
 
 /// The gravity torque (N·m per unit) about the joint axis `(w, a)` (unit vector, point, mm) of
@@ -197,3 +184,7 @@ pub(super) fn visit_torque_features(
     }
     visit(1.0);
 }
+
+/// Gravity-torque features per link (and for the payload): a unit mass and three unit first
+/// moments.
+pub const TORQUE_FEATURES_PER_LINK: usize = 4;

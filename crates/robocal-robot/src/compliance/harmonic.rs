@@ -1,7 +1,5 @@
 //! Transmission error: Fourier harmonics of a joint's own angle, held beyond the readings' reach.
 
-use super::JointErrors;
-
 /// One transmission harmonic of one joint: `Δq = sin · sin(k q) + cos · cos(k q)`, rad, with
 /// `q` the joint angle held within [`Self::reach`] when it has one.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,15 +96,3 @@ pub fn harmonic_name(joint: usize, order: u32, cos: bool) -> String {
 
 /// Highest harmonic order a file may give.
 pub const MAX_HARMONIC_ORDER: u32 = 64;
-
-impl JointErrors {
-    /// Adds harmonics of orders `1..=orders` (coefficients 0) for `joints`.
-    pub fn with_harmonics(mut self, joints: &[usize], orders: u32) -> Self {
-        for &joint in joints {
-            for order in 1..=orders {
-                self.harmonics.push(Harmonic::zero(joint, order));
-            }
-        }
-        self
-    }
-}

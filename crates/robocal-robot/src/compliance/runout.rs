@@ -3,7 +3,6 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::JointErrors;
 use super::harmonic::Harmonic;
 use crate::kinematics::Frame;
 
@@ -67,37 +66,4 @@ impl Across {
 pub fn runout_name(joint: usize, order: u32, across: Across, cos: bool) -> String {
     let which = if cos { "cos" } else { "sin" };
     format!("j{}.r{order}{}.{which}", joint + 1, across.name())
-}
-
-impl JointErrors {
-    /// Adds runouts of orders `1..=orders` about both axes across (coefficients 0) for `joints`.
-    pub fn with_runouts(mut self, joints: &[usize], orders: u32) -> Self {
-        for &joint in joints {
-            for order in 1..=orders {
-                for across in Across::BOTH {
-                    self.runouts.push(Runout {
-                        across,
-                        wave: Harmonic::zero(joint, order),
-                    });
-                }
-            }
-        }
-        self
-    }
-
-    /// The runouts' turns among `turns`, this model's ([`Self::turns`]: the tilting joints'
-    /// first, then one per runout in the order of `runouts`), each with the origin it turns
-    /// about. Panics where `turns` are not this model's (a count that does not match).
-    pub fn runout_turns<'t>(
-        &self,
-        turns: &'t [(Vector3<f64>, Vector3<f64>)],
-    ) -> &'t [(Vector3<f64>, Vector3<f64>)] {
-        let runouts = &turns[self.tilts.len().min(turns.len())..];
-        assert_eq!(
-            (turns.len(), runouts.len()),
-            (self.tilts.len() + self.runouts.len(), self.runouts.len()),
-            "the turns of another model"
-        );
-        runouts
-    }
 }
