@@ -9,6 +9,7 @@ test:
 
 # formatting and lints, as CI runs them
 lint:
+    python3 scripts/import-cycles.py
     cargo fmt --all --check
     cargo clippy --workspace --all-targets -- -D warnings
 
