@@ -1,7 +1,7 @@
 //! The chain of physical candidates: each richer model taken only where it lowers the held-out
 //! errors significantly.
 
-use super::physics::Physics;
+use super::physics::{Effect, Physics};
 use super::plan::FoldPlan;
 use super::scoring::{Scored, score_physics, skipped};
 use super::selection::Candidate;
@@ -141,10 +141,7 @@ const BEFORE_BLOCKS: [Link; 2] = [
         stage: Stage::Compliance,
         tries: |_, _, loads| {
             if loads.len() >= 2 {
-                Try::One(Physics {
-                    compliance: true,
-                    ..Physics::RIGID
-                })
+                Try::One(Physics::RIGID.with(Effect::Compliance))
             } else {
                 Try::Skipped(format!(
                     "skipped: the data hold one load ({} kg); compliance needs two or more",
@@ -172,20 +169,15 @@ const AFTER_BLOCKS: [Link; 3] = [
         stage: Stage::Runout,
         tries: |settings, current, _| {
             if settings.runout > 0 && !current.aligned {
-                Try::One(Physics {
-                    runout: settings.runout,
-                    ..current
-                })
+                Try::One(current.with(Effect::Runout(settings.runout)))
             } else {
                 Try::Not
             }
         },
         keeps_residual_share: true,
         cheaper: Some(|settings, wobbling| {
-            (wobbling.settings(settings).runouts_in_first_fit()).then_some(Physics {
-                runout_from_without: true,
-                ..wobbling
-            })
+            (wobbling.settings(settings).runouts_in_first_fit())
+                .then_some(wobbling.with(Effect::RunoutFromWithout))
         }),
     },
     // On chosen physics with backlash, or, where asked, with backlash added where the block was
@@ -193,13 +185,10 @@ const AFTER_BLOCKS: [Link; 3] = [
     Link {
         stage: Stage::FlankSearch,
         tries: |settings, current, _| {
-            let added = settings.flank_search && settings.backlash && !current.backlash;
-            if (current.backlash || added) && !current.aligned {
-                Try::One(Physics {
-                    backlash: true,
-                    flank_search: true,
-                    ..current
-                })
+            let backlash = current.has(Effect::Backlash);
+            let added = settings.flank_search && settings.backlash && !backlash;
+            if (backlash || added) && !current.aligned {
+                Try::One(current.with(Effect::Backlash).with(Effect::FlankSearch))
             } else {
                 Try::Not
             }
@@ -212,11 +201,8 @@ const AFTER_BLOCKS: [Link; 3] = [
     Link {
         stage: Stage::Tilt,
         tries: |settings, current, _| {
-            if settings.tilt && current.compliance && !current.aligned {
-                Try::One(Physics {
-                    tilt: true,
-                    ..current
-                })
+            if settings.tilt && current.has(Effect::Compliance) && !current.aligned {
+                Try::One(current.with(Effect::Tilt))
             } else {
                 Try::Not
             }
@@ -329,27 +315,13 @@ pub(super) fn physics_chain(
 /// The joint-error blocks the settings ask for (harmonics, self-weight, backlash), each alone
 /// on `base` without any block.
 fn blocks(settings: &AutoSettings, base: Physics) -> Vec<Physics> {
-    let none = Physics {
-        harmonics: 0,
-        self_weight: false,
-        backlash: false,
-        tilt: false,
-        runout: 0,
-        ..base
-    };
+    let none = base.without_joint_errors();
     [
-        (settings.harmonics > 0).then_some(Physics {
-            harmonics: settings.harmonics,
-            ..none
-        }),
-        settings.self_weight.then_some(Physics {
-            self_weight: true,
-            ..none
-        }),
-        settings.backlash.then_some(Physics {
-            backlash: true,
-            ..none
-        }),
+        (settings.harmonics > 0).then_some(none.with(Effect::Harmonics(settings.harmonics))),
+        settings
+            .self_weight
+            .then_some(none.with(Effect::SelfWeight)),
+        settings.backlash.then_some(none.with(Effect::Backlash)),
     ]
     .into_iter()
     .flatten()

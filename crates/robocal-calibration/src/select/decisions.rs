@@ -1,7 +1,7 @@
 //! The decisions the selection reports, one per stage, and the reach of joint 1's harmonics.
 
 use super::chain::Chain;
-use super::physics::{Physics, orders_words};
+use super::physics::{Effect, Physics, orders_words};
 use super::plan::FoldPlan;
 use super::residual::ResidualScore;
 use super::scoring::Scored;
@@ -204,7 +204,7 @@ fn compliance(chain: &Chain, candidates: &[Candidate], chosen: Physics) -> Decis
         (Some(why), _) => Decision::compared(Stage::Compliance, false, None, None, why),
         (None, Some(step)) if score(step.next).is_some() => Decision::compared(
             Stage::Compliance,
-            chosen.compliance,
+            chosen.has(Effect::Compliance),
             score(step.base),
             score(step.next),
             "joint compliances identified with the geometry on every load",
@@ -265,7 +265,7 @@ fn after_blocks(settings: &AutoSettings, chain: &Chain, chosen: Physics) -> Vec<
     if let Some(step) = chain.steps_of(Stage::Runout).last() {
         out.push(Decision::compared(
             Stage::Runout,
-            chosen.runout > 0,
+            chosen.runout() > 0,
             score(step.base),
             score(step.next),
             &format!(
@@ -277,10 +277,10 @@ fn after_blocks(settings: &AutoSettings, chain: &Chain, chosen: Physics) -> Vec<
     if let Some(step) = chain.steps_of(Stage::FlankSearch).first() {
         out.push(Decision::compared(
             Stage::FlankSearch,
-            chosen.flank_search,
+            chosen.has(Effect::FlankSearch),
             score(step.base),
             score(step.next),
-            if chain.scored[step.base].physics.backlash {
+            if chain.scored[step.base].physics.has(Effect::Backlash) {
                 "the backlash flanks searched beyond each joint's own terms (a torque flank's preload where its step explains most)"
             } else {
                 "backlash added (the block was not kept with the regression's flanks), its flanks searched beyond each joint's own terms (a torque flank's preload where its step explains most)"
@@ -290,7 +290,7 @@ fn after_blocks(settings: &AutoSettings, chain: &Chain, chosen: Physics) -> Vec<
     out.push(match chain.steps_of(Stage::Tilt).first() {
         Some(step) => Decision::compared(
             Stage::Tilt,
-            chosen.tilt,
+            chosen.has(Effect::Tilt),
             score(step.base),
             score(step.next),
             "tilting compliances identified with the geometry: the parts beyond each joint turning across its axis under the gravity moment of the payload and of the links' weights",

@@ -1,7 +1,7 @@
 //! Gravity and the default: the mounting decided once before the candidates, and the residual
 //! models' frames where joint 1 lies off the line of gravity.
 
-use super::physics::Physics;
+use super::physics::{Effect, Physics};
 use super::settings::AutoSettings;
 use crate::rows::loads;
 use nalgebra::Vector3;
@@ -74,10 +74,7 @@ pub(super) fn mounting(
     if angle <= MOUNTING_ANGLE_DEG {
         return None;
     }
-    let physics = Physics {
-        compliance: true,
-        ..Physics::RIGID
-    };
+    let physics = Physics::RIGID.with(Effect::Compliance);
     let counted = KinematicSettings {
         work: Some(work.clone()),
         ..physics.settings(settings)

@@ -8,130 +8,203 @@ use robocal_ident::{
 };
 use robocal_model::CalibratedModel;
 
-/// The physical part of a candidate.
+/// One effect a candidate's physics holds beside the identified table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct Physics {
-    /// Only base and tool fitted to the nominal table.
-    pub(super) aligned: bool,
+pub(crate) enum Effect {
     /// Joint compliances under the payload.
-    pub(super) compliance: bool,
-    /// Transmission harmonics up to this order.
-    pub(super) harmonics: u32,
-    /// Self-weight terms.
-    pub(super) self_weight: bool,
+    Compliance,
+    /// Transmission harmonics of orders 1 to this one.
+    Harmonics(u32),
+    /// Self-weight terms (with the compliances: the links' weights they meet).
+    SelfWeight,
     /// Backlash (each joint on the flank of its approach from home or on the one its torque
     /// presses).
-    pub(super) backlash: bool,
-    /// Tilting compliances.
-    pub(super) tilt: bool,
-    /// Axis runouts up to this order.
-    pub(super) runout: u32,
+    Backlash,
+    /// Backlash flanks by the search beyond the joint's own terms (`flank_search`).
+    FlankSearch,
+    /// Axis runouts of orders 1 to this one.
+    Runout(u32),
     /// The axis runouts started from the model without them (its first fit's compliances and
     /// its flanks, which the candidates before made): the cheaper fit the chain tries where the
     /// budget cut the runouts' own (`JointErrorSettings::runout_from_without`).
-    pub(super) runout_from_without: bool,
-    /// Backlash flanks by the search beyond the joint's own terms (`flank_search`).
-    pub(super) flank_search: bool,
+    RunoutFromWithout,
+    /// Tilting compliances.
+    Tilt,
+}
+
+impl Effect {
+    /// How many kinds of effect there are.
+    const KINDS: usize = 8;
+
+    /// Its kind's place among a physics' effects: the order of a candidate's name.
+    fn slot(self) -> usize {
+        match self {
+            Self::Compliance => 0,
+            Self::Harmonics(_) => 1,
+            Self::SelfWeight => 2,
+            Self::Backlash => 3,
+            Self::FlankSearch => 4,
+            Self::Runout(_) => 5,
+            Self::RunoutFromWithout => 6,
+            Self::Tilt => 7,
+        }
+    }
+
+    /// This effect and `other` of the same kind together: the higher order of two.
+    fn with(self, other: Self) -> Self {
+        match (self, other) {
+            (Self::Harmonics(a), Self::Harmonics(b)) => Self::Harmonics(a.max(b)),
+            (Self::Runout(a), Self::Runout(b)) => Self::Runout(a.max(b)),
+            _ => self,
+        }
+    }
+
+    /// Whether it adds joint-error terms of its own (the flank search and the runouts' start
+    /// only change how the backlash and the runouts are fitted).
+    fn adds_terms(self) -> bool {
+        !matches!(
+            self,
+            Self::Compliance | Self::FlankSearch | Self::RunoutFromWithout
+        )
+    }
+}
+
+/// The physical part of a candidate: the nominal table with base and tool fitted, or the
+/// identified table with a set of effects (each kind at most once).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Physics {
+    /// Only base and tool fitted to the nominal table (no effect).
+    pub(super) aligned: bool,
+    /// Each kind of effect in its slot ([`Effect::slot`]).
+    effects: [Option<Effect>; Effect::KINDS],
 }
 
 impl Physics {
     pub(super) const ALIGNED: Self = Self {
         aligned: true,
-        compliance: false,
-        harmonics: 0,
-        self_weight: false,
-        backlash: false,
-        tilt: false,
-        runout: 0,
-        runout_from_without: false,
-        flank_search: false,
+        effects: [None; Effect::KINDS],
     };
     pub(super) const RIGID: Self = Self {
         aligned: false,
         ..Self::ALIGNED
     };
 
+    /// This physics with `effect` (in place of any of its kind).
+    pub(super) fn with(mut self, effect: Effect) -> Self {
+        self.effects[effect.slot()] = Some(effect);
+        self
+    }
+
+    /// This physics without the effect of `kind`'s kind.
+    pub(super) fn without(mut self, kind: Effect) -> Self {
+        self.effects[kind.slot()] = None;
+        self
+    }
+
+    /// Whether it holds an effect of `kind`'s kind (of any order).
+    pub(super) fn has(self, kind: Effect) -> bool {
+        self.effects[kind.slot()].is_some()
+    }
+
+    /// Its effects, in the order of its name.
+    pub(super) fn effects(self) -> impl Iterator<Item = Effect> {
+        self.effects.into_iter().flatten()
+    }
+
+    /// The highest order of its transmission harmonics (0: none).
+    pub(super) fn harmonics(self) -> u32 {
+        match self.effects[Effect::Harmonics(0).slot()] {
+            Some(Effect::Harmonics(k)) => k,
+            _ => 0,
+        }
+    }
+
+    /// The highest order of its axis runouts (0: none).
+    pub(super) fn runout(self) -> u32 {
+        match self.effects[Effect::Runout(0).slot()] {
+            Some(Effect::Runout(k)) => k,
+            _ => 0,
+        }
+    }
+
+    /// This physics without its joint-error terms: the table and its compliances.
+    pub(super) fn without_joint_errors(self) -> Self {
+        [
+            Effect::Harmonics(0),
+            Effect::SelfWeight,
+            Effect::Backlash,
+            Effect::Tilt,
+            Effect::Runout(0),
+        ]
+        .into_iter()
+        .fold(self, Self::without)
+    }
+
+    /// Its name: `kinematic + compliance + harmonics 2 + backlash (flank search)`, ….
     pub(super) fn name(self) -> String {
         if self.aligned {
             return "nominal (base and tool fitted)".into();
         }
         let mut name = String::from("kinematic");
-        if self.compliance {
-            name += " + compliance";
-        }
-        if self.harmonics > 0 {
-            name += &format!(" + harmonics {}", self.harmonics);
-        }
-        if self.self_weight {
-            name += " + self-weight";
-        }
-        if self.backlash {
-            name += " + backlash";
-            if self.flank_search {
-                name += " (flank search)";
+        for effect in self.effects() {
+            match effect {
+                Effect::Compliance => name += " + compliance",
+                Effect::Harmonics(k) => name += &format!(" + harmonics {k}"),
+                Effect::SelfWeight => name += " + self-weight",
+                Effect::Backlash => name += " + backlash",
+                Effect::FlankSearch if self.has(Effect::Backlash) => name += " (flank search)",
+                Effect::Runout(k) => name += &format!(" + runout {k}"),
+                Effect::RunoutFromWithout if self.runout() > 0 => {
+                    name += " (from the fit without)";
+                }
+                Effect::Tilt => name += " + tilt",
+                Effect::FlankSearch | Effect::RunoutFromWithout => {}
             }
-        }
-        if self.runout > 0 {
-            name += &format!(" + runout {}", self.runout);
-            if self.runout_from_without {
-                name += " (from the fit without)";
-            }
-        }
-        if self.tilt {
-            name += " + tilt";
         }
         name
     }
 
-    /// Whether it holds any of the joint-error blocks of the stepwise selection.
-    pub(super) fn has_blocks(self) -> bool {
-        self.harmonics > 0 || self.self_weight || self.backlash
-    }
-
     /// Whether it holds any joint-error term (a block, the runouts or the tilts).
     pub(super) fn has_joint_errors(self) -> bool {
-        self.has_blocks() || self.tilt || self.runout > 0
+        self.effects().any(Effect::adds_terms)
     }
 
-    /// Every block of `self` and of `other`.
+    /// This physics with every joint-error term of `other` besides (the higher order where
+    /// both hold one kind).
     pub(super) fn union(self, other: Self) -> Self {
-        Self {
-            harmonics: self.harmonics.max(other.harmonics),
-            self_weight: self.self_weight || other.self_weight,
-            backlash: self.backlash || other.backlash,
-            tilt: self.tilt || other.tilt,
-            runout: self.runout.max(other.runout),
-            runout_from_without: self.runout_from_without || other.runout_from_without,
-            flank_search: self.flank_search || other.flank_search,
-            ..self
-        }
+        (other.effects())
+            .filter(|e| *e != Effect::Compliance)
+            .fold(self, |physics, e| {
+                let joined = physics.effects[e.slot()].map_or(e, |mine| mine.with(e));
+                physics.with(joined)
+            })
     }
 
     /// Its joint-error terms in words, e.g. `transmission harmonics (orders 1 to 2) identified
     /// with the geometry`.
     pub(super) fn joint_error_terms(self) -> String {
         let mut parts = Vec::new();
-        if self.harmonics > 0 {
+        if self.harmonics() > 0 {
             parts.push(format!(
                 "transmission harmonics (orders 1 to {})",
-                self.harmonics
+                self.harmonics()
             ));
         }
-        if self.self_weight && self.compliance {
+        if self.has(Effect::SelfWeight) && self.has(Effect::Compliance) {
             parts.push("the links' weights and the payload's centre of mass (each joint deflecting by its compliance under their torques)".to_string());
-        } else if self.self_weight {
+        } else if self.has(Effect::SelfWeight) {
             parts.push("self-weight terms".to_string());
         }
-        if self.backlash {
+        if self.has(Effect::Backlash) {
             parts.push("backlash (each joint on the flank of its approach from home or on the one its torque presses)".to_string());
         }
-        if self.runout > 0 {
+        if self.runout() > 0 {
             parts.push(format!(
                 "axis runouts ({}: the parts beyond each joint turning across its axis periodically in its angle)",
-                orders_words(self.runout)
+                orders_words(self.runout())
             ));
         }
-        if self.tilt {
+        if self.has(Effect::Tilt) {
             parts.push("tilting compliances (the parts beyond each joint turning across its axis under the gravity moment there)".to_string());
         }
         let parts = match parts.split_last() {
@@ -153,11 +226,11 @@ impl Physics {
             // The payload's centre of mass is rarely known to the millimetre: identified with
             // the links' weights (the mass properties the compliances meet; both after a first
             // fit that gives the compliances they start from).
-            compliance: self.compliance.then(|| ComplianceSettings {
+            compliance: self.has(Effect::Compliance).then(|| ComplianceSettings {
                 gravity,
                 plausible_only: true,
                 detect_mounting: auto.gravity.is_none(),
-                identify_payload_com: self.self_weight,
+                identify_payload_com: self.has(Effect::SelfWeight),
                 ..ComplianceSettings::default()
             }),
             // With the compliances identified, the deflection under the links' own weight is
@@ -165,14 +238,14 @@ impl Physics {
             // rather than a coefficient per joint and link, which the poses determine less
             // well and which extrapolate worse.
             joint_errors: self.has_joint_errors().then(|| JointErrorSettings {
-                harmonics: self.harmonics,
-                self_weight: self.self_weight && !self.compliance,
-                link_weights: self.self_weight && self.compliance,
-                backlash: self.backlash,
-                flank_search: self.flank_search,
-                tilt: self.tilt,
-                runout: self.runout,
-                runout_from_without: self.runout_from_without,
+                harmonics: self.harmonics(),
+                self_weight: self.has(Effect::SelfWeight) && !self.has(Effect::Compliance),
+                link_weights: self.has(Effect::SelfWeight) && self.has(Effect::Compliance),
+                backlash: self.has(Effect::Backlash),
+                flank_search: self.has(Effect::FlankSearch),
+                tilt: self.has(Effect::Tilt),
+                runout: self.runout(),
+                runout_from_without: self.has(Effect::RunoutFromWithout),
                 gravity,
                 ..JointErrorSettings::default()
             }),

@@ -1,7 +1,7 @@
 //! The physical candidates scored: each one's fits on every fold within its allowance of the
 //! budget, or its start skipped where the budget would be spent before it ends.
 
-use super::physics::Physics;
+use super::physics::{Effect, Physics};
 use super::plan::FoldPlan;
 use super::selection::Candidate;
 use super::selection::report;
@@ -282,16 +282,13 @@ pub(super) fn skipped(
 /// runouts the chain dropped — holds terms the search does not fit: on ARM7 it took 38 s against
 /// 2.6 s), from the slowest elsewhere.
 pub(super) fn projection(physics: Physics, candidates: &[Candidate]) -> (&'static str, f64, f64) {
-    let rounds = if physics.flank_search {
+    let rounds = if physics.has(Effect::FlankSearch) {
         SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64
     } else {
         1.0
     };
-    let extended = (physics.flank_search).then(|| {
-        let without = Physics {
-            flank_search: false,
-            ..physics
-        };
+    let extended = physics.has(Effect::FlankSearch).then(|| {
+        let without = physics.without(Effect::FlankSearch);
         (candidates.iter().rev()).find(|c| c.physics == Some(without) && c.score.is_some())
     });
     let (from, seconds) = match extended.flatten() {

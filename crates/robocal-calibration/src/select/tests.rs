@@ -5,7 +5,7 @@ use robocal_twin::TwinConfig;
 use robocal_ident::{FLANK_ROUNDS, SEARCH_FLANK_ROUNDS};
 use robocal_model::CalibratedModel;
 
-use super::physics::Physics;
+use super::physics::{Effect, Physics};
 use super::residual::{KINEMATIC, ResidualScore};
 use super::scoring::{fold_share, projection};
 use nalgebra::Vector3;
@@ -150,35 +150,24 @@ fn the_flank_search_is_projected_from_the_candidate_it_extends() {
         cost: seconds,
         status: Status::Evaluated,
     };
-    let base = Physics {
-        compliance: true,
-        harmonics: 2,
-        backlash: true,
-        ..Physics::RIGID
-    };
-    let runout = Physics { runout: 2, ..base };
-    let search = Physics {
-        flank_search: true,
-        ..base
-    };
+    let base = (Physics::RIGID)
+        .with(Effect::Compliance)
+        .with(Effect::Harmonics(2))
+        .with(Effect::Backlash);
+    let runout = base.with(Effect::Runout(2));
+    let search = base.with(Effect::FlankSearch);
     let ratio = SEARCH_FLANK_ROUNDS as f64 / FLANK_ROUNDS as f64 * (1.0 + FINAL_FIT_SHARE);
     let mut candidates = vec![scored(base, 2.6), scored(runout, 38.2)];
     let (from, seconds, projected) = projection(search, &candidates);
     assert_eq!((from, seconds), ("the candidate it extends", 2.6));
     assert!((projected - 2.6 * ratio).abs() < 1e-12);
     // Any other candidate from the slowest.
-    let tilt = Physics { tilt: true, ..base };
+    let tilt = base.with(Effect::Tilt);
     let (from, seconds, projected) = projection(tilt, &candidates);
     assert_eq!((from, seconds), ("the slowest candidate", 38.2));
     assert!((projected - 38.2 * (1.0 + FINAL_FIT_SHARE)).abs() < 1e-12);
     // The search on the runouts' physics extends the runouts' candidate.
-    let (_, seconds, _) = projection(
-        Physics {
-            runout: 2,
-            ..search
-        },
-        &candidates,
-    );
+    let (_, seconds, _) = projection(search.with(Effect::Runout(2)), &candidates);
     assert_eq!(seconds, 38.2);
     // An extended candidate without a score (abandoned) projects nothing.
     candidates[0].score = None;
@@ -557,4 +546,39 @@ fn the_chosen_network_carries_the_spread_its_folds_found() {
             "{s} {p}"
         );
     }
+}
+
+/// A candidate's physics is a set of effects, each kind once: named in one order whatever the
+/// order they were added in; united block by block at the higher order, the compliances the
+/// first one's; without its joint-error terms, the table and its compliances.
+#[test]
+fn a_physics_is_a_set_of_effects_named_in_one_order() {
+    let mixed = (Physics::RIGID)
+        .with(Effect::Tilt)
+        .with(Effect::FlankSearch)
+        .with(Effect::Compliance)
+        .with(Effect::Backlash)
+        .with(Effect::Harmonics(2));
+    assert_eq!(
+        mixed.name(),
+        "kinematic + compliance + harmonics 2 + backlash (flank search) + tilt"
+    );
+    assert_eq!(Physics::ALIGNED.name(), "nominal (base and tool fitted)");
+    let elastic = Physics::RIGID.with(Effect::Compliance);
+    let one = elastic.with(Effect::Harmonics(1)).with(Effect::Runout(2));
+    let two = elastic.with(Effect::Harmonics(2)).with(Effect::SelfWeight);
+    assert_eq!(
+        one.union(two),
+        (elastic)
+            .with(Effect::Harmonics(2))
+            .with(Effect::SelfWeight)
+            .with(Effect::Runout(2))
+    );
+    assert_eq!(Physics::RIGID.union(two), two.without(Effect::Compliance));
+    assert_eq!(
+        mixed.without_joint_errors().name(),
+        "kinematic + compliance"
+    );
+    assert!(!elastic.has_joint_errors() && one.has_joint_errors());
+    assert_eq!((one.harmonics(), one.runout(), elastic.runout()), (1, 2, 0));
 }
