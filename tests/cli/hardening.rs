@@ -832,3 +832,47 @@ fn the_same_inputs_give_byte_identical_models_predictions_and_commands() {
         assert!(ba == bb, "{na} differs between two runs");
     }
 }
+
+/// The default calibration on a small case (every 4th configuration of the bundled twin at two
+/// loads, far under its time budget) writes the same model files on one core as on every core:
+/// its folds are fitted and trained in fold order and reduced in that order.
+#[test]
+fn the_default_writes_the_same_model_on_one_core_as_on_all() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = select_rows(&twin_rows(), |pose, load| {
+        pose % 4 == 0 && (load == 0.0 || load == 20.0)
+    });
+    let data = write(d, "data.csv", &data);
+    let run = |threads: Option<&str>| -> Vec<(PathBuf, Vec<u8>)> {
+        let model = d.join(format!("model-{}", threads.unwrap_or("all")));
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_robocal"));
+        command.current_dir(env!("CARGO_MANIFEST_DIR")).args([
+            "calibrate",
+            "--robot",
+            ROBOT,
+            "--data",
+            s(&data),
+            "--out",
+            s(&model),
+        ]);
+        match threads {
+            Some(n) => command.env("RAYON_NUM_THREADS", n),
+            None => command.env_remove("RAYON_NUM_THREADS"),
+        };
+        let o = command.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // report.json holds the seconds each candidate took.
+        (snapshot(&model).into_iter())
+            .filter(|(p, _)| p.file_name().is_some_and(|n| n != "report.json"))
+            .collect()
+    };
+    let (one, all) = (run(Some("1")), run(None));
+    let names: Vec<_> = one.iter().map(|(p, _)| p.file_name().unwrap()).collect();
+    assert!(names.iter().any(|n| *n == "kinematics.toml"), "{names:?}");
+    assert_eq!(one.len(), all.len(), "{names:?}");
+    for ((a, x), (b, y)) in one.iter().zip(&all) {
+        assert_eq!(a.file_name(), b.file_name());
+        assert!(x == y, "{} differs between one core and all", a.display());
+    }
+}
