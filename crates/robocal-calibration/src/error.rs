@@ -87,7 +87,7 @@ pub fn message(err: &(dyn std::error::Error + 'static)) -> String {
 pub type Result<T> = std::result::Result<T, CalibrationError>;
 
 /// Reads a config file as text, naming it when that fails.
-pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
+pub fn read_text(path: &std::path::Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|source| CalibrationError::Read {
         path: path.to_path_buf(),
         source,

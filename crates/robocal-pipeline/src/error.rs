@@ -42,29 +42,13 @@ through_calibration!(
 /// Result of the experiments.
 pub type Result<T> = std::result::Result<T, PipelineError>;
 
-/// Reads a config file as text, naming it when that fails.
-pub(crate) fn read_text(path: &std::path::Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| {
-        CalibrationError::Read {
-            path: path.to_path_buf(),
-            source,
-        }
-        .into()
-    })
-}
-
 /// The error of a key of the file at `path`.
 pub(crate) fn key(
     path: &std::path::Path,
     key: impl Into<String>,
     message: impl Into<String>,
 ) -> PipelineError {
-    CalibrationError::Key {
-        path: path.to_path_buf(),
-        key: key.into(),
-        message: message.into(),
-    }
-    .into()
+    invalid(path, robocal_data::Invalid::new(key, message))
 }
 
 /// A setting of the file at `path` with an unacceptable value.

@@ -10,7 +10,8 @@ use robocal_ident::SolverKind;
 use robocal_residual::{Gate, PerClass, ResidualKind};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Result, invalid, key, read_text};
+use crate::error::{Result, invalid, key};
+use robocal_calibration::error::read_text;
 use robocal_calibration::{CalibrationError, RawStages, Stages};
 
 /// An experiment file as written.
