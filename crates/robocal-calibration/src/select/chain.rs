@@ -243,7 +243,6 @@ impl Scorer<'_, '_> {
                     score: None,
                     errors: None,
                     fitted: vec![None; self.plan.splits.len()],
-                    budget_cut: true,
                 };
                 (c, scored)
             }
@@ -287,7 +286,8 @@ pub(super) fn physics_chain(
                 scorer.score(physics, link.keeps_residual_share),
                 groups,
             );
-            let cut = chain.scored.last().is_some_and(|s| s.budget_cut);
+            // The candidate just scored, cut (skipped, or abandoned during its folds) or not.
+            let cut = (scorer.candidates.last()).is_some_and(|c| c.status.budget_cut());
             if let Some(cheaper) = link.cheaper.filter(|_| cut)
                 && let Some(physics) = cheaper(scorer.settings, physics)
             {

@@ -29,8 +29,6 @@ pub(super) struct Scored {
     pub(super) errors: Option<Vec<f64>>,
     /// The fitted model of each fold.
     pub(super) fitted: Vec<Option<CalibratedModel>>,
-    /// Whether the time budget cut it (skipped, or abandoned during its folds).
-    pub(super) budget_cut: bool,
 }
 
 /// The share of the slowest physical candidate's seconds (every fold) set aside for the final
@@ -190,7 +188,6 @@ pub(super) fn score_physics(
         score: c.score,
         errors: c.score.map(|_| held.all()),
         fitted,
-        budget_cut: c.status.budget_cut(),
     };
     (c, scored)
 }
