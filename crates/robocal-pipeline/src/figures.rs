@@ -16,9 +16,11 @@ pub fn draw_all(o: &Outcome, dir: &Path, out: &Path) -> Result<Vec<(String, Vec<
     let mut made = Vec::new();
     configurations_figure(o, dir, out, &mut made)?;
     load_figure(o, dir, out, &mut made)?;
-    axes_figures(o, dir, out, &mut made)?;
-    class_figures(o, dir, out, &mut made)?;
-    stages_figure(o, dir, out, &mut made)?;
+    // Figs. 14–26 are drawn on the Table 6 rows.
+    let t6 = o.rows("table6");
+    axes_figures(o, &t6, dir, out, &mut made)?;
+    class_figures(o, &t6, dir, out, &mut made)?;
+    stages_figure(o, &t6, dir, out, &mut made)?;
     Ok(made)
 }
 
@@ -129,11 +131,11 @@ fn load_figure(
 /// Figs. 14, 16, 21: per-axis distributions on the Table 6 rows.
 fn axes_figures(
     o: &Outcome,
+    t6: &[usize],
     dir: &Path,
     out: &Path,
     made: &mut Vec<(String, Vec<String>)>,
 ) -> Result<()> {
-    let t6 = o.rows("table6");
     let axis_values =
         |e: &[Vector3<f64>], a: usize| t6.iter().map(|&i| e[i][a]).collect::<Vec<f64>>();
     for m in &o.models {
@@ -179,13 +181,13 @@ fn axes_figures(
 /// Figs. 22–25: the bimodal X error of each CA-SOMM model's gate classes, before and after.
 fn class_figures(
     o: &Outcome,
+    t6: &[usize],
     dir: &Path,
     out: &Path,
     made: &mut Vec<(String, Vec<String>)>,
 ) -> Result<()> {
-    let t6 = o.rows("table6");
     for m in &o.models {
-        let Some(classes) = o.gate_classes(m, &t6) else {
+        let Some(classes) = o.gate_classes(m, t6) else {
             continue;
         };
         let kin = &o.kinematics[m.kinematic];
@@ -236,18 +238,18 @@ fn class_figures(
 /// Fig. 26: every stage's error distribution on the Table 6 rows.
 fn stages_figure(
     o: &Outcome,
+    t6: &[usize],
     dir: &Path,
     out: &Path,
     made: &mut Vec<(String, Vec<String>)>,
 ) -> Result<()> {
-    let t6 = o.rows("table6");
     let norms = |e: &[Vector3<f64>], rows: &[usize]| {
         rows.iter().map(|&i| e[i].norm()).collect::<Vec<f64>>()
     };
-    let before = vec![("before".to_string(), norms(&o.before, &t6))];
+    let before = vec![("before".to_string(), norms(&o.before, t6))];
     let mut named = Vec::new();
     for m in &o.models {
-        named.push((m.name.clone(), norms(&m.errors, &t6)));
+        named.push((m.name.clone(), norms(&m.errors, t6)));
     }
     made.push((
         format!(
