@@ -732,7 +732,7 @@ fn calibrate<'py>(
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<PyModel> {
     let started = std::time::Instant::now();
-    let options = default_options(py, options)?;
+    let options = default_options(options)?;
     let dof = robot.inner.dof();
     let data = with_rpy(
         measurements(
@@ -797,17 +797,36 @@ fn calibrate<'py>(
 
 /// The default calibration's options from `calibrate`'s keyword arguments, read as the stage
 /// file's `[default]` table is (an unknown name or a value of the wrong kind is refused, named).
-fn default_options(
-    py: Python<'_>,
-    options: Option<&Bound<'_, PyDict>>,
-) -> PyResult<DefaultOptions> {
+/// Each value is taken as Python gives it — None, a bool, a whole number (numpy's too), a finite
+/// number or a string — and the spec decides what it may be.
+fn default_options(options: Option<&Bound<'_, PyDict>>) -> PyResult<DefaultOptions> {
     let Some(options) = options else {
         return Ok(DefaultOptions::default());
     };
-    let json: String = (py.import("json")?)
-        .call_method1("dumps", (options,))?
-        .extract()?;
-    serde_json::from_str(&json).map_err(|e| bad(format!("calibrate: {e}")))
+    let mut table = serde_json::Map::new();
+    for (name, value) in options.iter() {
+        let name: String = name.extract()?;
+        let value = if value.is_none() {
+            serde_json::Value::Null
+        } else if let Ok(b) = value.extract::<bool>() {
+            b.into()
+        } else if let Ok(i) = value.extract::<i64>() {
+            i.into()
+        } else if let Ok(x) = value.extract::<f64>() {
+            serde_json::Number::from_f64(x)
+                .ok_or_else(|| bad(format!("calibrate: {name}: {x} is not a finite number")))?
+                .into()
+        } else if let Ok(s) = value.extract::<String>() {
+            s.into()
+        } else {
+            return Err(bad(format!(
+                "calibrate: {name}: {} is not a bool, a number or a string",
+                value.repr()?
+            )));
+        };
+        table.insert(name, value);
+    }
+    serde_json::from_value(table.into()).map_err(|e| bad(format!("calibrate: {e}")))
 }
 
 /// robocal: calibrate industrial robots from laser-tracker measurements (mm, deg, kg).

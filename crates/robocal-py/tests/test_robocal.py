@@ -274,6 +274,11 @@ def test_errors_carry_the_cli_s_messages():
     # The options are the command line's and a stage file's [default]: a misspelt one is named.
     with pytest.raises(robocal.RobocalError, match="unknown field `budgett`"):
         robocal.calibrate(robot, q, load, xyz, budgett=30.0)
+    # numpy's numbers reach the same checks as Python's.
+    with pytest.raises(robocal.RobocalError, match="--runout: 40 orders"):
+        robocal.calibrate(robot, q, load, xyz, runout=np.int64(40))
+    with pytest.raises(robocal.RobocalError, match="0 is not a positive number of seconds"):
+        robocal.calibrate(robot, q, load, xyz, budget=np.float64(0.0))
     # RobocalError is a ValueError.
     assert issubclass(robocal.RobocalError, ValueError)
 
