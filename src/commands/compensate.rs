@@ -93,8 +93,13 @@ pub fn run(
             &t.sample.joints,
             &options,
         ) {
-            Ok(c) => {
+            Ok(mut c) => {
                 worst = worst.max(c.model_error);
+                // Joints that stand behind their commands after a move: commanded beyond by
+                // the play, in the program's order.
+                if let Some(m) = &model.motion {
+                    c.joints_deg = m.command(&c.joints_deg, &t.sample.last_move);
+                }
                 commands.push(Sample {
                     joints: c.joints_deg.clone(),
                     ..t.sample.clone()

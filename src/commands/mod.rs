@@ -105,7 +105,11 @@ pub fn warn_outside<'a>(
     file: &Path,
     rows: impl IntoIterator<Item = &'a robocal_data::Sample>,
 ) {
-    if let Some(w) = (model.domain.as_ref()).and_then(|d| d.warning(file, rows)) {
+    let rows: Vec<&robocal_data::Sample> = rows.into_iter().collect();
+    if let Some(w) = (model.domain.as_ref()).and_then(|d| d.warning(file, rows.iter().copied())) {
+        eprintln!("robocal: warning: {w}");
+    }
+    if let Some(w) = (model.motion.as_ref()).and_then(|m| m.warning(file, rows.iter().copied())) {
         eprintln!("robocal: warning: {w}");
     }
 }

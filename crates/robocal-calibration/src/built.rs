@@ -23,6 +23,8 @@ pub struct Built {
     pub selection: Option<Selection>,
     /// The bad shots found before the calibration (absent when not searched).
     pub outliers: Option<OutlierReport>,
+    /// The play that follows the order of motion, when the default kept it.
+    pub motion: Option<robocal_model::MotionPlay>,
 }
 
 impl Built {
@@ -30,6 +32,7 @@ impl Built {
     pub fn model(&self) -> CalibratedModel {
         CalibratedModel {
             residual: self.residual.as_ref().map(|(m, _)| m.clone()),
+            motion: self.motion.clone(),
             ..physical_model(&self.kinematic)
         }
     }

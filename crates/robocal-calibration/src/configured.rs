@@ -57,6 +57,7 @@ pub fn configured_with(
         stages: stages.clone(),
         selection: None,
         outliers: None,
+        motion: None,
     })
 }
 

@@ -184,6 +184,8 @@ mod tests {
                 load,
                 line: 0,
                 target: String::new(),
+                seq: None,
+                last_move: Vec::new(),
             },
             position: Vector3::zeros(),
             orientation: None,

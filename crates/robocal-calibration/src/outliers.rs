@@ -472,6 +472,8 @@ mod tests {
                 load: 0.0,
                 line: 0,
                 target: String::new(),
+                seq: None,
+                last_move: Vec::new(),
             },
             orientation: None,
         };
@@ -513,6 +515,8 @@ mod tests {
                 load,
                 line: 0,
                 target: target.into(),
+                seq: None,
+                last_move: Vec::new(),
             },
             orientation: None,
         }

@@ -161,6 +161,8 @@ mod tests {
                         load: 0.0,
                         line: i as u64 + 2,
                         target: String::new(),
+                        seq: None,
+                        last_move: Vec::new(),
                     },
                     position: nalgebra::Vector3::zeros(),
                     orientation: None,

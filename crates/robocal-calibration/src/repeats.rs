@@ -87,6 +87,8 @@ mod tests {
                 load,
                 line: 0,
                 target: String::new(),
+                seq: None,
+                last_move: Vec::new(),
             },
             position: Vector3::new(x, 100.0, 200.0),
             orientation: None,

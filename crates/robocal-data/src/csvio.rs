@@ -9,7 +9,7 @@ use crate::atomic::write_atomically;
 use crate::error::{DataError, Result};
 
 /// One configuration under one load: what the controller reports, without a measured position.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Sample {
     /// Configuration id (`pose` column, or `id` for targets).
     pub pose: String,
@@ -22,6 +22,13 @@ pub struct Sample {
     /// The point the row measures (`target` column): a name from the robot file's
     /// `[tool.points]`, or empty for the default point (`[tool] xyz`).
     pub target: String,
+    /// Place in the order of measurement (`seq` column); rows of one pose share it. `None`
+    /// where the file gives no order.
+    pub seq: Option<i64>,
+    /// The direction each joint last moved in before this row (`+1`, `−1`, or `0` before its
+    /// first move), from the rows' `seq` ([`crate::order::set_last_moves`]); empty without an
+    /// order.
+    pub last_move: Vec<f64>,
 }
 
 impl Sample {
@@ -131,6 +138,7 @@ enum Layout {
 struct Columns {
     id: usize,
     target: Option<usize>,
+    seq: Option<usize>,
     joints: Vec<usize>,
     load: usize,
     xyz: Option<[usize; 3]>,
@@ -227,6 +235,7 @@ fn find_columns(
     Ok(Columns {
         id,
         target: index.get("target").copied(),
+        seq: index.get("seq").copied(),
         orientation,
         joints,
         load,
@@ -381,6 +390,10 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
             _ => None,
         };
         let target = cols.target.map_or("", field).to_string();
+        let seq = match cols.seq {
+            Some(i) => Some(cell_integer(path, line, &cols.names[i], field(i))?),
+            None => None,
+        };
         rows.push(Parsed {
             orientation,
             sample: Sample {
@@ -389,6 +402,8 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
                 load,
                 line,
                 target,
+                seq,
+                last_move: Vec::new(),
             },
             position,
         });
@@ -398,7 +413,54 @@ fn read_rows(path: &Path, n: usize, layout: Layout) -> Result<(Vec<Parsed>, bool
             path: path.to_path_buf(),
         });
     }
+    check_seq_poses(path, &rows)?;
+    let mut samples: Vec<Sample> = rows.iter().map(|p| p.sample.clone()).collect();
+    crate::order::set_last_moves(&mut samples);
+    for (row, s) in rows.iter_mut().zip(samples) {
+        row.sample.last_move = s.last_move;
+    }
     Ok((rows, orientation))
+}
+
+/// Rows that share a `seq` are one pose: their joint readings must agree.
+fn check_seq_poses(path: &Path, rows: &[Parsed]) -> Result<()> {
+    let mut first: HashMap<i64, &Sample> = HashMap::new();
+    for s in rows.iter().map(|p| &p.sample) {
+        let Some(seq) = s.seq else { continue };
+        match first.get(&seq) {
+            Some(f) if f.joints != s.joints => {
+                return Err(DataError::InconsistentSeq {
+                    path: path.to_path_buf(),
+                    line: s.line,
+                    seq,
+                    first_line: f.line,
+                });
+            }
+            Some(_) => {}
+            None => {
+                first.insert(seq, s);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The whole number in the cell of `column` on line `line` of `path`: refused, named, when
+/// empty or not a whole number.
+fn cell_integer(path: &Path, line: u64, column: &str, text: &str) -> Result<i64> {
+    if text.is_empty() {
+        return Err(DataError::EmptyValue {
+            path: path.to_path_buf(),
+            line,
+            column: column.to_string(),
+        });
+    }
+    text.parse().map_err(|_| DataError::NotAnInteger {
+        path: path.to_path_buf(),
+        line,
+        column: column.to_string(),
+        value: text.to_string(),
+    })
 }
 
 /// The number in the cell of `column` on line `line` of `path`, whose text is `text`: refused,
@@ -456,10 +518,14 @@ impl MeasurementSet {
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
         let targets = self.rows.iter().any(|r| !r.sample.target.is_empty());
         let orientation = self.has_orientation();
+        let seq = self.rows.iter().all(|r| r.sample.seq.is_some()) && !self.rows.is_empty();
         write_atomically(path.as_ref(), |w| {
             write!(w, "pose")?;
             if targets {
                 write!(w, ",target")?;
+            }
+            if seq {
+                write!(w, ",seq")?;
             }
             for k in 1..=self.joint_count {
                 write!(w, ",q{k}")?;
@@ -473,6 +539,9 @@ impl MeasurementSet {
                 write!(w, "{}", csv_text(&row.sample.pose))?;
                 if targets {
                     write!(w, ",{}", csv_text(&row.sample.target))?;
+                }
+                if let Some(s) = row.sample.seq.filter(|_| seq) {
+                    write!(w, ",{s}")?;
                 }
                 for q in &row.sample.joints {
                     write!(w, ",{q}")?;
@@ -593,6 +662,8 @@ pub fn samples_from_arrays(
             load,
             line,
             target: String::new(),
+            seq: None,
+            last_move: Vec::new(),
         });
     }
     Ok(rows)

@@ -184,6 +184,32 @@ pub enum DataError {
         /// The accepted range, in words.
         range: &'static str,
     },
+    /// A cell that must hold a whole number holds something else.
+    #[error("{path}: line {line}, column `{column}`: `{value}` is not a whole number")]
+    NotAnInteger {
+        /// File at fault.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The text found.
+        value: String,
+    },
+    /// Two rows share a `seq` (one pose) but not their joint readings.
+    #[error(
+        "{path}: line {line}, column `seq`: seq {seq} was given on line {first_line} to other joint readings; rows that share a seq are one pose"
+    )]
+    InconsistentSeq {
+        /// File at fault.
+        path: PathBuf,
+        /// 1-based line of the second use.
+        line: u64,
+        /// The seq.
+        seq: i64,
+        /// Line of the first use.
+        first_line: u64,
+    },
     /// Two targets share an id.
     #[error("{path}: line {line}, column `id`: id `{id}` already used on line {first_line}")]
     DuplicateId {

@@ -16,6 +16,7 @@ pub mod atomic;
 pub mod csvio;
 pub mod error;
 pub mod observe;
+pub mod order;
 pub mod stats;
 
 pub use atomic::{write_atomically, write_dir_atomically, write_text_in};
@@ -26,4 +27,5 @@ pub use csvio::{
 };
 pub use error::{DataError, Invalid, Result, one_of};
 pub use observe::{Lines, Observer, Silent};
+pub use order::{MOVE_DEADBAND_DEG, set_last_moves};
 pub use stats::{ErrorStats, SIGNIFICANCE, improves, robust_std};

@@ -280,7 +280,7 @@ proptest! {
             .into_iter()
             .enumerate()
             .map(|(i, (pose, joints, load, p))| Measurement {
-                sample: Sample { pose: format!("{i}.{}", pose.trim()), joints, load, line: i as u64 + 2, target: String::new() },
+                sample: Sample { pose: format!("{i}.{}", pose.trim()), joints, load, line: i as u64 + 2, target: String::new(), seq: None, last_move: Vec::new() },
                 position: Vector3::from(p),
                 orientation: None,
             })
@@ -363,4 +363,64 @@ fn rows_from_arrays_are_the_rows_of_the_same_file() {
     let err = MeasurementSet::from_arrays(source, samples, points).unwrap_err();
     assert!(err.to_string().contains("line 3, column `z`"), "{err}");
     assert!(samples_from_arrays(source, None, Vec::new(), Vec::new()).is_err());
+}
+
+/// A `seq` column orders the rows: each row gets the direction each joint last moved in,
+/// in the order of `seq` rather than of the file, with the rows of one pose alike.
+#[test]
+fn seq_gives_each_row_its_joints_last_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "m.csv",
+        "pose,seq,q1,q2,load,x,y,z\nb,1,10,5,0,1,2,3\na,0,0,5,0,1,2,3\nc,2,4,9,0,1,2,3\nc,2,4,9,0,1,2,3\n",
+    );
+    let set = MeasurementSet::read(&path, 2).unwrap();
+    let moves: Vec<&Vec<f64>> = set.rows.iter().map(|r| &r.sample.last_move).collect();
+    assert_eq!(
+        moves,
+        [
+            &vec![1.0, 0.0],
+            &vec![0.0, 0.0],
+            &vec![-1.0, 1.0],
+            &vec![-1.0, 1.0]
+        ]
+    );
+    assert_eq!(set.rows[0].sample.seq, Some(1));
+    let samples = SampleSet::read(&path, 2).unwrap();
+    assert_eq!(samples.rows[2].last_move, vec![-1.0, 1.0]);
+    let plain = write(
+        dir.path(),
+        "p.csv",
+        "pose,q1,q2,load,x,y,z\na,0,5,0,1,2,3\n",
+    );
+    let plain = MeasurementSet::read(&plain, 2).unwrap();
+    assert!(plain.rows[0].sample.last_move.is_empty() && plain.rows[0].sample.seq.is_none());
+}
+
+#[test]
+fn a_bad_seq_is_named() {
+    let text = "pose,seq,q1,q2,load,x,y,z\na,0,0,5,0,1,2,3\nb,1.5,1,5,0,1,2,3\n";
+    let e = read_err(text, 2).to_string();
+    assert!(
+        e.contains("line 3") && e.contains("`seq`") && e.contains("1.5"),
+        "{e}"
+    );
+    let text = "pose,seq,q1,q2,load,x,y,z\na,0,0,5,0,1,2,3\nb,,1,5,0,1,2,3\n";
+    let e = read_err(text, 2).to_string();
+    assert!(e.contains("line 3") && e.contains("`seq`"), "{e}");
+    let text = "pose,seq,q1,q2,load,x,y,z\na,0,0,5,0,1,2,3\nb,0,1,5,0,1,2,3\n";
+    let e = read_err(text, 2);
+    assert!(
+        matches!(
+            e,
+            DataError::InconsistentSeq {
+                line: 3,
+                first_line: 2,
+                seq: 0,
+                ..
+            }
+        ),
+        "{e}"
+    );
 }

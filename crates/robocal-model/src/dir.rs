@@ -11,6 +11,7 @@
 //!                     are extrapolation, warned of), when the calibration gives one
 //!   covariance.json   the identified parameters' covariance (a physical model's predicted
 //!                     points' standard deviations), when the identification gives one
+//!   motion.toml       the play that follows the order of motion, when the calibration keeps it
 //!   report.json       model_format, robocal_version, then what the calibration reports
 //! ```
 
@@ -24,6 +25,7 @@ use serde::{Deserialize, Serialize};
 use crate::domain::{DOMAIN_FILE, Domain};
 use crate::error::{ModelError, Result};
 use crate::model::CalibratedModel;
+use crate::motion::{MOTION_FILE, MotionPlay};
 
 /// Version of the model-directory layout this build writes and reads.
 pub const MODEL_FORMAT: u32 = 1;
@@ -83,6 +85,9 @@ impl CalibratedModel {
             }
             if let Some(domain) = &self.domain {
                 write_text_in(dir, out, DOMAIN_FILE, &domain.to_toml_string())?;
+            }
+            if let Some(motion) = &self.motion {
+                write_text_in(dir, out, MOTION_FILE, &motion.to_toml_string())?;
             }
             if let Some(covariance) = &self.covariance {
                 let text = serde_json::to_string_pretty(covariance).map_err(|source| {
@@ -165,10 +170,15 @@ impl CalibratedModel {
             .then(|| Domain::load(&domain_file, robot.dof()))
             .transpose()?;
         let covariance = load_covariance(dir, &robot, joint_errors.as_ref())?;
+        let motion_file = dir.join(MOTION_FILE);
+        let motion = (motion_file.exists())
+            .then(|| MotionPlay::load(&motion_file, robot.dof()))
+            .transpose()?;
         Ok(Self {
             nominal,
             domain,
             covariance,
+            motion,
             ..Self::new(robot, joint_errors, residual)
         })
     }

@@ -86,20 +86,20 @@ pub enum ModelError {
         /// What is wrong.
         message: String,
     },
-    /// `domain.toml` holds a bad value.
+    /// `domain.toml` or `motion.toml` holds a bad value.
     #[error("{file}: key `{key}`: {message}")]
     Domain {
-        /// `domain.toml`.
+        /// The file.
         file: PathBuf,
         /// The key at fault.
         key: String,
         /// What is wrong.
         message: String,
     },
-    /// `domain.toml` is not TOML of its form.
+    /// `domain.toml` or `motion.toml` is not TOML of its form.
     #[error("{file}: {message}")]
     DomainToml {
-        /// `domain.toml`.
+        /// The file.
         file: PathBuf,
         /// The parser's message (with its line and column).
         message: String,

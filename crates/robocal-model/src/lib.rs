@@ -23,7 +23,7 @@
 //! # )?;
 //! # CalibratedModel::kinematic(robot).save(&model_dir, &serde_json::json!({}))?;
 //! let model = CalibratedModel::load(&model_dir)?;
-//! let pose = Sample { pose: "p1".into(), joints: vec![10.0, 20.0], load: 0.0, line: 0, target: String::new() };
+//! let pose = Sample { pose: "p1".into(), joints: vec![10.0, 20.0], load: 0.0, line: 0, target: String::new(), seq: None, last_move: Vec::new() };
 //! let points = model.predict([&pose]);
 //! assert!((points[0].x - (300.0 * 10f64.to_radians().cos() + 100.0 * 30f64.to_radians().cos())).abs() < 1e-9);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -34,6 +34,7 @@ pub mod domain;
 mod error;
 pub mod export;
 mod model;
+pub mod motion;
 
 pub use dir::{COMPLIANCE_FILE, KINEMATICS_FILE, MODEL_FORMAT, NOMINAL_FILE, REPORT_FILE};
 pub use domain::{DOMAIN_FILE, Domain, Excess, WARN_BEYOND_DEG};
@@ -42,4 +43,5 @@ pub use model::{
     CalibratedModel, gate_physics_row, gate_physics_rows, resolve_gate_physics, rotation_angle,
     with_gate_physics,
 };
+pub use motion::{MOTION_FILE, MotionPlay};
 pub use robocal_robot::JointErrors;

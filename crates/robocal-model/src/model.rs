@@ -53,6 +53,10 @@ pub struct CalibratedModel {
     /// points' standard deviations ([`Self::physics_sigmas`]). `None` for a table alone, a
     /// fit without degrees of freedom left, or a directory written before it.
     pub covariance: Option<ParameterCovariance>,
+    /// Play that follows the order of motion (`motion.toml`): where a row carries the
+    /// direction of each joint's last move, the joints stand behind their readings by it
+    /// ([`Self::read`]). `None` where the calibration found none that pays.
+    pub motion: Option<crate::MotionPlay>,
 }
 
 impl CalibratedModel {
@@ -69,7 +73,23 @@ impl CalibratedModel {
             nominal: None,
             domain: None,
             covariance: None,
+            motion: None,
         }
+    }
+
+    /// The sample at the joint angles the model puts it at: its readings, less the play that
+    /// follows its last move where the model has one and the sample an order
+    /// ([`crate::MotionPlay::read`]). Reading a read sample again changes nothing.
+    pub fn read<'a>(&self, s: &'a Sample) -> std::borrow::Cow<'a, Sample> {
+        match &self.motion {
+            Some(m) => m.read(s),
+            None => std::borrow::Cow::Borrowed(s),
+        }
+    }
+
+    /// [`Self::read`] of every sample.
+    fn read_all<'a>(&self, samples: &[&'a Sample]) -> Vec<std::borrow::Cow<'a, Sample>> {
+        samples.iter().map(|s| self.read(s)).collect()
     }
 
     /// The kinematic table alone.
@@ -161,6 +181,9 @@ impl CalibratedModel {
     /// The residual model's rows for `samples`: their inputs and, when its gate reads physics,
     /// their physics rows ([`gate_physics_row`] with this model's table).
     pub fn residual_rows(&self, samples: &[&Sample]) -> Samples {
+        let read = self.read_all(samples);
+        let samples: Vec<&Sample> = read.iter().map(AsRef::as_ref).collect();
+        let samples = samples.as_slice();
         let physics = self.residual.as_ref().and_then(ResidualModel::gate_physics);
         with_gate_physics(
             Samples::rows(samples.iter().map(|s| inputs_of(s)).collect()),
@@ -179,6 +202,7 @@ impl CalibratedModel {
     /// point its `target` names (the default point for an empty name, and for a name the table
     /// lacks — data are checked against the table when read, [`Self::check_targets`]).
     pub fn base_point(&self, s: &Sample) -> Vector3<f64> {
+        let s = self.read(s);
         let t = self.robot.target_index(&s.target).unwrap_or(0);
         self.robot.for_target(t).point_under_load(
             self.joint_errors.as_ref(),
@@ -232,6 +256,8 @@ impl CalibratedModel {
         sigma: bool,
     ) -> (Vec<Vector3<f64>>, Option<Vec<f64>>) {
         let samples: Vec<&Sample> = samples.into_iter().collect();
+        let read = self.read_all(&samples);
+        let samples: Vec<&Sample> = read.iter().map(AsRef::as_ref).collect();
         let mut points: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
         let Some(residual) = &self.residual else {
             let sigmas = if sigma {
@@ -283,6 +309,9 @@ impl CalibratedModel {
     /// `None` without a covariance, or one that names a parameter the model lacks (checked
     /// when a directory is read).
     pub fn physics_sigmas(&self, samples: &[&Sample]) -> Option<Vec<f64>> {
+        let read = self.read_all(samples);
+        let samples: Vec<&Sample> = read.iter().map(AsRef::as_ref).collect();
+        let samples = samples.as_slice();
         let at: Vec<Vector3<f64>> = samples.iter().map(|s| self.base_point(s)).collect();
         self.physics_sigmas_about(samples, &at)
     }
@@ -335,6 +364,9 @@ impl CalibratedModel {
     /// the folds within the domain, holds the physics' uncertainty there but not its growth
     /// beyond. 0 inside the domain, and for a model without a domain or a covariance.
     pub fn outside_variance(&self, samples: &[&Sample]) -> Vec<f64> {
+        let read = self.read_all(samples);
+        let samples: Vec<&Sample> = read.iter().map(AsRef::as_ref).collect();
+        let samples = samples.as_slice();
         let mut growth = vec![0.0; samples.len()];
         let Some(domain) = &self.domain else {
             return growth;
@@ -370,6 +402,7 @@ impl CalibratedModel {
         let Some(errors) = &self.joint_errors else {
             return 0.0;
         };
+        let s = self.read(s);
         let q = s.joints_rad();
         let mut total = 0.0;
         for (j, &qj) in q.iter().enumerate() {
@@ -381,7 +414,7 @@ impl CalibratedModel {
                 continue;
             }
             let moved = |d: f64| {
-                let mut t = s.clone();
+                let mut t = s.clone().into_owned();
                 t.joints[j] += d;
                 self.base_point(&t)
             };
@@ -432,6 +465,7 @@ impl CalibratedModel {
     /// joint errors (the residual model corrects positions only). Its target does not matter:
     /// every point rides on the one tool frame.
     pub fn rotation(&self, s: &Sample) -> Matrix3<f64> {
+        let s = self.read(s);
         self.robot
             .rotation_under_load(self.joint_errors.as_ref(), &s.joints_rad(), s.load)
     }

@@ -25,6 +25,8 @@ fn samples(n: usize, seed: u64) -> Vec<Sample> {
             load: rng.random_range(0.0..20.0),
             line: 0,
             target: String::new(),
+            seq: None,
+            last_move: Vec::new(),
         })
         .collect()
 }

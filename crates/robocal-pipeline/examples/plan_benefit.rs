@@ -32,6 +32,8 @@ fn samples(configs: &[Vec<f64>], tag: &str) -> Vec<Sample> {
             load: 0.0,
             line: 0,
             target: String::new(),
+            seq: None,
+            last_move: Vec::new(),
         })
         .collect()
 }

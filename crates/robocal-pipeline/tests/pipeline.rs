@@ -1294,6 +1294,8 @@ fn a_residual_in_the_frame_turning_with_joint_1_carries_an_error_that_turns_with
                     load: 0.0,
                     line: 0,
                     target: String::new(),
+                    seq: None,
+                    last_move: Vec::new(),
                 };
                 let position = model.base_point(&sample) + error(&q);
                 Measurement {

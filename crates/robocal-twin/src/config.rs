@@ -25,6 +25,8 @@ struct RawTwin {
     backlash: Vec<RawBacklash>,
     #[serde(default)]
     beyond: Option<RawBeyond>,
+    #[serde(default)]
+    motion: Option<RawMotion>,
     noise: RawNoise,
     poses: RawPoses,
     loads: RawLoads,
@@ -38,6 +40,13 @@ struct RawMasses {
     link_com: Vec<[f64; 3]>,
     #[serde(deserialize_with = "robocal_robot::exact::array")]
     payload_com: [f64; 3],
+}
+
+/// Play that follows the order of motion: `[motion] play = [deg, …]`, one per joint.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMotion {
+    play: Vec<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -332,6 +341,10 @@ pub struct TwinConfig {
     pub backlash: Vec<Backlash>,
     /// Effects beyond robocal's model family, if enabled.
     pub beyond: Option<Beyond>,
+    /// Play that follows the order of motion, deg per joint (`[motion] play`): the poses are
+    /// measured in the order generated, each row's joints standing this far behind their
+    /// readings in the direction of their last move, and the rows carry their `seq`.
+    pub motion: Option<Vec<f64>>,
     /// Measurement noise, if enabled.
     pub noise: Option<Noise>,
     /// Pose design.
@@ -637,6 +650,19 @@ impl TwinConfig {
         let gear = c.gear(&raw.gear, n)?;
         let backlash = c.backlash(&raw.backlash, n)?;
         let beyond = c.beyond(raw.beyond.as_ref(), n)?;
+        let motion = match &raw.motion {
+            Some(m) if m.play.len() != n => {
+                return c.fail(
+                    "motion.play",
+                    format!("{} values for a robot with {n} joints", m.play.len()),
+                );
+            }
+            Some(m) => {
+                c.finite("motion.play", &m.play)?;
+                Some(m.play.clone())
+            }
+            None => None,
+        };
         let noise = c.noise(&raw.noise)?;
         let poses = c.poses(&raw.poses, n)?;
         let loads = c.loads(&raw.loads)?;
@@ -653,6 +679,7 @@ impl TwinConfig {
             gear,
             backlash,
             beyond,
+            motion,
             noise,
             poses,
             loads,
@@ -666,6 +693,7 @@ impl TwinConfig {
             gear: None,
             backlash: Vec::new(),
             beyond: None,
+            motion: None,
             noise: None,
             ..self.clone()
         }

@@ -48,12 +48,39 @@ impl TwinConfig {
         // Every load, and at each every reflector: the default point, then the named
         // points of the truth's `[tool.points]` (their rows name them in `target`).
         let targets = self.truth.target_names();
+        // With play that follows the order of motion: the order generated, and each pose's
+        // last moves.
+        let mut order: Option<(i64, Vec<f64>, Vec<f64>)> = None;
         for point in design.kept() {
             let Some(deg) = &point.joints_deg else {
                 continue;
             };
-            let q: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
             for &load in &loads {
+                let (seq, last_move) = match (&self.motion, &mut order) {
+                    (None, _) => (None, Vec::new()),
+                    (Some(_), None) => {
+                        order = Some((0, deg.clone(), vec![0.0; deg.len()]));
+                        (Some(0), vec![0.0; deg.len()])
+                    }
+                    (Some(_), Some((seq, before, flank))) => {
+                        for ((f, q), p) in flank.iter_mut().zip(deg).zip(before.iter()) {
+                            if (q - p).abs() > robocal_data::MOVE_DEADBAND_DEG {
+                                *f = (q - p).signum();
+                            }
+                        }
+                        *seq += 1;
+                        *before = deg.clone();
+                        (Some(*seq), flank.clone())
+                    }
+                };
+                // The joints stand behind their readings by the play, in the direction they
+                // last moved in.
+                let q: Vec<f64> = (deg.iter().enumerate())
+                    .map(|(j, d)| {
+                        let play = self.motion.as_ref().map_or(0.0, |p| p[j]);
+                        (d - play * last_move.get(j).copied().unwrap_or(0.0)).to_radians()
+                    })
+                    .collect();
                 // One reflector: the combined noise as always (the bundled datasets stay
                 // byte-identical). Several: the robot's repeatability error once per pose and
                 // load, shared by its reflectors, the tracker's per reflector.
@@ -65,6 +92,8 @@ impl TwinConfig {
                         load,
                         line: 0,
                         target: target.to_string(),
+                        seq,
+                        last_move: last_move.clone(),
                     };
                     let point = self.true_point_of(&q, load, target);
                     let exact = point.map(round6);

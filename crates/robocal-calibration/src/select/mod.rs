@@ -4,6 +4,7 @@
 mod chain;
 mod decisions;
 mod gravity;
+mod motion;
 mod physics;
 mod plan;
 mod residual;
@@ -12,6 +13,7 @@ mod scoring;
 pub(crate) mod selection;
 pub(crate) mod settings;
 mod status;
+mod targets;
 
 pub use decisions::REACH_GAIN;
 pub use gravity::{JOINT1_GRAVITY_ANGLE_DEG, joint1_gravity_angle, residual_stages};

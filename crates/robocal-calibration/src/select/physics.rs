@@ -223,6 +223,7 @@ impl Physics {
             .unwrap_or(ComplianceSettings::default().gravity);
         KinematicSettings {
             angle_weight: auto.angle_weight,
+            target_weights: auto.target_weights.clone(),
             // The payload's centre of mass is rarely known to the millimetre: identified with
             // the links' weights (the mass properties the compliances meet; both after a first
             // fit that gives the compliances they start from).

@@ -48,7 +48,46 @@ pub fn automatic(
     observer: &dyn Observer,
 ) -> Result<Built> {
     let meter = Meter::new(settings.budget_seconds, settings.reproducible);
-    automatic_metered(settings, nominal, rows, validation, observer, &meter)
+    let mut decisions = Vec::new();
+    // The rows of points beyond the main one: weighed by their spread, or left out.
+    let extra = super::targets::decide(settings, nominal, rows, validation.as_ref(), observer)?;
+    let settings = match &extra {
+        Some((_, extra)) => super::targets::weighed(settings, extra),
+        None => settings.clone(),
+    };
+    let rows: Vec<&Measurement> = match &extra {
+        Some((_, super::targets::Extra::MainOnly)) => {
+            super::targets::main_rows(rows, &super::targets::main_target(rows))
+        }
+        _ => rows.to_vec(),
+    };
+    decisions.extend(extra.map(|(d, _)| d));
+    // The play that follows the order of motion: with it kept, every candidate sees the rows
+    // at the joint angles it puts them at.
+    let motion = super::motion::decide(&settings, nominal, &rows, validation.as_ref(), observer)?;
+    let play = motion.as_ref().and_then(|(_, p)| p.clone());
+    decisions.extend(motion.map(|(d, _)| d));
+    let (read, read_validation) = match &play {
+        Some(p) => (
+            super::motion::read_rows(p, &rows),
+            validation
+                .as_ref()
+                .map(|(v, _)| super::motion::read_rows(p, v)),
+        ),
+        None => (Vec::new(), None),
+    };
+    let read_rows: Vec<&Measurement> = read.iter().collect();
+    let read_v: Option<Vec<&Measurement>> = read_validation.as_ref().map(|v| v.iter().collect());
+    let (rows, validation) = match &play {
+        Some(_) => (read_rows, read_v.as_deref().zip(validation.map(|(_, s)| s))),
+        None => (rows, validation),
+    };
+    let mut built = automatic_metered(&settings, nominal, &rows, validation, observer, &meter)?;
+    built.motion = play;
+    if let Some(selection) = &mut built.selection {
+        selection.decisions.splice(0..0, decisions);
+    }
+    Ok(built)
 }
 
 /// [`automatic`] with its budget kept by `meter`.

@@ -77,6 +77,9 @@ pub struct AutoSettings {
     /// Weight of a 6-DoF probe's orientation residuals, mm per deg (`None`: the kinematic
     /// settings' default, `noise_mm / noise_deg`).
     pub angle_weight: Option<f64>,
+    /// Weights of the rows of named points on their squared errors, for every fit
+    /// ([`robocal_ident::KinematicSettings::target_weights`]); empty: every row weighs 1.
+    pub target_weights: Vec<(String, f64)>,
     /// Gravity in the robot base frame {0}, m/s², for every candidate (`None`: decided once
     /// from the data before the candidates — the base's −z, or for an arm on a wall or a
     /// ceiling a levelled tracker's −z where a fit with the compliances says it fits better).
@@ -123,6 +126,7 @@ impl Default for AutoSettings {
             reproducible: false,
             outliers: Some(OutlierSettings::default()),
             angle_weight: None,
+            target_weights: Vec::new(),
             gravity: None,
         }
     }

@@ -26,6 +26,10 @@ pub enum Stage {
     Residual,
     /// Joint 1's harmonics continued beyond the readings.
     HarmonicReach,
+    /// Play that follows the order of motion (rows with `seq`).
+    Motion,
+    /// The rows of the points beyond the main one (other reflectors).
+    ExtraPoints,
 }
 
 impl Stage {
@@ -40,6 +44,8 @@ impl Stage {
             Self::Tilt => "tilt",
             Self::Residual => "residual",
             Self::HarmonicReach => "harmonic_reach",
+            Self::Motion => "motion",
+            Self::ExtraPoints => "extra_points",
         }
     }
 }

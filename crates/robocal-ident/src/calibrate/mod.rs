@@ -165,10 +165,14 @@ fn probed<'a>(
     obs: &'a Observations,
     settings: &KinematicSettings,
 ) -> (Cow<'a, Robot>, Cow<'a, Observations>) {
-    if obs.oriented().is_empty() {
+    if obs.oriented().is_empty() && settings.target_weights.is_empty() {
         return (Cow::Borrowed(nominal), Cow::Borrowed(obs));
     }
     let mut weighted = obs.clone();
+    weighted.weigh_targets(&settings.target_weights);
+    if obs.oriented().is_empty() {
+        return (Cow::Borrowed(nominal), Cow::Owned(weighted));
+    }
     weighted.angle_weight = settings.angle_weight_per_rad();
     let nominal = if nominal.tool_rpy.is_some() {
         Cow::Borrowed(nominal)

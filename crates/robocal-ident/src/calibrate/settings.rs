@@ -54,6 +54,10 @@ pub struct KinematicSettings {
     /// Weight of a measured orientation's residual, mm per deg (`[kinematic] angle_weight`);
     /// `None`: `noise_mm / noise_deg`.
     pub angle_weight: Option<f64>,
+    /// Weights of the rows of named points (`target`: a `[tool.points]` name, empty for the
+    /// default point) on their squared errors, position and orientation alike; a point not
+    /// named weighs 1. Empty: every row weighs 1.
+    pub target_weights: Vec<(String, f64)>,
     /// The tracker's position noise, mm per coordinate (1σ).
     pub noise_mm: f64,
     /// The 6-DoF probe's angular noise, deg per axis (1σ).
@@ -140,6 +144,7 @@ impl Default for KinematicSettings {
             joint_errors: None,
             loss: Loss::Squared,
             angle_weight: None,
+            target_weights: Vec::new(),
             noise_mm: DEFAULT_NOISE_MM,
             noise_deg: DEFAULT_NOISE_DEG,
             deadline: None,

@@ -42,6 +42,9 @@ pub struct Observations {
     /// Weight of an orientation residual against a position one, mm per rad: a rotation
     /// residual of `ω` rad counts as `angle_weight · ω` mm ([`angle_weight`]).
     pub angle_weight: f64,
+    /// Each row's weight on its squared errors (position and orientation); empty: every row
+    /// weighs 1.
+    pub weights: Vec<f64>,
 }
 
 /// A tracker's position noise when none is stated, mm per coordinate (1σ).
@@ -67,7 +70,25 @@ impl Observations {
             targets: Vec::new(),
             orientations: Vec::new(),
             angle_weight: angle_weight(DEFAULT_NOISE_MM, DEFAULT_NOISE_DEG),
+            weights: Vec::new(),
         }
+    }
+
+    /// Every row weighed by the weight `weights` gives its target (1 for a target not named);
+    /// no weights where every row would weigh 1.
+    pub fn weigh_targets(&mut self, weights: &[(String, f64)]) {
+        let of = |i: usize| {
+            let target = self.targets.get(i).map_or("", String::as_str);
+            (weights.iter())
+                .find(|(name, _)| name == target)
+                .map_or(1.0, |(_, w)| *w)
+        };
+        let w: Vec<f64> = (0..self.len()).map(of).collect();
+        self.weights = if w.iter().all(|&v| v == 1.0) {
+            Vec::new()
+        } else {
+            w
+        };
     }
 
     /// Rows of a measurement set (all of them).

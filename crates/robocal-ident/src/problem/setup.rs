@@ -118,7 +118,8 @@ impl<'a> CalibrationProblem<'a> {
             compliance: None,
             obs,
             oriented: obs.oriented(),
-            root_weights: None,
+            root_weights: (!obs.weights.is_empty())
+                .then(|| obs.weights.iter().map(|w| w.max(0.0).sqrt()).collect()),
             prior: Vec::new(),
             prior_spread: PriorSpreads::default(),
         };
@@ -282,10 +283,15 @@ impl<'a> CalibrationProblem<'a> {
         posterior_covariance(&jac, &r, &prior)
     }
 
-    /// Weights each point's residual by `weights` (one per point, ≥ 0): least squares on
-    /// `Σ wᵢ |rᵢ|²`.
+    /// Weights each point's residual by `weights` (one per point, ≥ 0) times the row's own
+    /// weight ([`Observations::weights`]): least squares on `Σ wᵢ |rᵢ|²`.
     pub fn set_point_weights(&mut self, weights: &[f64]) {
-        self.root_weights = Some(weights.iter().map(|w| w.max(0.0).sqrt()).collect());
+        let own = |i: usize| self.obs.weights.get(i).copied().unwrap_or(1.0);
+        self.root_weights = Some(
+            (weights.iter().enumerate())
+                .map(|(i, w)| (w * own(i)).max(0.0).sqrt())
+                .collect(),
+        );
     }
 
     /// The weight root of point `i` (1 without weights).

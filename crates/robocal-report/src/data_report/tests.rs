@@ -58,6 +58,8 @@ fn rows(robot: &Robot) -> Vec<Measurement> {
                         load,
                         line: 2 + i as u64,
                         target: String::new(),
+                        seq: None,
+                        last_move: Vec::new(),
                     },
                 }
             })
