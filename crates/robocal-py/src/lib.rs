@@ -395,7 +395,13 @@ fn warn_outside<'a>(
     what: &str,
     rows: impl IntoIterator<Item = &'a Sample>,
 ) -> PyResult<()> {
-    if let Some(w) = (model.domain.as_ref()).and_then(|d| d.warning(Path::new(what), rows)) {
+    let rows: Vec<&Sample> = rows.into_iter().collect();
+    let file = Path::new(what);
+    let warnings = [
+        (model.domain.as_ref()).and_then(|d| d.warning(file, rows.iter().copied())),
+        (model.motion.as_ref()).and_then(|m| m.warning(file, rows.iter().copied())),
+    ];
+    for w in warnings.into_iter().flatten() {
         let text = std::ffi::CString::new(w).unwrap_or_default();
         PyErr::warn(py, &py.get_type::<PyWarning>(), &text, 1)?;
     }
