@@ -134,6 +134,35 @@ pub enum Command {
         #[arg(long, value_name = "CSV")]
         data: Option<PathBuf>,
     },
+    /// Write a robot file from a URDF's serial chain or a DH table typed from a manual.
+    Import {
+        /// A URDF: the revolute chain from the base link to the tip link.
+        #[arg(
+            long,
+            value_name = "URDF",
+            required_unless_present = "dh",
+            conflicts_with = "dh"
+        )]
+        urdf: Option<PathBuf>,
+        /// A DH table (CSV: d, a, alpha, theta per joint; mm, deg).
+        #[arg(long, value_name = "CSV", requires = "convention")]
+        dh: Option<PathBuf>,
+        /// How the DH table is meant: `standard` (distal) or `modified` (Craig's, robocal's).
+        #[arg(long, value_name = "CONVENTION")]
+        convention: Option<DhConvention>,
+        /// The URDF link the chain starts from (default: its root link).
+        #[arg(long, value_name = "LINK", conflicts_with = "dh")]
+        base: Option<String>,
+        /// The URDF link the chain ends at (default: its one leaf link).
+        #[arg(long, value_name = "LINK", conflicts_with = "dh")]
+        tip: Option<String>,
+        /// The measured point in the tip link's frame (URDF) or the last DH frame, mm.
+        #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+        tool: Option<String>,
+        /// The robot file to write (replaced atomically).
+        #[arg(long, value_name = "ROBOT_TOML")]
+        out: PathBuf,
+    },
     /// Figures and tables of a calibrated model on measurements (report.html, PNG, SVG).
     Report {
         /// Model directory written by `calibrate`.
@@ -174,6 +203,15 @@ pub enum Command {
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
     },
+}
+
+/// How a DH table typed from a manual is meant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DhConvention {
+    /// Standard (distal) DH: `RotZ(θ + q) TransZ(d) TransX(a) RotX(α)` per joint.
+    Standard,
+    /// Modified (proximal, Craig's) DH: `RotX(α) TransX(a) RotZ(θ + q) TransZ(d)` per joint.
+    Modified,
 }
 
 /// What `robocal export` writes.

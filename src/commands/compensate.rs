@@ -45,18 +45,6 @@ fn frame_to_world(frame: &str, model: &CalibratedModel) -> Result<(Matrix3<f64>,
     }
 }
 
-/// `--tool x,y,z`: three finite numbers, mm.
-fn tool_point(text: &str) -> Result<Vector3<f64>> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f64>())
-        .collect::<std::result::Result<_, _>>()
-        .ok()
-        .filter(|v: &Vec<f64>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
-        .with_context(|| format!("--tool {text}: give three numbers x,y,z (mm, flange frame)"))?;
-    Ok(Vector3::new(values[0], values[1], values[2]))
-}
-
 /// Compensates every target, writes the commands of those that converged (atomically) and
 /// fails naming the others.
 pub fn run(
@@ -71,7 +59,7 @@ pub fn run(
     if let Some(tool) = tool {
         // The residual model was learned at the reflector; near the flange it is the same
         // joint-driven error, the kinematics carry the new point exactly.
-        model.robot.tool = tool_point(tool)?;
+        model.robot.tool = super::tool_point(tool, "flange frame")?;
     }
     let file = targets;
     let mut targets = read_targets(file, model.robot.dof())?;

@@ -4,6 +4,7 @@ mod calibrate;
 mod compensate;
 mod evaluate;
 mod export;
+mod import;
 mod model;
 mod plan;
 mod predict;
@@ -72,6 +73,22 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
             data,
         } => export::run(&model, format, &out, data.as_deref()),
+        Command::Import {
+            urdf,
+            dh,
+            convention,
+            base,
+            tip,
+            tool,
+            out,
+        } => import::run(
+            urdf.as_deref(),
+            dh.as_deref().zip(convention),
+            base.as_deref(),
+            tip.as_deref(),
+            tool.as_deref(),
+            &out,
+        ),
         Command::Plan {
             robot,
             count,
@@ -87,6 +104,18 @@ pub fn run(cli: Cli) -> Result<()> {
         ),
         Command::Run { experiment, out } => run::run(&experiment, out.as_deref()),
     }
+}
+
+/// `--tool x,y,z`: three finite numbers, mm, in the frame `frame` names.
+pub fn tool_point(text: &str, frame: &str) -> Result<nalgebra::Vector3<f64>> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .ok()
+        .filter(|v: &Vec<f64>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
+        .ok_or_else(|| anyhow::anyhow!("--tool {text}: give three numbers x,y,z (mm, {frame})"))?;
+    Ok(nalgebra::Vector3::new(values[0], values[1], values[2]))
 }
 
 /// Creates the folder an output file goes into, when it does not exist yet.

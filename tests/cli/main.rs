@@ -9,6 +9,7 @@ mod compensation;
 mod datasets;
 mod export;
 mod hardening;
+mod import;
 mod planning;
 mod probe;
 mod reflectors;

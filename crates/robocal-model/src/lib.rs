@@ -33,6 +33,7 @@ pub mod dir;
 pub mod domain;
 mod error;
 pub mod export;
+pub mod import;
 mod model;
 pub mod motion;
 

@@ -271,6 +271,61 @@ impl PyRobot {
         Robot::load(&path).map(|inner| Self { inner }).map_err(fail)
     }
 
+    /// The table of a URDF's serial chain from link `base` to link `tip` (defaults: its root and
+    /// its one leaf), the measured point at the tip link's origin or at `tool` (mm, tip link's
+    /// frame): the same forward kinematics at the same joint readings, in the base link's frame
+    /// (`robocal import --urdf`).
+    #[staticmethod]
+    #[pyo3(signature = (path, *, base=None, tip=None, tool=None))]
+    fn from_urdf(
+        path: PathBuf,
+        base: Option<&str>,
+        tip: Option<&str>,
+        tool: Option<Column>,
+    ) -> PyResult<Self> {
+        let tool = tool
+            .map(|t| {
+                triple(t.as_array(), "tool")
+                    .map(|_| Vector3::from_iterator(t.as_array().iter().copied()))
+            })
+            .transpose()?;
+        robocal_model::import::robot_from_urdf_file(&path, base, tip, tool)
+            .map(|inner| Self { inner })
+            .map_err(bad)
+    }
+
+    /// The table of a DH table typed from a manual: a CSV of `d, a, alpha, theta` per joint (mm,
+    /// deg), `convention` `"standard"` or `"modified"`, the measured point at `tool` (mm, in the
+    /// last DH frame; default its origin) (`robocal import --dh`).
+    #[staticmethod]
+    #[pyo3(signature = (path, convention, *, tool=None))]
+    fn from_dh(path: PathBuf, convention: &str, tool: Option<Column>) -> PyResult<Self> {
+        use robocal_model::import::{Convention, read_dh, robot_from_dh};
+        let convention = match convention {
+            "standard" => Convention::Standard,
+            "modified" => Convention::Modified,
+            other => {
+                return Err(bad(format!(
+                    "convention: `{other}`: give \"standard\" or \"modified\""
+                )));
+            }
+        };
+        let tool = match tool {
+            Some(t) => {
+                triple(t.as_array(), "tool")?;
+                Vector3::from_iterator(t.as_array().iter().copied())
+            }
+            None => Vector3::zeros(),
+        };
+        let rows = read_dh(&path).map_err(bad)?;
+        let name = path
+            .file_stem()
+            .map_or("robot".into(), |s| s.to_string_lossy().into_owned());
+        Ok(Self {
+            inner: robot_from_dh(&name, &rows, convention, tool),
+        })
+    }
+
     /// Joints.
     #[getter]
     fn dof(&self) -> usize {

@@ -97,6 +97,41 @@ def test_robot_from_a_file_and_from_arrays_give_the_cli_s_points(tmp_path):
     np.testing.assert_allclose(built.forward(q), robot.forward(q), atol=1e-9, rtol=0)
 
 
+PLANAR_URDF = """<robot name="planar">
+<link name="base"/><link name="upper"/><link name="fore"/><link name="hand"/>
+<joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+<origin xyz="0 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/>
+<limit lower="-1.5" upper="1.5" effort="1" velocity="1"/></joint>
+<joint name="elbow" type="continuous"><parent link="upper"/><child link="fore"/>
+<origin xyz="0.3 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/></joint>
+<joint name="wrist" type="fixed"><parent link="fore"/><child link="hand"/>
+<origin xyz="0.2 0 0" rpy="0 0 0"/></joint>
+</robot>
+"""
+
+
+def test_a_urdf_and_a_dh_table_import_as_the_cli_s(tmp_path):
+    urdf = tmp_path / "planar.urdf"
+    urdf.write_text(PLANAR_URDF)
+    dh = tmp_path / "planar.csv"
+    dh.write_text("d,a,alpha,theta\n0,300,0,0\n0,200,0,0\n")
+    q = np.array([[10.0, 20.0], [-35.0, 80.0], [0.0, 0.0]])
+    r1, r12 = np.radians(q[:, 0]), np.radians(q[:, 0] + q[:, 1])
+    # Two links of 300 and 200 mm turning about z: the hand at their sum.
+    expected = np.stack([300 * np.cos(r1) + 200 * np.cos(r12), 300 * np.sin(r1) + 200 * np.sin(r12), 0 * r1], axis=1)
+    for robot in (robocal.Robot.from_urdf(urdf), robocal.Robot.from_dh(dh, "standard")):
+        np.testing.assert_allclose(robot.forward(q), expected, atol=1e-9, rtol=0)
+    tooled = robocal.Robot.from_urdf(urdf, tip="fore", tool=[200.0, 0.0, 0.0])
+    np.testing.assert_allclose(tooled.forward(q), expected, atol=1e-9, rtol=0)
+    out = tmp_path / "planar.toml"
+    cli("import", "--urdf", urdf, "--out", out)
+    np.testing.assert_allclose(robocal.Robot.load(out).forward(q), expected, atol=1e-9, rtol=0)
+    with pytest.raises(robocal.RobocalError, match="convention"):
+        robocal.Robot.from_dh(dh, "distal")
+    with pytest.raises(robocal.RobocalError, match="`nowhere` is no link"):
+        robocal.Robot.from_urdf(urdf, tip="nowhere")
+
+
 @pytest.mark.parametrize("config", [None, "compliance.toml", "gp.toml"])
 def test_calibrate_equals_the_cli_on_the_same_rows(tmp_path, config):
     train = write_csv(tmp_path / "train.csv", TRAIN)

@@ -47,7 +47,6 @@ pub fn automatic(
     validation: Option<(&[&Measurement], String)>,
     observer: &dyn Observer,
 ) -> Result<Built> {
-    let meter = Meter::new(settings.budget_seconds, settings.reproducible);
     let mut decisions = Vec::new();
     // The rows of points beyond the main one: weighed by their spread, or left out.
     let extra = super::targets::decide(settings, nominal, rows, validation.as_ref(), observer)?;
@@ -82,6 +81,9 @@ pub fn automatic(
         Some(_) => (read_rows, read_v.as_deref().zip(validation.map(|(_, s)| s))),
         None => (rows, validation),
     };
+    // The budget is the chain's and the residual models': the stages before them are not
+    // charged to it.
+    let meter = Meter::new(settings.budget_seconds, settings.reproducible);
     let mut built = automatic_metered(&settings, nominal, &rows, validation, observer, &meter)?;
     built.motion = play;
     if let Some(selection) = &mut built.selection {
