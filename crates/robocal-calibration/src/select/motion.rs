@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 use robocal_data::{Measurement, Observer};
 use robocal_ident::KinematicSettings;
-use robocal_model::MotionPlay;
+use robocal_model::{CalibratedModel, MotionPlay};
 use robocal_robot::Robot;
 
 use super::plan::FoldPlan;
@@ -16,11 +16,11 @@ use crate::error::Result;
 use crate::fit::{fit_kinematic, physical_model};
 use crate::folds::{Held, improves};
 
-/// Rounds of identification (the table, then the play on what it leaves) at most.
-const ROUNDS: usize = 8;
+/// Steps of the play at most (each after a fit of the table).
+const ROUNDS: usize = 6;
 
-/// A round that moves no play by more than this (deg) ends the identification.
-const SETTLED_DEG: f64 = 1e-5;
+/// A step that moves no play by more than this (deg) ends the identification.
+const SETTLED_DEG: f64 = 1e-4;
 
 /// A joint whose last move took each direction on fewer than this share of the rows has no play
 /// of its own in the data (on one flank throughout, its play is a constant offset, which the
@@ -81,29 +81,47 @@ pub(crate) fn read_rows(play: &MotionPlay, rows: &[&Measurement]) -> Vec<Measure
         .collect()
 }
 
+/// The play identified with the table, and the tables fitted on the way.
+pub(crate) struct Identified {
+    /// The play, deg per joint.
+    pub(crate) play: MotionPlay,
+    /// The table fitted on the rows as read (no play).
+    pub(crate) first: CalibratedModel,
+    /// The table fitted on the rows read with the play found, with the play.
+    pub(crate) last: CalibratedModel,
+}
+
 /// The play of `joints` identified with the table from `rows`: the table fitted on the rows
 /// read with the play so far, then the play's step by linear least squares on the positions
 /// it leaves (each joint's column the point's derivative in the joint times the direction of
-/// its last move), until no step moves the play by more than [`SETTLED_DEG`]. A play that
+/// its last move), until no step moves the play by more than [`SETTLED_DEG`] (at most
+/// [`ROUNDS`] steps), and the table fitted once more on the rows read with it. A play that
 /// comes out negative (a joint ahead of its reading) is held at 0.
 pub(crate) fn identify_play(
     nominal: &Robot,
     rows: &[&Measurement],
     joints: &[usize],
     settings: &KinematicSettings,
-) -> Result<MotionPlay> {
+) -> Result<Identified> {
     let n = nominal.dof();
     let mut play = MotionPlay { play: vec![0.0; n] };
-    if joints.is_empty() {
-        return Ok(play);
-    }
     // A joint stands behind its reading, never ahead: one whose play comes out negative is
     // held at 0 and the rest found again.
     let mut held = vec![false; joints.len()];
-    for _ in 0..ROUNDS {
+    let mut first: Option<CalibratedModel> = None;
+    let mut settled = joints.is_empty();
+    for round in 0..=ROUNDS {
         let read = read_rows(&play, rows);
         let read: Vec<&Measurement> = read.iter().collect();
         let model = physical_model(&fit_kinematic(nominal, &read, settings)?);
+        let first = first.get_or_insert_with(|| model.clone()).clone();
+        if settled || round == ROUNDS {
+            let last = CalibratedModel {
+                motion: Some(play.clone()),
+                ..model
+            };
+            return Ok(Identified { play, first, last });
+        }
         let mut a = DMatrix::zeros(3 * read.len(), joints.len());
         let mut b = DVector::zeros(3 * read.len());
         for (i, (r, raw)) in read.iter().zip(rows).enumerate() {
@@ -153,11 +171,9 @@ pub(crate) fn identify_play(
                 turned = true;
             }
         }
-        if step.amax() <= SETTLED_DEG && !turned {
-            break;
-        }
+        settled = step.amax() <= SETTLED_DEG && !turned;
     }
-    Ok(play)
+    unreachable!("the last round returns")
 }
 
 /// What the folds say of the play: the table alone against the table with the play, each
@@ -204,21 +220,16 @@ pub(crate) fn decide(
     };
     let (mut without, mut with) = (Held::default(), Held::default());
     for fold in &plan.splits {
-        let table = physical_model(&fit_kinematic(nominal, &fold.train, &kinematic)?);
-        without.add(fold, table.errors(&fold.test));
-        let play = identify_play(nominal, &fold.train, &joints, &kinematic)?;
-        let read = read_rows(&play, &fold.train);
-        let read: Vec<&Measurement> = read.iter().collect();
-        let mut moved = physical_model(&fit_kinematic(nominal, &read, &kinematic)?);
-        moved.motion = Some(play);
-        with.add(fold, moved.errors(&fold.test));
+        let found = identify_play(nominal, &fold.train, &joints, &kinematic)?;
+        without.add(fold, found.first.errors(&fold.test));
+        with.add(fold, found.last.errors(&fold.test));
     }
     let (base, new) = (without.all(), with.all());
     let (w, x) = (without.summary().2, with.summary().2);
     let significant = improves(&base, &new, &plan.groups());
     let kept = significant && w - x >= MIN_GAIN * w;
     let play = if kept {
-        Some(identify_play(nominal, rows, &joints, &kinematic)?)
+        Some(identify_play(nominal, rows, &joints, &kinematic)?.play)
     } else {
         None
     };
@@ -315,7 +326,9 @@ mod tests {
         let (nominal, rows) = measured(&play, 150);
         let rows: Vec<&Measurement> = rows.iter().collect();
         assert_eq!(moving_joints(&rows), vec![0, 1, 2, 3, 4]);
-        let found = identify_play(&nominal, &rows, &[0, 1, 2, 3, 4], &Default::default()).unwrap();
+        let found = identify_play(&nominal, &rows, &[0, 1, 2, 3, 4], &Default::default())
+            .unwrap()
+            .play;
         let expected = [0.05, 0.02, 0.08, 0.01, 0.0];
         for (f, t) in found.play.iter().zip(expected) {
             assert!(
@@ -359,7 +372,9 @@ mod tests {
     fn a_play_never_comes_out_negative() {
         let (nominal, rows) = measured(&[0.05, -0.03, 0.08, 0.01, 0.0], 150);
         let rows: Vec<&Measurement> = rows.iter().collect();
-        let found = identify_play(&nominal, &rows, &[0, 1, 2, 3, 4], &Default::default()).unwrap();
+        let found = identify_play(&nominal, &rows, &[0, 1, 2, 3, 4], &Default::default())
+            .unwrap()
+            .play;
         assert_eq!(found.play[1], 0.0, "{:?}", found.play);
         assert!(found.play.iter().all(|p| *p >= 0.0), "{:?}", found.play);
         assert!((found.play[2] - 0.08).abs() < 0.01, "{:?}", found.play);
