@@ -122,46 +122,7 @@ pub(crate) fn identify_play(
             };
             return Ok(Identified { play, first, last });
         }
-        let mut a = DMatrix::zeros(3 * read.len(), joints.len());
-        let mut b = DVector::zeros(3 * read.len());
-        for (i, (r, raw)) in read.iter().zip(rows).enumerate() {
-            let e = r.position - model.base_point(&r.sample);
-            for (k, &j) in joints.iter().enumerate() {
-                let side = raw.sample.last_move.get(j).copied().unwrap_or(0.0);
-                if side == 0.0 {
-                    continue;
-                }
-                let moved = |d: f64| {
-                    let mut s = r.sample.clone();
-                    s.joints[j] += d;
-                    model.base_point(&s)
-                };
-                let slope = (moved(STEP_DEG) - moved(-STEP_DEG)) / (2.0 * STEP_DEG);
-                for c in 0..3 {
-                    // The point moves by −slope × side per degree of play.
-                    a[(3 * i + c, k)] = -slope[c] * side;
-                }
-            }
-            for c in 0..3 {
-                b[3 * i + c] = e[c];
-            }
-        }
-        // A joint that moves the point by next to nothing has no play to find: its column is
-        // left out.
-        let norms: Vec<f64> = (0..joints.len()).map(|k| a.column(k).norm()).collect();
-        let largest = norms.iter().copied().fold(0.0, f64::max);
-        for (k, norm) in norms.iter().enumerate() {
-            if *norm <= NO_LEVER * largest || held[k] {
-                a.column_mut(k).fill(0.0);
-            }
-        }
-        let svd = a.svd(true, true);
-        let floor = SINGULAR * svd.singular_values.max();
-        let step = svd.solve(&b, floor).map_err(|why| {
-            crate::error::CalibrationError::Stage(format!(
-                "the play that follows the order of motion: {why}"
-            ))
-        })?;
+        let step = play_step(&model, &read, rows, joints, &held)?;
         let mut turned = false;
         for (k, &j) in joints.iter().enumerate() {
             play.play[j] += step[k];
@@ -174,6 +135,59 @@ pub(crate) fn identify_play(
         settled = step.amax() <= SETTLED_DEG && !turned;
     }
     unreachable!("the last round returns")
+}
+
+/// The linear least-squares step of the play of `joints` (not `held`) on what `model` leaves
+/// of the rows as read (`read`, with the last moves of `rows`): each joint's column the point's
+/// derivative in the joint times the direction of its last move.
+fn play_step(
+    model: &CalibratedModel,
+    read: &[&Measurement],
+    rows: &[&Measurement],
+    joints: &[usize],
+    held: &[bool],
+) -> Result<DVector<f64>> {
+    let mut a = DMatrix::zeros(3 * read.len(), joints.len());
+    let mut b = DVector::zeros(3 * read.len());
+    for (i, (r, raw)) in read.iter().zip(rows).enumerate() {
+        let e = r.position - model.base_point(&r.sample);
+        for (k, &j) in joints.iter().enumerate() {
+            let side = raw.sample.last_move.get(j).copied().unwrap_or(0.0);
+            if side == 0.0 {
+                continue;
+            }
+            let moved = |d: f64| {
+                let mut s = r.sample.clone();
+                s.joints[j] += d;
+                model.base_point(&s)
+            };
+            let slope = (moved(STEP_DEG) - moved(-STEP_DEG)) / (2.0 * STEP_DEG);
+            for c in 0..3 {
+                // The point moves by −slope × side per degree of play.
+                a[(3 * i + c, k)] = -slope[c] * side;
+            }
+        }
+        for c in 0..3 {
+            b[3 * i + c] = e[c];
+        }
+    }
+    // A joint that moves the point by next to nothing has no play to find: its column is
+    // left out.
+    let norms: Vec<f64> = (0..joints.len()).map(|k| a.column(k).norm()).collect();
+    let largest = norms.iter().copied().fold(0.0, f64::max);
+    for (k, norm) in norms.iter().enumerate() {
+        if *norm <= NO_LEVER * largest || held[k] {
+            a.column_mut(k).fill(0.0);
+        }
+    }
+    let svd = a.svd(true, true);
+    let floor = SINGULAR * svd.singular_values.max();
+    let step = svd.solve(&b, floor).map_err(|why| {
+        crate::error::CalibrationError::Stage(format!(
+            "the play that follows the order of motion: {why}"
+        ))
+    })?;
+    Ok(step)
 }
 
 /// What the folds say of the play: the table alone against the table with the play, each
@@ -218,6 +232,40 @@ pub(crate) fn decide(
         target_weights: settings.target_weights.clone(),
         ..KinematicSettings::default()
     };
+    // On every row first: a play whose first step takes less than the share the folds ask of
+    // it off the table's own training error is not scored on them.
+    let table = physical_model(&fit_kinematic(nominal, rows, &kinematic)?);
+    let step = play_step(&table, rows, rows, &joints, &vec![false; joints.len()])?;
+    let mut first = MotionPlay {
+        play: vec![0.0; nominal.dof()],
+    };
+    for (k, &j) in joints.iter().enumerate() {
+        first.play[j] = step[k].max(0.0);
+    }
+    let mean = |m: &CalibratedModel| {
+        let e = m.errors(rows);
+        e.iter().sum::<f64>() / e.len().max(1) as f64
+    };
+    let stepped = CalibratedModel {
+        motion: Some(first),
+        ..table.clone()
+    };
+    let (fitted, with_play) = (mean(&table), mean(&stepped));
+    if fitted - with_play < MIN_GAIN * fitted {
+        let d = Decision::said(
+            Stage::Motion,
+            false,
+            None,
+            None,
+            format!(
+                "dropped: {what}: its first step takes {:.1} % off the table's mean error on the training rows ({fitted:.4} → {with_play:.4} mm), under the {:.0} % it must take off the held-out score: not scored on the folds",
+                100.0 * (fitted - with_play) / fitted.max(f64::MIN_POSITIVE),
+                MIN_GAIN * 100.0
+            ),
+        );
+        observer.message(&format!("stage {}: {}", d.stage, d.reason));
+        return Ok(Some((d, None)));
+    }
     let (mut without, mut with) = (Held::default(), Held::default());
     for fold in &plan.splits {
         let found = identify_play(nominal, &fold.train, &joints, &kinematic)?;
