@@ -48,30 +48,30 @@ impl TwinConfig {
         // Every load, and at each every reflector: the default point, then the named
         // points of the truth's `[tool.points]` (their rows name them in `target`).
         let targets = self.truth.target_names();
-        // With play that follows the order of motion: the order generated, and each pose's
-        // last moves.
-        let mut order: Option<(i64, Vec<f64>, Vec<f64>)> = None;
+        // With play that follows the order of motion: every pose and load in the order
+        // generated, and each one's last moves as a measurement file's `seq` gives them.
+        let mut ordered: Vec<Sample> = Vec::new();
+        if self.motion.is_some() {
+            for deg in design.kept().filter_map(|p| p.joints_deg.as_ref()) {
+                for _ in &loads {
+                    ordered.push(Sample {
+                        joints: deg.clone(),
+                        seq: Some(ordered.len() as i64),
+                        ..Sample::default()
+                    });
+                }
+            }
+            robocal_data::set_last_moves(&mut ordered);
+        }
+        let mut ordered = ordered.into_iter();
         for point in design.kept() {
             let Some(deg) = &point.joints_deg else {
                 continue;
             };
             for &load in &loads {
-                let (seq, last_move) = match (&self.motion, &mut order) {
-                    (None, _) => (None, Vec::new()),
-                    (Some(_), None) => {
-                        order = Some((0, deg.clone(), vec![0.0; deg.len()]));
-                        (Some(0), vec![0.0; deg.len()])
-                    }
-                    (Some(_), Some((seq, before, flank))) => {
-                        for ((f, q), p) in flank.iter_mut().zip(deg).zip(before.iter()) {
-                            if (q - p).abs() > robocal_data::MOVE_DEADBAND_DEG {
-                                *f = (q - p).signum();
-                            }
-                        }
-                        *seq += 1;
-                        *before = deg.clone();
-                        (Some(*seq), flank.clone())
-                    }
+                let (seq, last_move) = match ordered.next() {
+                    Some(s) => (s.seq, s.last_move),
+                    None => (None, Vec::new()),
                 };
                 // The joints stand behind their readings by the play, in the direction they
                 // last moved in.

@@ -114,12 +114,15 @@ pub(crate) fn identify_play(
         let read = read_rows(&play, rows);
         let read: Vec<&Measurement> = read.iter().collect();
         let model = physical_model(&fit_kinematic(nominal, &read, settings)?);
-        let first = first.get_or_insert_with(|| model.clone()).clone();
+        if first.is_none() {
+            first = Some(model.clone());
+        }
         if settled || round == ROUNDS {
             let last = CalibratedModel {
                 motion: Some(play.clone()),
                 ..model
             };
+            let first = first.expect("set in the first round");
             return Ok(Identified { play, first, last });
         }
         let step = play_step(&model, &read, rows, joints, &held)?;
@@ -432,15 +435,7 @@ mod tests {
     /// where the arm has none, the folds drop it.
     #[test]
     fn the_default_keeps_the_play_only_where_the_folds_say_it_pays() {
-        let settings = AutoSettings {
-            harmonics: 0,
-            self_weight: false,
-            backlash: false,
-            runout: 0,
-            residuals: Vec::new(),
-            outliers: None,
-            ..AutoSettings::default()
-        };
+        let settings = AutoSettings::table_only();
         for (play, kept) in [([0.05, 0.02, 0.08, 0.0, 0.03], true), ([0.0; 5], false)] {
             let (nominal, rows) = measured(&play, 120);
             let rows: Vec<&Measurement> = rows.iter().collect();

@@ -131,3 +131,20 @@ impl Default for AutoSettings {
         }
     }
 }
+
+#[cfg(test)]
+impl AutoSettings {
+    /// The default's settings with the table alone in the chain (no joint-error blocks, runouts,
+    /// residual models or bad-shot search): the stages before the chain, tested quickly.
+    pub(crate) fn table_only() -> Self {
+        Self {
+            harmonics: 0,
+            self_weight: false,
+            backlash: false,
+            runout: 0,
+            residuals: Vec::new(),
+            outliers: None,
+            ..Self::default()
+        }
+    }
+}

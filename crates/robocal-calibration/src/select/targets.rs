@@ -289,15 +289,7 @@ mod tests {
     /// every candidate is fitted on.
     #[test]
     fn another_point_is_left_out_only_where_it_harms_the_main_one() {
-        let settings = AutoSettings {
-            harmonics: 0,
-            self_weight: false,
-            backlash: false,
-            runout: 0,
-            residuals: Vec::new(),
-            outliers: None,
-            ..AutoSettings::default()
-        };
+        let settings = AutoSettings::table_only();
         for (skew, kept) in [(0.0, true), (0.05, false)] {
             let (nominal, rows) = two_points(0.05, skew, 60);
             let rows: Vec<&Measurement> = rows.iter().collect();
